@@ -1,0 +1,49 @@
+"""Box bounds of the calibrated parameters and the map to the unit box."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """Lower and upper bound of each parameter, in the parameter's own (SI) units."""
+
+    lower: tuple[float, ...]
+    upper: tuple[float, ...]
+
+    def __post_init__(self):
+        if len(self.lower) != len(self.upper) or not self.lower:
+            raise ValueError(
+                f"bounds: lower has {len(self.lower)} values and upper {len(self.upper)}; "
+                "they need the same, non-zero length"
+            )
+        for index, (low, high) in enumerate(zip(self.lower, self.upper)):
+            if not (math.isfinite(low) and math.isfinite(high) and low < high):
+                raise ValueError(f"bounds[{index}]: need finite lower < upper, got {low!r}, {high!r}")
+
+    @classmethod
+    def of(cls, lower, upper) -> Bounds:
+        return cls(tuple(float(v) for v in lower), tuple(float(v) for v in upper))
+
+    @property
+    def dimension(self) -> int:
+        return len(self.lower)
+
+    def to_unit(self, x) -> np.ndarray:
+        """Scale points (rows) to the unit box; raise ValueError if outside the bounds."""
+        x = np.atleast_2d(np.asarray(x, float))
+        if x.shape[1] != self.dimension:
+            raise ValueError(f"point has {x.shape[1]} values, expected {self.dimension}")
+        low, high = np.array(self.lower), np.array(self.upper)
+        if np.any(x < low) or np.any(x > high) or not np.all(np.isfinite(x)):
+            raise ValueError(f"point {x.tolist()} is outside the bounds {list(self.lower)} .. {list(self.upper)}")
+        return (x - low) / (high - low)
+
+    def from_unit(self, u) -> np.ndarray:
+        """Map unit-box points (rows) back to real units."""
+        low, high = np.array(self.lower), np.array(self.upper)
+        return low + np.atleast_2d(np.asarray(u, float)) * (high - low)

@@ -1,0 +1,115 @@
+"""Initial experimental designs in the unit box [0, 1]^d.
+
+Samuelsson (2023), section 2.2.2.1: a Latin hypercube design (LHD) puts one
+point in each of n equal-probability slices of every axis; the symmetric
+variant of Ye et al. (SLHD) pairs every row with its mirror image
+n+1-x; among several random designs the maximin criterion keeps the one
+whose closest pair of points is farthest apart. Rackl & Hanley (2017) start
+from a plain LHS. Sobol sequences come from scipy.stats.qmc.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+from scipy.spatial.distance import pdist
+from scipy.stats import qmc
+
+
+def default_initial_size(dimension: int, workers: int = 1) -> int:
+    """Initial design size q + P with q = 2d + 1 (Samuelsson 2023, sec. 3.7, Table 4.2).
+
+    The extra point per worker lets the adaptive phase start as soon as all
+    design points are finished or running, so no worker idles.
+    """
+    return 2 * dimension + 1 + max(workers - 1, 0)
+
+
+def latin_hypercube(size: int, dimension: int, rng: np.random.Generator) -> np.ndarray:
+    """One random LHD: each column a permutation of the slice centres (eq. 2.6)."""
+    levels = np.column_stack([rng.permutation(size) for _ in range(dimension)])
+    return (levels + 0.5) / size
+
+
+def symmetric_latin_hypercube(size: int, dimension: int, rng: np.random.Generator) -> np.ndarray:
+    """One random SLHD (Ye et al., as described in Samuelsson 2023, sec. 2.2.2.1).
+
+    For every row with levels x there is a row with levels n+1-x, so the
+    design is symmetric about the centre of the box; with an odd size the
+    middle row sits at the centre.
+    """
+    half = size // 2
+    levels = np.empty((size, dimension))
+    for column in range(dimension):
+        first_half = rng.permutation(half) + 1.0
+        flip = rng.random(half) < 0.5
+        first_half[flip] = size + 1 - first_half[flip]
+        levels[:half, column] = first_half
+        levels[size - half :, column] = (size + 1 - first_half)[::-1]
+        if size % 2:
+            levels[half, column] = (size + 1) / 2
+    return (levels - 0.5) / size
+
+
+def sobol_sequence(size: int, dimension: int, rng: np.random.Generator) -> np.ndarray:
+    """The first ``size`` points of a scrambled Sobol sequence."""
+    sampler = qmc.Sobol(dimension, scramble=True, seed=rng)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # balance warning for sizes not 2**m
+        return sampler.random(size)
+
+
+def minimum_pairwise_distance(points: np.ndarray) -> float:
+    """The maximin criterion: the smallest distance between two design points."""
+    if len(points) < 2:
+        return np.inf
+    return float(pdist(points).min())
+
+
+def maximin_design(generate, size: int, dimension: int, rng: np.random.Generator, tries: int) -> np.ndarray:
+    """Best of ``tries`` random designs by the maximin criterion."""
+    best, best_distance = None, -np.inf
+    for _ in range(tries):
+        design = generate(size, dimension, rng)
+        distance = minimum_pairwise_distance(design)
+        if distance > best_distance:
+            best, best_distance = design, distance
+    return best
+
+
+DESIGNS = {
+    "symmetric_latin_hypercube": symmetric_latin_hypercube,
+    "latin_hypercube": latin_hypercube,
+    "sobol": sobol_sequence,
+}
+
+
+def initial_design(
+    kind: str,
+    size: int,
+    dimension: int,
+    rng: np.random.Generator,
+    tries: int = 50,
+    include: np.ndarray | None = None,
+) -> np.ndarray:
+    """The initial design in the unit box, with user points first.
+
+    Each point of ``include`` (already in the unit box) replaces the design
+    point nearest to it, so the size stays ``size`` (or grows to the number
+    of user points) and the space filling is disturbed as little as possible.
+    Latin hypercubes are chosen by maximin; Sobol sequences are used as drawn.
+    """
+    generate = DESIGNS[kind]
+    include = np.empty((0, dimension)) if include is None else np.atleast_2d(np.asarray(include, float))
+    generated_size = max(size, 1)
+    design = generate(generated_size, dimension, rng) if kind == "sobol" else maximin_design(
+        generate, generated_size, dimension, rng, tries
+    )
+    keep = np.ones(len(design), dtype=bool)
+    for point in include:
+        distances = np.linalg.norm(design - point, axis=1)
+        distances[~keep] = np.inf
+        if np.isfinite(distances).any():
+            keep[int(np.argmin(distances))] = False
+    return np.vstack([include, design[keep]])

@@ -1,0 +1,342 @@
+"""Asynchronous ask/tell optimizer with JSON state (Samuelsson 2023, Algorithm 5).
+
+The optimizer hands out the initial design first, then one adaptive point
+per request. Every point handed out, finished, given up or stopped early
+joins the distance set A, so running points repel new ones and parallel
+workers never get the same point; only finished values enter the surrogate
+data B (section 3.6.2: a terminated run updates A but not B). Failed points
+additionally exclude a small ball around them.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import strategies as st
+from .bounds import Bounds
+from .designs import default_initial_size, initial_design
+from .early_termination import EarlyTerminationDecision, early_termination_decision
+from .settings import OptimizerSettings
+from .stopping import stop_reason
+from .surrogates import Surrogate, make_surrogate
+
+STATE_VERSION = 1
+STATUSES = ("ok", "failed", "terminated")
+
+
+@dataclass(frozen=True)
+class Proposal:
+    """A point to evaluate: ``id`` (unique, increasing), ``x`` in real units."""
+
+    id: int
+    x: list[float]
+    in_initial_design: bool
+
+
+class Optimizer:
+    """Surrogate-based optimizer driven by ask/tell; see the package docstring."""
+
+    def __init__(
+        self,
+        lower: list[float],
+        upper: list[float],
+        settings: OptimizerSettings | dict | None = None,
+        seed: int = 0,
+        initial_points: list[list[float]] | None = None,
+        workers: int = 1,
+    ):
+        self.bounds = Bounds.of(lower, upper)
+        self.settings = settings if isinstance(settings, OptimizerSettings) else OptimizerSettings.from_dict(settings)
+        if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+            raise ValueError(f"workers: {workers!r} must be a positive integer")
+        self.seed = int(seed)
+        self.workers = workers
+        self.rng = np.random.default_rng(self.seed)
+        dimension = self.bounds.dimension
+        self.initial_size = self.settings.initial_size or default_initial_size(dimension, workers)
+        include = None if not initial_points else self.bounds.to_unit(initial_points)
+        design = initial_design(
+            self.settings.initial_design, self.initial_size, dimension, self.rng, self.settings.design_tries, include
+        )
+        self.initial_size = len(design)
+        self.design_queue: list[list[float]] = design.tolist()
+        self.records: list[dict] = []
+        self.next_id = 0
+        self.step = st.StepSize(self.settings.sigma_max)
+        self.weight_index = 0
+        self.best_observed: float | None = None
+        self.evaluations_without_improvement = 0
+        self._surrogate: Surrogate | None = None
+        self._surrogate_version = -1
+
+    # ------------------------------------------------------------------ ask
+    def ask(self, n: int = 1) -> list[Proposal]:
+        """Up to ``n`` new points; fewer once the evaluation budget is handed out."""
+        room = self.settings.max_evaluations - self.completed_evaluations() - len(self._points("pending"))
+        proposals = []
+        for _ in range(max(min(n, room), 0)):
+            if self.design_queue:
+                unit = np.array(self.design_queue.pop(0))
+                in_design = True
+            else:
+                unit = self._adaptive_point()
+                in_design = False
+            proposals.append(self._issue(unit, in_design))
+        return proposals
+
+    def _issue(self, unit: np.ndarray, in_design: bool) -> Proposal:
+        record = {
+            "id": self.next_id,
+            "x": [float(v) for v in unit],
+            "status": "pending",
+            "value": None,
+            "variance": None,
+            "replicates": None,
+            "in_initial_design": in_design,
+        }
+        self.records.append(record)
+        self.next_id += 1
+        return Proposal(record["id"], self.bounds.from_unit(unit)[0].tolist(), in_design)
+
+    def _adaptive_point(self) -> np.ndarray:
+        s = self.settings
+        distance_set = self._points("pending", "ok", "terminated", "failed")
+        failed = self._points("failed")
+        surrogate = self._fitted_surrogate()
+        if surrogate is None:
+            return self._space_filling_point(distance_set, failed)
+        center = self._best_unit_point(surrogate)
+        probability = st.perturbation_probability(
+            self.bounds.dimension, self.completed_evaluations(), self.initial_size, s.max_evaluations
+        )
+        candidates = st.perturbation_candidates(center, self.step.sigma, s.candidates, probability, self.rng)
+        if s.strategy == "kriging_ei":
+            candidates = np.vstack([candidates, st.uniform_candidates(s.candidates, self.bounds.dimension, self.rng)])
+        if s.polish_candidate:
+            candidates = np.vstack([candidates, st.surrogate_minimum(surrogate, center, 2 * self.step.sigma)])
+        keep = st.admissible(candidates, distance_set, s.min_distance, failed, s.failed_exclusion_radius)
+        if not keep.any():
+            return self._space_filling_point(distance_set, failed)
+        candidates = candidates[keep]
+        weight = s.weights[self.weight_index % len(s.weights)]
+        self.weight_index += 1
+        if s.strategy == "kriging_ei":
+            observed_best = float(np.min(surrogate.predict(self._points("ok"))))
+            improvement = st.expected_improvement(
+                surrogate.predict(candidates), surrogate.predict_std(candidates), observed_best
+            )
+            damping = st.pending_damping(candidates, self._points("pending"), self.step.sigma)
+            return candidates[int(np.argmax(improvement * damping))]
+        scores = st.weighted_scores(
+            surrogate.predict(candidates), st.nearest_distances(candidates, distance_set), weight
+        )
+        return candidates[int(np.argmin(scores))]
+
+    def _space_filling_point(self, distance_set: np.ndarray, failed: np.ndarray) -> np.ndarray:
+        s = self.settings
+        candidates = st.uniform_candidates(s.candidates, self.bounds.dimension, self.rng)
+        keep = st.admissible(candidates, np.empty((0, self.bounds.dimension)), 0.0, failed, s.failed_exclusion_radius)
+        if keep.any():
+            candidates = candidates[keep]
+        return st.most_distant(candidates, distance_set)
+
+    # ----------------------------------------------------------------- tell
+    def tell(
+        self,
+        id: int,
+        value: float | None = None,
+        status: str = "ok",
+        replicates: list[float] | None = None,
+    ) -> None:
+        """Report the outcome of proposal ``id``.
+
+        ``status``: "ok" with ``value`` and/or ``replicates`` (the value
+        defaults to their mean; their spread becomes the value's variance);
+        "failed" (the point and a small ball around it are never proposed
+        again); "terminated" (stopped early: kept in the distance set only).
+        A non-finite value is recorded as failed.
+        """
+        if status not in STATUSES:
+            raise ValueError(f"status: {status!r} is not one of {', '.join(STATUSES)}")
+        record = self._record(id)
+        if record["status"] != "pending":
+            raise ValueError(f"evaluation {id} was already told ({record['status']})")
+        variance = None
+        if status == "ok":
+            if replicates:
+                replicates = [float(v) for v in replicates]
+                if value is None:
+                    value = float(np.mean(replicates))
+                if len(replicates) > 1:
+                    variance = float(np.var(replicates, ddof=1) / len(replicates))
+            if value is None:
+                raise ValueError(f"evaluation {id}: status ok needs a value or replicates")
+            value = float(value)
+            if not math.isfinite(value) or (variance is not None and not math.isfinite(variance)):
+                status, value, variance = "failed", None, None
+        record.update(status=status, value=value if status == "ok" else None, variance=variance, replicates=replicates)
+        self._update_progress(record)
+
+    def _update_progress(self, record: dict) -> None:
+        status, value = record["status"], record["value"]
+        if status == "failed":
+            self.evaluations_without_improvement += 1
+            return
+        improved = status == "ok" and st.is_improvement(value, self.best_observed)
+        if not record["in_initial_design"]:
+            s = self.settings
+            self.step.record(
+                improved, s.sigma_min, s.sigma_max, s.success_tolerance, s.failures_to_halve(self.bounds.dimension)
+            )
+        if status == "ok" and (self.best_observed is None or value < self.best_observed):
+            self.best_observed = value
+        self.evaluations_without_improvement = 0 if improved else self.evaluations_without_improvement + 1
+
+    # ------------------------------------------------------------ queries
+    def completed_evaluations(self) -> int:
+        """Evaluations told so far (ok, failed and terminated)."""
+        return sum(1 for r in self.records if r["status"] != "pending")
+
+    def pending(self) -> list[int]:
+        """Ids handed out and not yet told."""
+        return [r["id"] for r in self.records if r["status"] == "pending"]
+
+    def best(self) -> dict | None:
+        """The evaluated point with the lowest surrogate prediction (not the luckiest sample).
+
+        Returns x (real units), value (observed, mean of replicates),
+        predicted (surrogate value there) and id; None before any value.
+        """
+        finished = [r for r in self.records if r["status"] == "ok"]
+        if not finished:
+            return None
+        surrogate = self._fitted_surrogate()
+        if surrogate is None:
+            predicted = np.array([r["value"] for r in finished])
+        else:
+            predicted = surrogate.predict(np.array([r["x"] for r in finished]))
+        index = int(np.argmin(predicted))
+        record = finished[index]
+        return {
+            "id": record["id"],
+            "x": self.bounds.from_unit(record["x"])[0].tolist(),
+            "value": record["value"],
+            "predicted": float(predicted[index]),
+        }
+
+    def stop_reason(self, elapsed_seconds: float) -> str | None:
+        """Why the run should stop (budget, wall clock, target, stagnation, collapse) or None."""
+        s = self.settings
+        best = self.best()
+        return stop_reason(
+            self.completed_evaluations(),
+            s.max_evaluations,
+            elapsed_seconds,
+            s.max_seconds,
+            None if best is None else best["predicted"],
+            s.target_objective,
+            self.evaluations_without_improvement,
+            s.no_improvement_evaluations,
+            self.step.collapsed,
+        )
+
+    def early_termination(self, id: int, partial_estimate: float) -> EarlyTerminationDecision:
+        """Apply :func:`early_termination_decision` to running evaluation ``id``."""
+        record = self._record(id)
+        et = self.settings.early_termination
+        adaptive_budget = max(self.settings.max_evaluations - self.initial_size, 1)
+        progress = (self.completed_evaluations() - self.initial_size) / adaptive_budget
+        return early_termination_decision(
+            self.best_observed,
+            partial_estimate,
+            progress,
+            in_initial_design=record["in_initial_design"],
+            enabled=et.enabled,
+            thresholds=et.thresholds,
+            progress_boundaries=et.progress_boundaries,
+        )
+
+    # ------------------------------------------------------------ helpers
+    def _record(self, id: int) -> dict:
+        for record in self.records:
+            if record["id"] == id:
+                return record
+        raise ValueError(f"unknown evaluation id {id!r}")
+
+    def _points(self, *statuses: str) -> np.ndarray:
+        rows = [r["x"] for r in self.records if r["status"] in statuses]
+        return np.array(rows, float).reshape(len(rows), self.bounds.dimension)
+
+    def _fitted_surrogate(self) -> Surrogate | None:
+        """The surrogate on all finished values, refitted only when they changed."""
+        finished = [r for r in self.records if r["status"] == "ok"]
+        if len(finished) < self.bounds.dimension + 2:
+            return None
+        if self._surrogate_version != len(finished):
+            s = self.settings
+            surrogate = make_surrogate(s.surrogate_name, s.duplicate_tolerance, s.kriging_restarts, self.seed)
+            x = np.array([r["x"] for r in finished])
+            y = np.array([r["value"] for r in finished])
+            variance = np.array([r["variance"] or 0.0 for r in finished])
+            self._surrogate = surrogate.fit(x, y, variance)
+            self._surrogate_version = len(finished)
+        return self._surrogate
+
+    def _best_unit_point(self, surrogate: Surrogate) -> np.ndarray:
+        finished = self._points("ok")
+        return finished[int(np.argmin(surrogate.predict(finished)))]
+
+    # -------------------------------------------------------------- state
+    def to_json(self) -> str:
+        """The whole state as JSON; :meth:`from_json` resumes to the same next proposal."""
+        state = {
+            "version": STATE_VERSION,
+            "lower": list(self.bounds.lower),
+            "upper": list(self.bounds.upper),
+            "settings": self.settings.to_dict(),
+            "seed": self.seed,
+            "workers": self.workers,
+            "initial_size": self.initial_size,
+            "design_queue": self.design_queue,
+            "records": self.records,
+            "next_id": self.next_id,
+            "step": {
+                "sigma": self.step.sigma,
+                "successes": self.step.successes,
+                "failures": self.step.failures,
+                "collapsed": self.step.collapsed,
+            },
+            "weight_index": self.weight_index,
+            "best_observed": self.best_observed,
+            "evaluations_without_improvement": self.evaluations_without_improvement,
+            "rng": self.rng.bit_generator.state,
+        }
+        return json.dumps(state)
+
+    @classmethod
+    def from_json(cls, text: str) -> Optimizer:
+        state = json.loads(text)
+        if state.get("version") != STATE_VERSION:
+            raise ValueError(f"optimizer state version {state.get('version')!r} is not {STATE_VERSION}")
+        optimizer = cls.__new__(cls)
+        optimizer.bounds = Bounds.of(state["lower"], state["upper"])
+        optimizer.settings = OptimizerSettings.from_dict(state["settings"])
+        optimizer.seed = state["seed"]
+        optimizer.workers = state["workers"]
+        optimizer.rng = np.random.default_rng()
+        optimizer.rng.bit_generator.state = state["rng"]
+        optimizer.initial_size = state["initial_size"]
+        optimizer.design_queue = state["design_queue"]
+        optimizer.records = state["records"]
+        optimizer.next_id = state["next_id"]
+        optimizer.step = st.StepSize(**state["step"])
+        optimizer.weight_index = state["weight_index"]
+        optimizer.best_observed = state["best_observed"]
+        optimizer.evaluations_without_improvement = state["evaluations_without_improvement"]
+        optimizer._surrogate = None
+        optimizer._surrogate_version = -1
+        return optimizer
