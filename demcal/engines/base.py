@@ -1,0 +1,94 @@
+"""The small interface every simulator sits behind.
+
+An engine runs one scene replicate: given the parameters, scene settings and
+a seed, it streams progress and early response estimates to ``partial.csv``,
+polls the STOP file between chunks of work and ends with a ``RunResult``
+whose status is ``ok``, ``terminated`` (stopped on request) or ``failed``
+(with the reason). Responses are either measured by the engine directly
+(``measurements``) or computed later by the scene from the saved particle
+state (``arrays``).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from abc import ABC, abstractmethod
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from demcal.files import PartialWriter
+
+OK, TERMINATED, FAILED = "ok", "terminated", "failed"
+
+
+@dataclass
+class SimulationJob:
+    """Everything one simulation needs; JSON-serialisable so it can cross a process boundary."""
+
+    scene: str
+    parameters: dict[str, float]
+    settings: dict
+    seed: int
+    responses: list[str]
+    timestep_fraction: float
+    workdir: str
+    stop_file: str
+    engine_settings: dict = field(default_factory=dict)
+
+    @property
+    def partial_file(self) -> Path:
+        return Path(self.workdir) / "partial.csv"
+
+    def to_json(self) -> str:
+        return json.dumps(asdict(self), indent=2, sort_keys=True)
+
+    @classmethod
+    def from_json(cls, text: str) -> "SimulationJob":
+        return cls(**json.loads(text))
+
+
+@dataclass
+class RunResult:
+    """Outcome of one simulation. ``cost`` holds wall_s, cpu_s and engine figures (steps, ...)."""
+
+    status: str
+    reason: str = ""
+    measurements: dict[str, float] = field(default_factory=dict)
+    arrays: dict[str, np.ndarray] = field(default_factory=dict)
+    cost: dict[str, float] = field(default_factory=dict)
+
+
+class RunMonitor:
+    """What a running simulation uses to report progress and learn of a stop request."""
+
+    def __init__(self, job: SimulationJob, clock=time.monotonic):
+        self.stop_file = Path(job.stop_file)
+        self.partial = PartialWriter(job.partial_file, clock)
+
+    def stop_requested(self) -> bool:
+        return self.stop_file.exists()
+
+    def progress(self, fraction: float, stage: str, estimates: dict[str, float] | None = None) -> None:
+        self.partial.write(min(max(fraction, 0.0), 1.0), stage, estimates)
+
+
+class Engine(ABC):
+    """A simulator. Subclasses set ``name`` and implement ``run``."""
+
+    name: str = ""
+
+    def __init__(self, settings: dict | None = None):
+        self.settings = dict(settings or {})
+
+    def check(self, scenes: list) -> None:
+        """Raise ConfigError if this engine cannot run these scenes here (binary missing, ...)."""
+
+    def version(self) -> str:
+        return "unknown"
+
+    @abstractmethod
+    def run(self, job: SimulationJob, monitor: RunMonitor) -> RunResult:
+        """Run one simulation to its end, a stop request, or a failure with reason."""

@@ -1,0 +1,152 @@
+"""Command engine: any simulator run through a user-given command template.
+
+The template (engine setting ``command``) is split with ``shlex`` and each
+word formatted with the placeholders ``{input}`` (the input file, copied into
+the run directory), ``{workdir}``, ``{seed}``, ``{timestep_fraction}``,
+``{scene}`` and every parameter name; it is never run through a shell, so no
+value can inject a command. The simulator writes ``responses_file`` (a JSON
+object response -> value, relative to the run directory) and may append
+``partial_file`` (CSV with columns progress,response,value; response and
+value may be empty) while it runs. A STOP request terminates the process
+group and records the run as terminated.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import shlex
+import shutil
+import signal
+import string
+import subprocess
+import time
+from pathlib import Path
+
+from demcal.engines.base import FAILED, OK, TERMINATED, Engine, RunMonitor, RunResult, SimulationJob
+from demcal.errors import ConfigError, SimulationFailed
+from demcal.files import read_json
+
+POLL_SECONDS = 0.5
+GRACE_SECONDS = 10.0
+LOG_FILE = "command.log"
+FIXED_PLACEHOLDERS = ("input", "workdir", "seed", "timestep_fraction", "scene")
+
+
+def placeholders(template: str) -> set[str]:
+    """Names of the ``{...}`` fields of a command template."""
+    return {name for word in shlex.split(template)
+            for _, name, _, _ in string.Formatter().parse(word) if name}
+
+
+def command_words(template: str, fields: dict) -> list[str]:
+    """The argument vector: shlex words, each formatted with ``fields``."""
+    return [word.format(**fields) for word in shlex.split(template)]
+
+
+def _read_simulator_partial(path: Path) -> tuple[float | None, dict[str, float]]:
+    """Latest progress and latest estimate per response from the simulator's CSV."""
+    progress, estimates = None, {}
+    try:
+        with open(path, newline="") as handle:
+            for row in csv.DictReader(handle):
+                try:
+                    progress = float(row["progress"])
+                    if row.get("response") and row.get("value"):
+                        estimates[row["response"]] = float(row["value"])
+                except (KeyError, TypeError, ValueError):
+                    continue
+    except FileNotFoundError:
+        pass
+    return progress, estimates
+
+
+class CommandEngine(Engine):
+    name = "command"
+
+    def check(self, scenes: list) -> None:
+        template = self.settings["command"]
+        try:
+            words = shlex.split(template)
+        except ValueError as exc:
+            raise ConfigError(f"engine.command: cannot split {template!r}: {exc}") from None
+        executable = words[0]
+        if shutil.which(executable) is None:
+            raise ConfigError(f"engine.command: executable {executable!r} not found on PATH "
+                              f"(is the simulator installed?)")
+        known = set(FIXED_PLACEHOLDERS) | {p for s in scenes for p in s.parameters}
+        unknown = sorted(placeholders(template) - known)
+        if unknown:
+            raise ConfigError(f"engine.command: unknown placeholder {{{unknown[0]}}}; "
+                              f"allowed: {', '.join(sorted(known))}")
+        if "input" in self.settings and not Path(self.settings["input"]).is_file():
+            raise ConfigError(f"engine.input: file {self.settings['input']!r} not found")
+
+    def version(self) -> str:
+        return f"command: {shlex.split(self.settings['command'])[0]}"
+
+    def run(self, job: SimulationJob, monitor: RunMonitor) -> RunResult:
+        workdir = Path(job.workdir).resolve()
+        fields = {**job.parameters, "workdir": str(workdir), "seed": job.seed,
+                  "timestep_fraction": job.timestep_fraction, "scene": job.scene, "input": ""}
+        if "input" in self.settings:
+            source = Path(self.settings["input"])
+            shutil.copy(source, workdir / source.name)
+            fields["input"] = source.name
+        responses_path = workdir / self.settings["responses_file"]
+        responses_path.unlink(missing_ok=True)
+        partial = workdir / self.settings["partial_file"] if "partial_file" in self.settings else None
+        timeout = float(self.settings.get("timeout", float("inf")))
+        start, cpu_before = time.monotonic(), os.times()
+        with open(workdir / LOG_FILE, "w") as log:
+            try:
+                proc = subprocess.Popen(command_words(self.settings["command"], fields),
+                                        cwd=workdir, stdin=subprocess.DEVNULL, stdout=log,
+                                        stderr=subprocess.STDOUT, start_new_session=True)
+            except OSError as exc:
+                return RunResult(FAILED, f"cannot start the simulator: {exc}")
+            outcome = self._watch(proc, monitor, partial, start, timeout)
+        cpu_after = os.times()
+        cost = {"wall_s": time.monotonic() - start,
+                "cpu_s": (cpu_after.children_user - cpu_before.children_user)
+                + (cpu_after.children_system - cpu_before.children_system)}
+        if outcome is not None:
+            return RunResult(outcome[0], outcome[1], cost=cost)
+        if proc.returncode != 0:
+            tail = " | ".join((workdir / LOG_FILE).read_text(errors="replace").splitlines()[-5:])
+            how = (f"died from {signal.Signals(-proc.returncode).name}" if proc.returncode < 0
+                   else f"exited with code {proc.returncode}")
+            return RunResult(FAILED, f"simulator {how}: {tail}", cost=cost)
+        try:
+            values = read_json(responses_path, "simulator responses file")
+            measurements = {r: float(values[r]) for r in job.responses}
+        except SimulationFailed as exc:
+            return RunResult(FAILED, str(exc), cost=cost)
+        except (KeyError, TypeError, ValueError) as exc:
+            return RunResult(FAILED, f"simulator responses file {responses_path.name} lacks a "
+                                     f"number for {exc}", cost=cost)
+        return RunResult(OK, measurements=measurements, cost=cost)
+
+    @staticmethod
+    def _watch(proc, monitor: RunMonitor, partial: Path | None, start: float,
+               timeout: float) -> tuple[str, str] | None:
+        """Wait for the process, forwarding progress; stop it on STOP or timeout."""
+        last = None
+        while proc.poll() is None:
+            if monitor.stop_requested() or time.monotonic() - start > timeout:
+                os.killpg(proc.pid, signal.SIGTERM)
+                try:
+                    proc.wait(GRACE_SECONDS)
+                except subprocess.TimeoutExpired:
+                    os.killpg(proc.pid, signal.SIGKILL)
+                    proc.wait()
+                if monitor.stop_requested():
+                    return TERMINATED, "stop requested"
+                return FAILED, f"simulation exceeded the engine timeout of {timeout:g} s"
+            if partial is not None:
+                progress, estimates = _read_simulator_partial(partial)
+                if progress is not None and (progress, estimates) != last:
+                    monitor.progress(progress, "run", estimates or None)
+                    last = (progress, estimates)
+            time.sleep(POLL_SECONDS)
+        return None

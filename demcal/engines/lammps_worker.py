@@ -1,0 +1,58 @@
+"""Child process of the LAMMPS engine: runs one scene driver, writes its result files.
+
+Usage: ``python -m demcal.engines.lammps_worker JOB.json``. Writes
+``lammps-result.json`` (status, reason, measurements, cost) and, if the driver
+returned particle arrays, ``lammps-state.npz`` beside the job file. A driver
+error becomes a failed result with the error text; a crash of LAMMPS itself
+kills this process, which the parent records.
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+import time
+import traceback
+from pathlib import Path
+
+import numpy as np
+
+from demcal.engines.base import FAILED, RunMonitor, SimulationJob
+from demcal.engines.lammps import RESULT_FILE, STATE_FILE, preload_mpi
+from demcal.errors import SimulationFailed
+from demcal.files import write_json
+from demcal.scenes import SCENES
+
+
+def _lammps_message(exc: Exception) -> str:
+    """LAMMPS errors arrive as 'ERROR: text (src/file.cpp:NNN)': keep the text."""
+    text = str(exc).strip().removeprefix("ERROR: ")
+    return text.split(" (src/")[0]
+
+
+def main(job_path: str) -> int:
+    job_file = Path(job_path)
+    job = SimulationJob.from_json(job_file.read_text())
+    monitor = RunMonitor(job)
+    start = time.process_time()
+    driver = importlib.import_module(SCENES[job.scene].drivers["lammps"])
+    preload_mpi()
+    try:
+        result = driver.run(job, monitor)
+    except SimulationFailed as exc:
+        result_record = {"status": FAILED, "reason": str(exc)}
+    except Exception as exc:  # LAMMPS raises plain Exception("ERROR: ...")
+        traceback.print_exc()
+        result_record = {"status": FAILED, "reason": f"LAMMPS error: {_lammps_message(exc)}"}
+    else:
+        if result.arrays:
+            np.savez(job_file.parent / STATE_FILE, **result.arrays)
+        result_record = {"status": result.status, "reason": result.reason,
+                         "measurements": result.measurements, "cost": result.cost}
+    result_record.setdefault("cost", {})["worker_cpu_s"] = time.process_time() - start
+    write_json(job_file.parent / RESULT_FILE, result_record)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1]))

@@ -1,0 +1,204 @@
+"""The three jobs of one evaluation's DAG: simulate -> extract -> objective.
+
+Files of evaluation ``<id>`` under ``results/<study>/evals/<id>/`` (DESIGN.md):
+``params.json`` (written by whoever proposes the point), per scene and
+replicate ``<scene>/rep<r>/simulation.json`` (+ ``state.npz`` when responses
+are computed from particle positions), ``partial.csv`` while running,
+``responses.json``, and ``objective.json``. Every record carries ``status``
+(ok | terminated | failed) and, unless ok, a ``reason``. A job never fails
+the DAG for a simulation's fault: it records the failure and exits 0.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+import traceback
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+from demcal.config import Study, load_study
+from demcal.engines.base import FAILED, OK, TERMINATED, RunMonitor, RunResult, SimulationJob
+from demcal.errors import ConfigError, DemcalError, SimulationFailed
+from demcal.files import read_json, write_json
+from demcal.objective import objective_value, relative_error, replicate_mean, replicate_spread
+
+log = logging.getLogger("demcal")
+STATE_FILE = "state.npz"
+
+
+def evaluation_dir(study: Study, evaluation: str) -> Path:
+    return study.results_dir / "evals" / evaluation
+
+
+def replicate_dir(study: Study, evaluation: str, scene: str, replicate: int) -> Path:
+    return evaluation_dir(study, evaluation) / scene / f"rep{replicate}"
+
+
+def read_point(study: Study, evaluation: str) -> dict[str, float]:
+    """Free-parameter values of an evaluation from its params.json (checked)."""
+    record = read_json(evaluation_dir(study, evaluation) / "params.json", "params.json")
+    if not isinstance(record.get("parameters"), dict):
+        raise SimulationFailed("params.json has no 'parameters' object")
+    return record["parameters"]
+
+
+def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> dict:
+    """Run one scene replicate; write and return its simulation.json record."""
+    workdir = replicate_dir(study, evaluation, scene, replicate)
+    workdir.mkdir(parents=True, exist_ok=True)
+    (workdir / STATE_FILE).unlink(missing_ok=True)
+    seed = study.simulation_seed(evaluation, scene, replicate)
+    record = {"evaluation": evaluation, "scene": scene, "replicate": replicate, "seed": seed,
+              "engine": study.engine.name, "engine_version": study.engine.version(),
+              "settings": study.settings[scene], "timestep_fraction": study.timestep_fraction,
+              "responses_needed": study.responses_needed(scene), "started_at": time.time()}
+    try:
+        parameters = study.parameters_for(read_point(study, evaluation))
+    except (ConfigError, SimulationFailed) as exc:
+        result = RunResult(FAILED, f"bad parameters: {exc}")
+        parameters = {}
+    else:
+        job = SimulationJob(scene=scene, parameters=parameters, settings=study.settings[scene],
+                            seed=seed, responses=record["responses_needed"],
+                            timestep_fraction=study.timestep_fraction, workdir=str(workdir),
+                            stop_file=str(evaluation_dir(study, evaluation) / "STOP"),
+                            engine_settings=study.engine.settings)
+        result = _run_engine(study, job)
+    if result.status == OK and result.arrays:
+        np.savez(workdir / STATE_FILE, **result.arrays)
+        record["state_file"] = STATE_FILE
+    record.update(parameters=parameters, status=result.status, reason=result.reason,
+                  measurements=result.measurements, cost=result.cost, ended_at=time.time())
+    write_json(workdir / "simulation.json", record)
+    log.info("simulation %s %s rep%d: %s %s", evaluation, scene, replicate, result.status,
+             result.reason)
+    return record
+
+
+def _run_engine(study: Study, job: SimulationJob) -> RunResult:
+    """The engine's run; any error it raises becomes a failed result with the reason."""
+    try:
+        return study.engine.run(job, RunMonitor(job))
+    except SimulationFailed as exc:
+        return RunResult(FAILED, str(exc))
+    except Exception as exc:  # an engine bug must not lose the evaluation
+        log.error("engine %s raised:\n%s", study.engine.name, traceback.format_exc())
+        return RunResult(FAILED, f"engine error: {type(exc).__name__}: {exc}")
+
+
+def extract(study: Study, simulation_path: Path) -> dict:
+    """Responses of one simulation: measured by the engine or computed by the scene."""
+    simulation_path = Path(simulation_path)
+    try:
+        sim = read_json(simulation_path, "simulation.json")
+        record = {k: sim.get(k) for k in ("evaluation", "scene", "replicate", "seed", "cost")}
+        record.update(status=sim.get("status", FAILED), reason=sim.get("reason", ""), responses={})
+        if record["status"] == OK:
+            record["responses"] = _responses(study, sim, simulation_path.parent)
+    except SimulationFailed as exc:
+        record = {"status": FAILED, "reason": str(exc), "responses": {}}
+    write_json(simulation_path.parent / "responses.json", record)
+    return record
+
+
+def _responses(study: Study, sim: dict, workdir: Path) -> dict[str, float]:
+    scene = study.scenes[sim["scene"]]
+    settings = sim["settings"]
+    state = None
+    out = {}
+    for name in study.responses_needed(scene.name):
+        if name in sim.get("measurements", {}):
+            value = sim["measurements"][name]
+        else:
+            if state is None:
+                state = _load_state(workdir, sim)
+            value = scene.extractors[name](state, settings)
+        if value is None or not np.isfinite(value):
+            raise SimulationFailed(f"response {name} is not a finite number ({value})")
+        out[name] = float(value)
+    return out
+
+
+def _load_state(workdir: Path, sim: dict) -> dict:
+    if "state_file" not in sim:
+        raise SimulationFailed("simulation saved no particle state to extract responses from")
+    try:
+        with np.load(workdir / sim["state_file"]) as data:
+            return {k: data[k] for k in data.files}
+    except (OSError, ValueError) as exc:
+        raise SimulationFailed(f"particle state unreadable: {exc}") from None
+
+
+def objective(study: Study, evaluation: str, response_paths: list[Path]) -> dict:
+    """Objective record of an evaluation from all its replicates' responses.
+
+    Replicates are averaged per response before the relative error is taken
+    (Samuelsson 2023, eq. 3.3 and sec. 2.5). Any failed replicate fails the
+    evaluation (reasons kept); any terminated one terminates it.
+    """
+    values: dict[str, list[float]] = defaultdict(list)
+    failures, terminated, cpu, wall = [], False, 0.0, 0.0
+    for path in response_paths:
+        try:
+            rec = read_json(path, "responses.json")
+        except SimulationFailed as exc:
+            rec = {"status": FAILED, "reason": str(exc)}
+        label = f"{rec.get('scene', Path(path).parent.parent.name)} rep{rec.get('replicate', '?')}"
+        cost = rec.get("cost") or {}
+        cpu += float(cost.get("cpu_s", 0.0))
+        wall += float(cost.get("wall_s", 0.0))
+        if rec.get("status") == FAILED:
+            failures.append(f"{label}: {rec.get('reason', 'unknown reason')}")
+        elif rec.get("status") == TERMINATED:
+            terminated = True
+        else:
+            for name, value in rec.get("responses", {}).items():
+                values[f"{rec['scene']}.{name}"].append(value)
+    try:
+        point = read_point(study, evaluation)
+    except SimulationFailed:
+        point = {}
+    record = {"evaluation": evaluation, "parameters": point,
+              "cost": {"cpu_s": cpu, "simulation_wall_s": wall}}
+    if failures:
+        record.update(status=FAILED, reason="; ".join(failures))
+    elif terminated:
+        record.update(status=TERMINATED, reason="stopped early (STOP requested)")
+    else:
+        means = {key: replicate_mean(v) for key, v in values.items()}
+        record.update(
+            status=OK, reason="", objective=objective_value(study.targets, means),
+            responses=means, replicates=dict(values),
+            spread={key: replicate_spread(v) for key, v in values.items()},
+            relative_errors={t.key: relative_error(means[t.key], t.value) for t in study.targets},
+            targets={t.key: t.value for t in study.targets})
+    write_json(evaluation_dir(study, evaluation) / "objective.json", record)
+    return record
+
+
+def run_snakemake_job(smk, stage: str) -> None:
+    """Entry point of the workflow's scripts: log to the rule's log, run one stage."""
+    logging.basicConfig(filename=smk.log[0], level=logging.INFO, force=True,
+                        format="%(asctime)s %(levelname)s %(message)s")
+    try:
+        study = load_study(smk.config, check_engine=False)
+        w = smk.wildcards
+        if stage == "simulate":
+            simulate(study, w.evaluation, w.scene, int(w.replicate))
+        elif stage == "extract":
+            extract(study, Path(smk.input[0]))
+        else:
+            objective(study, w.evaluation, [Path(p) for p in smk.input])
+    except DemcalError as exc:
+        log.error("%s", exc)
+        raise SystemExit(f"demcal {stage}: {exc}") from None
+
+
+def write_centre_point(smk) -> None:
+    """params.json at the centre of the free parameters' bounds (the default evaluation)."""
+    study = load_study(smk.config, check_engine=False)
+    point = {p.name: 0.5 * (p.lower + p.upper) for p in study.free}
+    write_json(Path(smk.output[0]), {"parameters": point, "proposed_by": "centre of the bounds"})

@@ -1,0 +1,111 @@
+"""File contract between the daemon and the jobs of one evaluation.
+
+Final files are written atomically (temporary name, then ``os.replace``), so a
+reader never sees half a file; every file read back is parsed defensively and
+a damaged one is reported as such, never as a crash of the reader.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+import tempfile
+from pathlib import Path
+
+from demcal.errors import SimulationFailed
+
+PARTIAL_COLUMNS = ("wall_s", "progress", "stage", "response", "value")
+
+
+def atomic_write_text(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` so that readers see the old file or the whole new one."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as handle:
+            handle.write(text)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _finite_or_none(value):
+    """JSON has no NaN/Infinity: store non-finite floats as null."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _finite_or_none(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite_or_none(v) for v in value]
+    return value
+
+
+def write_json(path: Path, record: dict) -> None:
+    """Atomically write a JSON record (non-finite floats become null)."""
+    atomic_write_text(path, json.dumps(_finite_or_none(record), indent=2, sort_keys=True) + "\n")
+
+
+def read_json(path: Path, what: str) -> dict:
+    """Read a JSON object; a missing, truncated or garbled file raises SimulationFailed."""
+    path = Path(path)
+    try:
+        record = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise SimulationFailed(f"{what} missing: {path}") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise SimulationFailed(f"{what} unreadable ({path}): {exc}") from None
+    if not isinstance(record, dict):
+        raise SimulationFailed(f"{what} is not a JSON object: {path}")
+    return record
+
+
+class PartialWriter:
+    """Appends progress and early response estimates to ``partial.csv`` while a run goes on.
+
+    Each row: wall seconds since start, progress in [0, 1], stage name, and
+    optionally a response with its current estimate. Lines are flushed one by
+    one so the daemon can read them during the run.
+    """
+
+    def __init__(self, path: Path, clock):
+        self.path = Path(path)
+        self.clock = clock
+        self.start = clock()
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        with open(self.path, "w", newline="") as handle:
+            csv.writer(handle).writerow(PARTIAL_COLUMNS)
+
+    def write(self, progress: float, stage: str, estimates: dict[str, float] | None = None) -> None:
+        rows = [(r, v) for r, v in (estimates or {}).items()] or [("", "")]
+        wall = f"{self.clock() - self.start:.3f}"
+        with open(self.path, "a", newline="") as handle:
+            writer = csv.writer(handle)
+            for response, value in rows:
+                writer.writerow((wall, f"{progress:.4f}", stage, response, value))
+
+
+def read_partial(path: Path) -> list[dict]:
+    """Rows of a partial.csv as dicts; a torn last line (run still writing) is skipped."""
+    rows = []
+    try:
+        with open(path, newline="") as handle:
+            for row in csv.DictReader(handle):
+                try:
+                    rows.append({
+                        "wall_s": float(row["wall_s"]),
+                        "progress": float(row["progress"]),
+                        "stage": row["stage"],
+                        "response": row["response"] or None,
+                        "value": float(row["value"]) if row["value"] else None,
+                    })
+                except (KeyError, TypeError, ValueError):
+                    continue
+    except FileNotFoundError:
+        return []
+    return rows

@@ -1,0 +1,89 @@
+"""What a scene (a lab test) declares: parameters it reads, settings, responses."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+from demcal.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class SettingSpec:
+    """A scene setting (geometry, particle size, lift speed...): default and allowed values."""
+
+    default: object
+    unit: str
+    description: str
+    lower: float | None = None
+    upper: float | None = None
+    choices: tuple | None = None
+    integer: bool = False
+
+    def allowed(self) -> str:
+        if self.choices is not None:
+            return "one of " + ", ".join(map(str, self.choices))
+        kind = "an integer" if self.integer else "a number"
+        lo = "-inf" if self.lower is None else f"{self.lower:g}"
+        hi = "inf" if self.upper is None else f"{self.upper:g}"
+        return f"{kind} in [{lo}, {hi}] {self.unit}".rstrip()
+
+    def check(self, field_name: str, value):
+        """Return ``value`` if allowed, else raise ConfigError naming field, value and range."""
+        if self.choices is not None:
+            if value not in self.choices:
+                raise ConfigError(f"{field_name}: {value!r} is not allowed; use {self.allowed()}")
+            return value
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or (
+                self.integer and not float(value).is_integer()):
+            raise ConfigError(f"{field_name}: {value!r} is not {self.allowed()}")
+        if (self.lower is not None and value < self.lower) or (
+                self.upper is not None and value > self.upper):
+            raise ConfigError(f"{field_name}: {value!r} is outside the allowed range: {self.allowed()}")
+        return int(value) if self.integer else float(value)
+
+
+@dataclass(frozen=True)
+class ResponseSpec:
+    """A bulk response a scene can produce."""
+
+    unit: str
+    description: str
+    #: Settings that change how this response is measured (recorded with it).
+    method_settings: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class Scene:
+    """Declaration of a lab test.
+
+    ``analytic_model(parameters, settings) -> {response: value}`` is a
+    closed-form stand-in used by the analytic test engine; ``drivers`` maps an
+    engine name to the module that runs this scene on that engine; ``extractors``
+    compute a response from the saved particle state (``extract(state, settings)``).
+    """
+
+    name: str
+    description: str
+    parameters: tuple[str, ...]
+    responses: dict[str, ResponseSpec]
+    settings: dict[str, SettingSpec]
+    analytic_model: Callable[[dict, dict], dict]
+    extractors: dict[str, Callable[[dict, dict], float]] = field(default_factory=dict)
+    drivers: dict[str, str] = field(default_factory=dict)
+    #: Cross-setting checks a single range cannot express: (settings, field prefix) -> None.
+    check_settings: Callable[[dict, str], None] | None = None
+
+    def resolve_settings(self, given: dict | None, field_prefix: str) -> dict:
+        """Defaults overlaid with the given settings, each checked against its spec."""
+        given = dict(given or {})
+        unknown = sorted(set(given) - set(self.settings))
+        if unknown:
+            raise ConfigError(
+                f"{field_prefix}.{unknown[0]}: unknown setting for scene {self.name!r}; "
+                f"known settings: {', '.join(sorted(self.settings))}")
+        resolved = {name: spec.check(f"{field_prefix}.{name}", given.get(name, spec.default))
+                    for name, spec in self.settings.items()}
+        if self.check_settings is not None:
+            self.check_settings(resolved, field_prefix)
+        return resolved

@@ -1,0 +1,109 @@
+"""Bulk measurements from particle positions: surface profile, bulk density, angle of repose.
+
+All lengths in m, angles returned in degrees. Particles are given as centre
+positions ``x`` (N x 3, floor at z = 0) and radii ``r`` (N).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from demcal.errors import SimulationFailed
+
+
+def surface_columns(x: np.ndarray, r: np.ndarray, cell: float,
+                    centre: tuple[float, float] = (0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
+    """Free-surface height on a grid of square columns of side ``cell``.
+
+    For every occupied column, the top is max(z + r) of the spheres whose
+    centres fall in it (the highest point of material). Returns the radial
+    distance of each column centre from ``centre`` and its top height.
+    """
+    ij = np.floor((x[:, :2] - np.asarray(centre)) / cell).astype(np.int64)
+    keys, inverse = np.unique(ij, axis=0, return_inverse=True)
+    top = np.full(len(keys), -np.inf)
+    np.maximum.at(top, inverse.ravel(), x[:, 2] + r)
+    centres = (keys + 0.5) * cell
+    return np.hypot(centres[:, 0], centres[:, 1]), top
+
+
+def fill_bulk_density(x: np.ndarray, r: np.ndarray, mass: np.ndarray,
+                      cylinder_radius: float, cell: float) -> tuple[float, float]:
+    """Bulk density [kg/m^3] of a settled fill in a cylinder, and the fill height [m].
+
+    Fill height H = mean free-surface height (top of the highest sphere per
+    column, so whole spheres lie below it) over the columns farther than two
+    cells from the wall; bulk density = total mass / (pi R^2 H).
+    """
+    radius, top = surface_columns(x, r, cell)
+    inner = radius < cylinder_radius - 2.0 * cell
+    if not inner.any():
+        raise SimulationFailed("fill has no surface columns away from the wall: "
+                               "cylinder too narrow for the particle size")
+    height = float(np.mean(top[inner]))
+    return float(np.sum(mass) / (math.pi * cylinder_radius**2 * height)), height
+
+
+def radial_profile(x: np.ndarray, r: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndarray]:
+    """Heap surface height against distance from the heap's axis.
+
+    The surface columns (``surface_columns``, centred on the centroid of the
+    particles) are grouped in rings of width ``cell``; each ring's height is
+    its highest column, which is robust to columns whose top sphere happens
+    to sit in a neighbouring cell. Returns ring mid-radii and heights.
+    """
+    centre = (float(np.mean(x[:, 0])), float(np.mean(x[:, 1])))
+    radius, top = surface_columns(x, r, cell, centre)
+    ring = np.floor(radius / cell).astype(np.int64)
+    height = np.full(ring.max() + 1, -np.inf)
+    np.maximum.at(height, ring, top)
+    occupied = np.isfinite(height)
+    return ((np.arange(len(height)) + 0.5) * cell)[occupied], height[occupied]
+
+
+def heap_angle_flank_fit(x: np.ndarray, r: np.ndarray, cell: float,
+                         band: tuple[float, float] = (0.2, 0.8)) -> float:
+    """Angle of repose [deg] from a straight-line fit of the heap flank.
+
+    The radial profile (``radial_profile``) is fitted with a line
+    h = a - tan(alpha) rho over the rings whose height lies between
+    ``band[0]`` and ``band[1]`` of the heap height: the band leaves out the
+    rounded crest and the toe. With fewer than three rings in the band (a
+    heap one or two layers high) the whole profile is fitted. A rising
+    profile (material piled at the rim) counts as 0 deg.
+    """
+    radius, height = radial_profile(x, r, cell)
+    if len(height) < 3:
+        raise SimulationFailed(f"heap profile has only {len(height)} rings: no heap to measure")
+    top = height.max()
+    in_band = (height >= band[0] * top) & (height <= band[1] * top)
+    if in_band.sum() < 3:
+        in_band = np.ones_like(height, dtype=bool)
+    slope = np.polyfit(radius[in_band], height[in_band], 1)[0]
+    return max(0.0, math.degrees(math.atan(-slope)))
+
+
+def heap_angle_height_radius(x: np.ndarray, r: np.ndarray, cell: float,
+                             bottom_layer: float) -> float:
+    """Angle of repose [deg] = arctan(h / r_t), after Rackl & Hanley (2017), Appendix A.
+
+    h is the heap height minus the bottom layer hidden by the rim
+    (``bottom_layer``, one particle diameter); r_t is the radius of the
+    projected heap area, taken twice as the radius of the circle of equal
+    area around the centroid of the occupied columns and dropping the columns
+    outside it (the loosely covered edge).
+    """
+    xy, z_top = x[:, :2], x[:, 2] + r
+    if len(xy) == 0:
+        raise SimulationFailed("no particles on the plate: no heap to measure")
+    cells = np.unique(np.floor(xy / cell).astype(np.int64), axis=0)
+    centres = (cells + 0.5) * cell
+    keep = np.ones(len(centres), dtype=bool)
+    for _ in range(2):
+        centroid = centres[keep].mean(axis=0)
+        radius = math.sqrt(keep.sum() * cell * cell / math.pi)
+        keep &= np.hypot(*(centres - centroid).T) <= radius
+    height = float(z_top.max()) - bottom_layer
+    return math.degrees(math.atan2(max(height, 0.0), radius))
