@@ -8,11 +8,14 @@
 #   snakemake --cores 2 results/<study>/evals/<id>/objective.json   # a given params.json
 #   snakemake --configfile config/examples/<x>.yaml ...             # another study
 
+import time
+
 from snakemake.exceptions import WorkflowError
 from snakemake.utils import min_version
 
 from demcal.config import load_study
 from demcal.errors import ConfigError
+from demcal.summary import recent_summaries
 
 min_version("9.0")
 
@@ -23,6 +26,7 @@ if not config:
     configfile: "config/config.yaml"
 
 
+RUN_START = time.time()
 try:
     STUDY = load_study(config)
 except ConfigError as exc:
@@ -42,3 +46,8 @@ rule all:
     default_target: True
     input:
         CENTRE + "/objective.json",
+
+
+onsuccess:
+    for summary in recent_summaries(STUDY, RUN_START):
+        print(summary)

@@ -63,8 +63,9 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> dict:
     else:
         job = SimulationJob(scene=scene, parameters=parameters, settings=study.settings[scene],
                             seed=seed, responses=record["responses_needed"],
-                            timestep_fraction=study.timestep_fraction, workdir=str(workdir),
-                            stop_file=str(evaluation_dir(study, evaluation) / "STOP"),
+                            timestep_fraction=study.timestep_fraction,
+                            workdir=str(workdir.resolve()),
+                            stop_file=str((evaluation_dir(study, evaluation) / "STOP").resolve()),
                             engine_settings=study.engine.settings)
         result = _run_engine(study, job)
     if result.status == OK and result.arrays:

@@ -87,7 +87,7 @@ class LammpsEngine(Engine):
         return f"lammps {lammps_version()}"
 
     def run(self, job: SimulationJob, monitor: RunMonitor) -> RunResult:
-        workdir = Path(job.workdir)
+        workdir = Path(job.workdir).resolve()
         (workdir / JOB_FILE).write_text(job.to_json())
         for stale in (RESULT_FILE, STATE_FILE):
             (workdir / stale).unlink(missing_ok=True)

@@ -1,0 +1,47 @@
+"""Human-readable summaries of evaluation records for the terminal."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from demcal.config import Study
+from demcal.files import read_json
+from demcal.errors import SimulationFailed
+
+
+def evaluation_summary(study: Study, record: dict, where: Path) -> str:
+    """Status, parameters, responses against targets and objective of one evaluation."""
+    lines = [f"demcal: evaluation {record.get('evaluation')!r} of study {study.name!r}: "
+             f"{record.get('status')}"
+             + (f", objective {record['objective']:.4g}" if "objective" in record else "")]
+    params = record.get("parameters", {})
+    units = {p.name: p.spec.unit for p in study.free if p.spec.unit != "-"}
+    lines.append("  parameters: " + ", ".join(
+        f"{k} = {v:.4g} {units.get(k, '')}".rstrip() for k, v in params.items()))
+    if record.get("status") == "ok":
+        lines.append(f"  {'response':34s} {'simulated':>12s} {'target':>12s} {'error':>8s}")
+        for t in study.targets:
+            unit = study.scenes[t.scene].responses[t.response].unit
+            value = record["responses"][t.key]
+            spread = record.get("spread", {}).get(t.key, 0.0)
+            error = record["relative_errors"][t.key]
+            shown = f"{value:.4g}" + (f" ±{spread:.2g}" if spread else "")
+            lines.append(f"  {t.key + ' [' + unit + ']':34s} {shown:>12s} {t.value:>12.4g} "
+                         f"{100 * error:>+7.1f}%")
+    else:
+        lines.append(f"  reason: {record.get('reason', '')}")
+    cost = record.get("cost", {})
+    lines.append(f"  simulation CPU time {cost.get('cpu_s', 0):.0f} s; files in {where}/")
+    return "\n".join(lines)
+
+
+def recent_summaries(study: Study, since: float) -> list[str]:
+    """Summaries of the evaluations whose objective.json was written after ``since``."""
+    out = []
+    for path in sorted((study.results_dir / "evals").glob("*/objective.json")):
+        if path.stat().st_mtime >= since:
+            try:
+                out.append(evaluation_summary(study, read_json(path, "objective.json"), path.parent))
+            except SimulationFailed as exc:
+                out.append(f"demcal: {exc}")
+    return out

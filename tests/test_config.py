@@ -1,0 +1,121 @@
+"""Study configuration: the shipped configs load; each kind of bad config has its own message."""
+
+from pathlib import Path
+
+import pytest
+import yaml
+
+from demcal.config import load_study, load_study_file
+from demcal.errors import ConfigError
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / "config").rglob("*.yaml")), ids=lambda p: p.name)
+def test_shipped_configs_are_valid(path):
+    study = load_study_file(path)
+    assert study.targets and study.free
+
+
+def test_defaults_fill_unlisted_parameters(analytic_config):
+    study = load_study(analytic_config)
+    assert study.fixed["youngs_modulus"] == 5.0e6  # catalogue default
+    assert study.fixed["restitution"] == 0.5
+    assert study.responses_needed("cylinder_lift") == ["bulk_density", "angle_of_repose"]
+
+
+def test_yaml_exponent_without_sign_is_a_number(analytic_config):
+    analytic_config["fixed"]["youngs_modulus"] = yaml.safe_load("5e6")  # PyYAML: the string '5e6'
+    assert load_study(analytic_config).fixed["youngs_modulus"] == 5e6
+
+
+def test_seeds_differ_per_replicate_and_repeat(analytic_config):
+    study = load_study(analytic_config)
+    seeds = {study.simulation_seed("e1", "cylinder_lift", r) for r in range(5)}
+    assert len(seeds) == 5
+    assert study.simulation_seed("e1", "cylinder_lift", 0) == study.simulation_seed(
+        "e1", "cylinder_lift", 0)
+
+
+def _set(config, path, value):
+    *head, last = path
+    node = config
+    for key in head:
+        node = node[key]
+    if value is KeyError:
+        del node[last]
+    else:
+        node[last] = value
+
+
+BAD = [
+    # (where, value, expected message fragment)
+    (["colour"], "red", r"colour: unknown field; allowed here: .*engine"),
+    (["targets"], KeyError, r"missing required field 'targets'"),
+    (["study"], "../escape", r"study: '../escape' is not a valid name"),
+    (["engine", "name"], "dem2000", r"engine.name: 'dem2000' is not one of lammps, analytic, command"),
+    (["parameters", "stiffness"], {"lower": 1, "upper": 2},
+     r"parameters.stiffness: not a parameter of the scenes cylinder_lift; they read"),
+    (["parameters", "sliding_friction_pp"], {"lower": 0.9, "upper": 0.1},
+     r"parameters.sliding_friction_pp: lower bound 0.9 must be less than upper bound 0.1"),
+    (["parameters", "rolling_friction_pp"], {"lower": 0.1, "upper": 3.0},
+     r"parameters.rolling_friction_pp.upper: 3 is outside the physically allowed range \[0, 1\]"),
+    (["parameters", "sliding_friction_pp", "unit"], "deg",
+     r"parameters.sliding_friction_pp.unit: 'deg' but demcal uses SI units"),
+    (["fixed", "sliding_friction_pp"], 0.5,
+     r"fixed.sliding_friction_pp: sliding_friction_pp is also a free parameter"),
+    (["fixed", "youngs_modulus"], -1.0,
+     r"fixed.youngs_modulus: -1 is outside the physically allowed range \[100000, 1e\+12\] Pa"),
+    (["targets", 0, "response"], "shear_angle",
+     r"targets\[0\].response: scene 'cylinder_lift' cannot produce 'shear_angle'"),
+    (["targets", 0, "scene"], "drop_test", r"targets\[0\].scene: 'drop_test' is not a known scene"),
+    (["targets", 1, "weight"], -1.0, r"targets\[1\].weight: -1.0 must be > 0"),
+    (["targets", 0, "unit"], "rad", r"targets\[0\].unit: 'rad' but angle_of_repose is measured in deg"),
+    (["timestep_fraction"], 0.75, r"timestep_fraction: 0.75 is above 0.5 of the Rayleigh time"),
+    (["replicates"], 0, r"replicates: 0 must be >= 1"),
+    (["scenes"], {"cylinder_lift": {"settings": {"lift_sped": 0.01}}},
+     r"scenes.cylinder_lift.settings.lift_sped: unknown setting for scene 'cylinder_lift'"),
+    (["scenes"], {"cylinder_lift": {"settings": {"lift_speed": -0.01}}},
+     r"scenes.cylinder_lift.settings.lift_speed: -0.01 is outside the allowed range"),
+    (["scenes"], {"cylinder_lift": {"settings": {"cylinder_diameter": 0.005}}},
+     r"scenes.cylinder_lift.settings.cylinder_diameter: 0.005 m is less than 6 of the largest"),
+    (["scenes"], {"cylinder_lift": {"settings": {"aor_method": "eyeball"}}},
+     r"scenes.cylinder_lift.settings.aor_method: 'eyeball' is not allowed; use one of flank_fit"),
+    (["engine"], {"name": "command", "command": "no-such-simulator -in {input}",
+                  "responses_file": "r.json"},
+     r"engine.command: executable 'no-such-simulator' not found on PATH"),
+    (["engine"], {"name": "command", "command": "python3 sim.py {friction}",
+                  "responses_file": "r.json"},
+     r"engine.command: unknown placeholder \{friction\}"),
+    (["engine", "duration"], -2, r"engine.duration: -2 must be >= 0"),
+    (["engine", "failures"], [{"when": {"density": [0, 1]}}],
+     r"engine.failures\[0\].when.density: not a parameter of the study's scenes"),
+]
+
+
+@pytest.mark.parametrize("where,value,message", BAD, ids=[".".join(map(str, b[0])) for b in BAD])
+def test_bad_config_gets_its_own_message(analytic_config, where, value, message):
+    _set(analytic_config, where, value)
+    with pytest.raises(ConfigError, match=message):
+        load_study(analytic_config)
+
+
+def test_bad_messages_are_distinct(analytic_config):
+    import copy
+    messages = set()
+    for where, value, _ in BAD:
+        config = copy.deepcopy(analytic_config)
+        _set(config, where, value)
+        with pytest.raises(ConfigError) as info:
+            load_study(config)
+        messages.add(str(info.value))
+    assert len(messages) == len(BAD)
+
+
+def test_missing_file_and_bad_yaml(tmp_path):
+    with pytest.raises(ConfigError, match="configuration file not found"):
+        load_study_file(tmp_path / "none.yaml")
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("study: [unclosed\n")
+    with pytest.raises(ConfigError, match="not valid YAML"):
+        load_study_file(bad)

@@ -1,0 +1,141 @@
+"""Engines behave alike on disk: progress in partial.csv, STOP honoured, failures with reasons."""
+
+import re
+import sys
+import textwrap
+import threading
+import time
+
+import pytest
+
+from demcal.engines.analytic import AnalyticEngine
+from demcal.engines.base import FAILED, OK, TERMINATED, RunMonitor, SimulationJob
+from demcal.engines.command import CommandEngine, command_words
+from demcal.files import read_partial
+from demcal.parameters import CATALOG
+from demcal.scenes import SCENES
+
+SCENE = SCENES["cylinder_lift"]
+
+
+def make_job(tmp_path, **parameters):
+    values = {name: spec.default for name, spec in CATALOG.items()}
+    values.update(parameters)
+    return SimulationJob(scene="cylinder_lift", parameters=values,
+                         settings=SCENE.resolve_settings({}, "s"), seed=11,
+                         responses=["bulk_density", "angle_of_repose"], timestep_fraction=0.25,
+                         workdir=str(tmp_path), stop_file=str(tmp_path / "STOP"))
+
+
+def run(engine, job):
+    return engine.run(job, RunMonitor(job))
+
+
+def stop_after(path, seconds):
+    timer = threading.Timer(seconds, path.touch)
+    timer.start()
+    return timer
+
+
+def test_analytic_is_seeded_and_noisy(tmp_path):
+    engine = AnalyticEngine({"noise": 0.05})
+    first = run(engine, make_job(tmp_path)).measurements
+    again = run(engine, make_job(tmp_path)).measurements
+    exact = SCENE.analytic_model(make_job(tmp_path).parameters, {})
+    assert first == again
+    assert first["bulk_density"] != pytest.approx(exact["bulk_density"], rel=1e-6)
+    assert first["bulk_density"] == pytest.approx(exact["bulk_density"], rel=0.25)
+
+
+def test_analytic_streams_progress_and_early_estimates(tmp_path):
+    job = make_job(tmp_path)
+    result = run(AnalyticEngine({"noise": 0.0, "chunks": 4}), job)
+    rows = read_partial(job.partial_file)
+    assert result.status == OK
+    assert [r["progress"] for r in rows if r["response"] in (None, "bulk_density")] == [
+        0.25, 0.5, 0.75, 1.0]
+    assert {r["response"] for r in rows if r["progress"] >= 0.5} == {
+        "bulk_density", "angle_of_repose"}
+
+
+def test_analytic_honours_stop(tmp_path):
+    job = make_job(tmp_path)
+    timer = stop_after(tmp_path / "STOP", 0.3)
+    start = time.monotonic()
+    result = run(AnalyticEngine({"duration": 5.0, "chunks": 50}), job)
+    timer.join()
+    assert result.status == TERMINATED and result.reason == "stop requested"
+    assert time.monotonic() - start < 2.0
+    assert result.measurements == {}
+
+
+def test_analytic_failure_injection_always_and_once(tmp_path):
+    rules = [{"when": {"sliding_friction_pp": [0.4, 0.6]}, "mode": "once", "reason": "flaky"},
+             {"when": {"sliding_friction_pp": [0.8, 1.0]}, "reason": "always broken"}]
+    engine = AnalyticEngine({"failures": rules})
+    once_dir, always_dir, fine_dir = (tmp_path / n for n in ("once", "always", "fine"))
+    for d in (once_dir, always_dir, fine_dir):
+        d.mkdir()
+    assert run(engine, make_job(once_dir, sliding_friction_pp=0.5)).reason == "flaky"
+    assert run(engine, make_job(once_dir, sliding_friction_pp=0.5)).status == OK
+    for _ in range(2):
+        result = run(engine, make_job(always_dir, sliding_friction_pp=0.9))
+        assert (result.status, result.reason) == (FAILED, "always broken")
+    assert run(engine, make_job(fine_dir, sliding_friction_pp=0.2)).status == OK
+
+
+SIMULATOR = textwrap.dedent("""
+    import json, sys, time
+    mu, seed, mode = float(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
+    with open("progress.csv", "w") as f:
+        f.write("progress,response,value\\n0.5,bulk_density,%g\\n" % (1400 + mu))
+    if mode == "crash":
+        sys.exit("solver diverged")
+    if mode == "slow":
+        time.sleep(30)
+    if mode != "silent":
+        json.dump({"bulk_density": 1400 + mu, "angle_of_repose": 20 + mu}, open("out.json", "w"))
+""")
+
+
+def command_engine(tmp_path, mode):
+    script = tmp_path / "sim.py"
+    script.write_text(SIMULATOR)
+    return CommandEngine({"command": f"{sys.executable} {script} {{sliding_friction_pp}} {{seed}} "
+                                     f"{mode}", "responses_file": "out.json",
+                          "partial_file": "progress.csv"})
+
+
+def test_command_engine_reads_responses(tmp_path):
+    job = make_job(tmp_path, sliding_friction_pp=0.25)
+    engine = command_engine(tmp_path, "ok")
+    engine.check([SCENE])
+    result = run(engine, job)
+    assert result.status == OK
+    assert result.measurements == {"bulk_density": 1400.25, "angle_of_repose": 20.25}
+
+
+@pytest.mark.parametrize("mode,reason", [
+    ("crash", r"simulator exited with code 1: solver diverged"),
+    ("silent", r"simulator responses file missing"),
+])
+def test_command_engine_failures_have_reasons(tmp_path, mode, reason):
+    result = run(command_engine(tmp_path, mode), make_job(tmp_path))
+    assert result.status == FAILED
+    assert re.search(reason, result.reason), result.reason
+
+
+def test_command_engine_stop_terminates_the_process(tmp_path):
+    job = make_job(tmp_path)
+    timer = stop_after(tmp_path / "STOP", 1.0)
+    start = time.monotonic()
+    result = run(command_engine(tmp_path, "slow"), job)
+    timer.join()
+    assert result.status == TERMINATED
+    assert time.monotonic() - start < 10.0
+    assert any(r["response"] == "bulk_density" for r in read_partial(job.partial_file))
+
+
+def test_command_words_are_not_shell_expanded():
+    words = command_words("sim -in {input} -mu {mu}", {"input": "a b; rm -rf /", "mu": 0.5})
+    assert words == ["sim", "-in", "a b; rm -rf /", "-mu", "0.5"]

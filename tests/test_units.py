@@ -1,0 +1,76 @@
+"""Small pure functions checked against hand-computed values."""
+
+import math
+
+import numpy as np
+import pytest
+
+from demcal.contact import effective_modulus, hertz_secant_stiffness, sds_rolling_coefficients
+from demcal.errors import ConfigError
+from demcal.objective import Target, objective_value, relative_error, replicate_mean
+from demcal.scenes.psd import diameter_range, sample_diameters
+from demcal.timestep import check_fraction, rayleigh_time, timestep
+
+
+def test_rayleigh_time_hand_value():
+    # r = 1 mm, rho = 2500, E = 5e6, nu = 0.3: G = 5e6 / 2.6 = 1.923e6 Pa
+    # T_R = pi * 1e-3 * sqrt(2500 / 1.923e6) / (0.1631 * 0.3 + 0.8766) = 1.2239e-4 s
+    assert rayleigh_time(1e-3, 2500.0, 5e6, 0.3) == pytest.approx(1.22386e-4, rel=1e-4)
+    assert timestep(0.25, 1e-3, 2500.0, 5e6, 0.3) == pytest.approx(3.05965e-5, rel=1e-4)
+
+
+def test_rayleigh_time_scales_with_stiffness():
+    soft, stiff = rayleigh_time(1e-3, 2500, 5e6, 0.3), rayleigh_time(1e-3, 2500, 5e8, 0.3)
+    assert soft / stiff == pytest.approx(10.0)
+
+
+def test_timestep_fraction_limits():
+    assert check_fraction(0.25) is None
+    assert "above 0.3" in check_fraction(0.4)
+    with pytest.raises(ConfigError, match="above 0.5 of the Rayleigh time.*wrong results"):
+        check_fraction(0.6)
+    with pytest.raises(ConfigError, match="must be > 0"):
+        check_fraction(0.0)
+
+
+def test_objective_eq_3_3_hand_value():
+    targets = [Target("s", "a", 20.0, weight=1.0), Target("s", "b", 1000.0, weight=2.0)]
+    # ((22 - 20) / 20)^2 + 2 ((900 - 1000) / 1000)^2 = 0.01 + 0.02
+    assert objective_value(targets, {"s.a": 22.0, "s.b": 900.0}) == pytest.approx(0.03)
+
+
+def test_zero_target_uses_absolute_error():
+    assert relative_error(0.3, 0.0) == pytest.approx(0.3)
+    assert relative_error(1.5, 1.0) == pytest.approx(0.5)
+
+
+def test_replicates_are_averaged_before_the_error():
+    target = [Target("s", "a", 10.0)]
+    reps = [9.0, 11.0]
+    # mean first: error 0; averaging the errors instead would give 0.01
+    assert objective_value(target, {"s.a": replicate_mean(reps)}) == pytest.approx(0.0)
+
+
+def test_lognormal_sample_respects_truncation_and_seed():
+    rng = np.random.default_rng(5)
+    d = sample_diameters(5000, 2e-3, 0.3, 2.0, rng)
+    lo, hi = diameter_range(2e-3, 0.3, 2.0)
+    assert d.min() >= lo and d.max() <= hi
+    assert np.median(d) == pytest.approx(2e-3, rel=0.03)
+    again = sample_diameters(5000, 2e-3, 0.3, 2.0, np.random.default_rng(5))
+    assert np.array_equal(d, again)
+    assert np.all(sample_diameters(10, 2e-3, 0.0, 2.0, rng) == 2e-3)
+
+
+def test_hertz_secant_stiffness_round_trip():
+    e_star, radius, force = effective_modulus(5e6, 0.3), 0.5e-3, 1e-3
+    k = hertz_secant_stiffness(force, radius, e_star)
+    overlap = force / k
+    assert 4 / 3 * e_star * math.sqrt(radius) * overlap**1.5 == pytest.approx(force)
+
+
+def test_rolling_stiffness_follows_ai_et_al():
+    k_pp, _ = sds_rolling_coefficients(0.1, 2e-3, 2500, 5e6, 0.3, wall=False)
+    k_pp2, _ = sds_rolling_coefficients(0.2, 2e-3, 2500, 5e6, 0.3, wall=False)
+    assert k_pp2 / k_pp == pytest.approx(4.0)  # k_roll ~ mu_r^2
+    assert sds_rolling_coefficients(0.0, 2e-3, 2500, 5e6, 0.3, wall=True) == (0.0, 0.0)

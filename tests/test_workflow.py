@@ -1,0 +1,134 @@
+"""The per-evaluation Snakemake DAG end to end, on the analytic engine."""
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+from demcal.scenes import SCENES
+
+ROOT = Path(__file__).resolve().parents[1]
+SNAKEMAKE = [sys.executable, "-m", "snakemake"]
+
+
+def run_snakemake(workdir, config, *args):
+    (workdir / "study.yaml").write_text(yaml.safe_dump(config))
+    return subprocess.run(
+        [*SNAKEMAKE, "-s", str(ROOT / "Snakefile"), "--directory", str(workdir),
+         "--configfile", str(workdir / "study.yaml"), "--cores", "2", *args],
+        capture_output=True, text=True, timeout=300, stdin=subprocess.DEVNULL)
+
+
+def write_point(workdir, study, evaluation, **point):
+    path = workdir / "results" / study / "evals" / evaluation / "params.json"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps({"parameters": point}))
+    return path.parent
+
+
+def test_objective_matches_eq_3_3_of_the_closed_form(tmp_path, analytic_config):
+    point = {"sliding_friction_pp": 0.4, "rolling_friction_pp": 0.1}
+    evaldir = write_point(tmp_path, "unit", "e1", **point)
+    proc = run_snakemake(tmp_path, analytic_config, "results/unit/evals/e1/objective.json")
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    record = json.loads((evaldir / "objective.json").read_text())
+    params = {"sliding_friction_pp": 0.4, "rolling_friction_pp": 0.1,
+              "sliding_friction_pw": 0.5, "rolling_friction_pw": 0.1, "restitution": 0.5,
+              "youngs_modulus": 5e6, "poisson_ratio": 0.3, "particle_density": 2500.0}
+    exact = SCENES["cylinder_lift"].analytic_model(params, {})
+    expected = ((exact["angle_of_repose"] - 25.0) / 25.0) ** 2 + (
+        (exact["bulk_density"] - 1450.0) / 1450.0) ** 2
+    assert record["status"] == "ok"
+    assert record["objective"] == pytest.approx(expected)
+    assert len(record["replicates"]["cylinder_lift.bulk_density"]) == 2
+    for rep in (0, 1):
+        assert (evaldir / "logs" / f"simulate_cylinder_lift_rep{rep}.log").exists()
+        assert (evaldir / "cylinder_lift" / f"rep{rep}" / "partial.csv").exists()
+
+
+def test_default_target_evaluates_the_centre_of_the_bounds(tmp_path, analytic_config):
+    proc = run_snakemake(tmp_path, analytic_config)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    record = json.loads((tmp_path / "results/unit/evals/centre/objective.json").read_text())
+    assert record["parameters"] == {"sliding_friction_pp": 0.5, "rolling_friction_pp": 0.16}
+    assert record["status"] == "ok"
+
+
+def test_failed_simulation_is_recorded_not_raised(tmp_path, analytic_config):
+    analytic_config["engine"]["failures"] = [
+        {"when": {"sliding_friction_pp": [0.8, 0.9]}, "reason": "particles escaped"}]
+    evaldir = write_point(tmp_path, "unit", "bad", sliding_friction_pp=0.85,
+                          rolling_friction_pp=0.1)
+    proc = run_snakemake(tmp_path, analytic_config, "results/unit/evals/bad/objective.json")
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    record = json.loads((evaldir / "objective.json").read_text())
+    assert record["status"] == "failed"
+    assert "cylinder_lift rep0: particles escaped" in record["reason"]
+    assert "cylinder_lift rep1: particles escaped" in record["reason"]
+
+
+def test_out_of_range_point_is_a_failure_with_reason(tmp_path, analytic_config):
+    evaldir = write_point(tmp_path, "unit", "odd", sliding_friction_pp=7.0,
+                          rolling_friction_pp=0.1)
+    proc = run_snakemake(tmp_path, analytic_config, "results/unit/evals/odd/objective.json")
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    record = json.loads((evaldir / "objective.json").read_text())
+    assert record["status"] == "failed"
+    assert "sliding_friction_pp = 7.0 is outside the allowed range [0, 2]" in record["reason"]
+
+
+def test_stop_file_ends_the_evaluation_as_terminated(tmp_path, analytic_config):
+    analytic_config["engine"]["duration"] = 30.0
+    evaldir = write_point(tmp_path, "unit", "st", sliding_friction_pp=0.3,
+                          rolling_friction_pp=0.1)
+    (evaldir / "STOP").touch()
+    proc = run_snakemake(tmp_path, analytic_config, "results/unit/evals/st/objective.json")
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert json.loads((evaldir / "objective.json").read_text())["status"] == "terminated"
+
+
+def test_bad_config_stops_before_any_job_with_the_message(tmp_path, analytic_config):
+    analytic_config["parameters"]["sliding_friction_pp"] = {"lower": 0.9, "upper": 0.1}
+    proc = run_snakemake(tmp_path, analytic_config)
+    assert proc.returncode != 0
+    assert ("invalid configuration: parameters.sliding_friction_pp: lower bound 0.9 must be "
+            "less than upper bound 0.1") in proc.stderr
+    assert not (tmp_path / "results").exists()
+
+
+def test_dag_of_one_evaluation_renders(tmp_path, analytic_config):
+    write_point(tmp_path, "unit", "e1", sliding_friction_pp=0.4, rolling_friction_pp=0.1)
+    proc = run_snakemake(tmp_path, analytic_config, "--dag", "dot",
+                         "results/unit/evals/e1/objective.json")
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    dot = proc.stdout[proc.stdout.index("digraph"):]
+    for rule in ("simulate", "extract", "objective"):
+        assert rule in dot
+    if shutil.which("dot") is None:
+        pytest.skip("graphviz 'dot' not installed (apt install graphviz); DOT text checked")
+    svg = subprocess.run(["dot", "-Tsvg"], input=dot, capture_output=True, text=True, timeout=60)
+    assert svg.returncode == 0 and "<svg" in svg.stdout
+
+
+@pytest.mark.lammps
+def test_real_lammps_evaluation_through_the_dag(tmp_path, analytic_config):
+    """One tiny cylinder lift on the embedded LAMMPS engine, through Snakemake."""
+    analytic_config["engine"] = {"name": "lammps"}
+    analytic_config["replicates"] = 1
+    analytic_config["scenes"] = {"cylinder_lift": {"settings": {
+        "particle_count": 150, "d50": 3.0e-3, "cylinder_diameter": 21.0e-3, "plate_width": 0.08,
+        "lift_speed": 0.05, "max_settle_time": 0.5}}}
+    evaldir = write_point(tmp_path, "unit", "lmp", sliding_friction_pp=0.5,
+                          rolling_friction_pp=0.1)
+    proc = run_snakemake(tmp_path, analytic_config, "results/unit/evals/lmp/objective.json")
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    record = json.loads((evaldir / "objective.json").read_text())
+    assert record["status"] == "ok", record.get("reason")
+    simulation = json.loads((evaldir / "cylinder_lift/rep0/simulation.json").read_text())
+    assert simulation["engine_version"].startswith("lammps ")
+    assert simulation["cost"]["steps"] > 1000
+    assert 0 < record["responses"]["cylinder_lift.angle_of_repose"] < 90
