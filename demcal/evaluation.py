@@ -65,8 +65,7 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> dict:
                             seed=seed, responses=record["responses_needed"],
                             timestep_fraction=study.timestep_fraction,
                             workdir=str(workdir.resolve()),
-                            stop_file=str((evaluation_dir(study, evaluation) / "STOP").resolve()),
-                            engine_settings=study.engine.settings)
+                            stop_file=str((evaluation_dir(study, evaluation) / "STOP").resolve()))
         result = _run_engine(study, job)
     if result.status == OK and result.arrays:
         np.savez(workdir / STATE_FILE, **result.arrays)
@@ -101,6 +100,10 @@ def extract(study: Study, simulation_path: Path) -> dict:
             record["responses"] = _responses(study, sim, simulation_path.parent)
     except SimulationFailed as exc:
         record = {"status": FAILED, "reason": str(exc), "responses": {}}
+    except (KeyError, TypeError, ValueError) as exc:
+        record = {"status": FAILED, "reason": f"simulation.json malformed or response not "
+                                              f"measurable: {type(exc).__name__}: {exc}",
+                  "responses": {}}
     write_json(simulation_path.parent / "responses.json", record)
     return record
 
@@ -156,8 +159,8 @@ def objective(study: Study, evaluation: str, response_paths: list[Path]) -> dict
         elif rec.get("status") == TERMINATED:
             terminated = True
         else:
-            for name, value in rec.get("responses", {}).items():
-                values[f"{rec['scene']}.{name}"].append(value)
+            for name, value in (rec.get("responses") or {}).items():
+                values[f"{rec.get('scene')}.{name}"].append(value)
     try:
         point = read_point(study, evaluation)
     except SimulationFailed:
@@ -168,6 +171,8 @@ def objective(study: Study, evaluation: str, response_paths: list[Path]) -> dict
         record.update(status=FAILED, reason="; ".join(failures))
     elif terminated:
         record.update(status=TERMINATED, reason="stopped early (STOP requested)")
+    elif missing := [t.key for t in study.targets if t.key not in values]:
+        record.update(status=FAILED, reason=f"no value for targeted responses {missing}")
     else:
         means = {key: replicate_mean(v) for key, v in values.items()}
         record.update(

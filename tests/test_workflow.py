@@ -132,3 +132,19 @@ def test_real_lammps_evaluation_through_the_dag(tmp_path, analytic_config):
     assert simulation["engine_version"].startswith("lammps ")
     assert simulation["cost"]["steps"] > 1000
     assert 0 < record["responses"]["cylinder_lift.angle_of_repose"] < 90
+
+
+def test_garbled_files_become_recorded_failures(tmp_path, analytic_config, monkeypatch):
+    from demcal.config import load_study
+    from demcal.evaluation import extract, objective
+
+    study = load_study(analytic_config)
+    simulation = tmp_path / "sim" / "simulation.json"
+    simulation.parent.mkdir()
+    simulation.write_text('{"status": "ok", "scen')  # torn write
+    assert "unreadable" in extract(study, simulation)["reason"]
+    simulation.write_text('{"status": "ok"}')  # no scene, no settings
+    assert "malformed" in extract(study, simulation)["reason"]
+    monkeypatch.chdir(tmp_path)
+    record = objective(study, "x", [simulation.parent / "responses.json", tmp_path / "none.json"])
+    assert record["status"] == "failed" and "responses.json missing" in record["reason"]

@@ -36,7 +36,6 @@ class SimulationJob:
     timestep_fraction: float
     workdir: str
     stop_file: str
-    engine_settings: dict = field(default_factory=dict)
 
     @property
     def partial_file(self) -> Path:
