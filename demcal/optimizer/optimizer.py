@@ -131,6 +131,8 @@ class Optimizer:
             )
             damping = st.pending_damping(candidates, self._points("pending"), self.step.sigma)
             return candidates[int(np.argmax(improvement * damping))]
+        if s.polish_candidate and weight == max(s.weights) and keep[-1]:
+            return candidates[-1]  # the most exploitative step takes the surrogate minimum itself
         scores = st.weighted_scores(
             surrogate.predict(candidates), st.nearest_distances(candidates, distance_set), weight
         )

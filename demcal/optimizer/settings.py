@@ -41,6 +41,8 @@ class OptimizerSettings:
     [0, 1]). ``initial_size`` None means 2d+1 plus one point per worker
     (Samuelsson 2023, section 3.7: q + P). ``surrogate`` None means the
     strategy's own: cubic_rbf for dycors, kriging for kriging_ei.
+    ``polish_candidate``: at the most exploitative weight, propose the
+    local minimum of the surrogate within 2 sigma of the best point.
     ``failure_tolerance`` None means max(4, d): the thesis' 4 for its 2-D
     case, growing with the dimension as in Regis & Shoemaker (2013).
     """

@@ -13,9 +13,10 @@
 
 All share the same preparation of the training data: exact and
 near-duplicate points are merged (their values averaged), constant data give
-a constant model, and large objective values are capped at the median
-(Björkman & Holmström 2000) so that a few penalised or failed-looking values
-do not make the interpolant oscillate.
+a constant model, and for the RBFs large objective values are capped at the
+median (Björkman & Holmström 2000) so that a few penalised or failed-looking
+values do not make the interpolant oscillate. Kriging gets the values
+uncapped: its nugget estimate absorbs the artificial plateau as noise.
 """
 
 from __future__ import annotations
@@ -105,6 +106,7 @@ class Surrogate:
     """
 
     predicts_std = False
+    caps_large_values = True
 
     def __init__(self, duplicate_tolerance: float = 1e-7):
         self.duplicate_tolerance = duplicate_tolerance
@@ -112,7 +114,7 @@ class Surrogate:
         self.constant = False
 
     def fit(self, x, y, variance=None) -> Surrogate:
-        self.data = prepare_training_data(x, y, variance, self.duplicate_tolerance)
+        self.data = prepare_training_data(x, y, variance, self.duplicate_tolerance, self.caps_large_values)
         self.constant = bool(np.all(self.data.z == 0.0))
         if not self.constant:
             self._fit_standardised(self.data)
@@ -225,6 +227,7 @@ class KrigingSurrogate(Surrogate):
     """
 
     predicts_std = True
+    caps_large_values = False  # capping plus a nugget made the fit mostly trend and noise
 
     def __init__(self, duplicate_tolerance: float = 1e-7, restarts: int = 5, seed: int = 0):
         super().__init__(duplicate_tolerance)
