@@ -348,7 +348,39 @@ def write_report(table: list[dict], async_rows: list[dict], command: str, out: P
                 f"| {a['problem']} | {a['noise']} | {a['workers']} | {a['target_regret']:.3g} | {a['time_P1']:.1f} "
                 f"| {a['time_P']:.1f} | {a['speedup']:.2f} | {a['final_P1']:.3g} | {a['final_P']:.3g} |"
             )
+    lines += ["", "## Targets", ""] + target_lines(table, async_rows)
     (out / "RESULTS.md").write_text("\n".join(lines) + "\n")
+
+
+def target_lines(table: list[dict], async_rows: list[dict]) -> list[str]:
+    """Met/missed lines for the issue's targets, computed from the table."""
+    lines = []
+    for problem, noise in sorted({(r["problem"], r["noise"]) for r in table}):
+        rows = {r["tool"]: r for r in table if r["problem"] == problem and r["noise"] == noise}
+        ours = rows.get("demcal")
+        peers = {tool: row for tool, row in rows.items() if tool != "demcal"}
+        if ours is None or not peers:
+            continue
+        best_tool = min(peers, key=lambda tool: peers[tool]["median_regret"])
+        best = peers[best_tool]["median_regret"]
+        verdict = "met" if ours["median_regret"] <= best else "MISSED"
+        lines.append(
+            f"- {problem}, noise {noise}: demcal median regret {ours['median_regret']:.3g} vs best peer "
+            f"{best_tool} {best:.3g}: {verdict}"
+        )
+        if "pysot_dycors" in peers:
+            dycors = peers["pysot_dycors"]["median_regret"]
+            verdict = "met" if ours["median_regret"] <= dycors else "MISSED"
+            lines.append(f"  - not worse than pySOT DYCORS ({dycors:.3g}): {verdict}")
+        if problem == "hartmann6":
+            seconds = ours["median_s_per_proposal"]
+            lines.append(f"  - seconds per proposal {seconds:.3g} < 0.5: {'met' if seconds < 0.5 else 'MISSED'}")
+    for a in async_rows:
+        lines.append(
+            f"- P={a['workers']} speedup on {a['problem']}: {a['speedup']:.2f} >= 3: "
+            f"{'met' if a['speedup'] >= 3 else 'MISSED'}"
+        )
+    return lines
 
 
 def main(argv: list[str] | None = None) -> None:
