@@ -1,5 +1,8 @@
 """Benchmark demcal's optimizer against pySOT, Optuna and scikit-optimize.
 
+Tools: demcal (its default strategy), demcal_kriging_ei (the alternative
+strategy, for comparison), pySOT DYCORS and SRBF, Optuna GPSampler and TPE,
+scikit-optimize gp_minimize.
 Problems: Branin (2-D, 40 evaluations) and Hartmann6 (6-D, 100 evaluations),
 each noise-free and with Gaussian noise of sd 2 % of the function's range.
 Score: final regret = true (noise-free) value at the point each tool reports
@@ -41,7 +44,7 @@ from demcal.optimizer import Optimizer  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 NOISE_FRACTION = 0.02
-TOOLS = ("demcal", "pysot_dycors", "pysot_srbf", "optuna_gp", "optuna_tpe", "skopt_gp")
+TOOLS = ("demcal", "demcal_kriging_ei", "pysot_dycors", "pysot_srbf", "optuna_gp", "optuna_tpe", "skopt_gp")
 
 
 # ----------------------------------------------------------------- problems
@@ -195,6 +198,7 @@ def run_skopt(problem: Problem, objective: Objective, seed: int):
 
 RUNNERS = {
     "demcal": run_demcal,
+    "demcal_kriging_ei": lambda p, o, s: run_demcal(p, o, s, {"strategy": "kriging_ei"}),
     "pysot_dycors": lambda p, o, s: run_pysot(p, o, s, "dycors"),
     "pysot_srbf": lambda p, o, s: run_pysot(p, o, s, "srbf"),
     "optuna_gp": lambda p, o, s: run_optuna(p, o, s, "gp"),
@@ -358,7 +362,7 @@ def target_lines(table: list[dict], async_rows: list[dict]) -> list[str]:
     for problem, noise in sorted({(r["problem"], r["noise"]) for r in table}):
         rows = {r["tool"]: r for r in table if r["problem"] == problem and r["noise"] == noise}
         ours = rows.get("demcal")
-        peers = {tool: row for tool, row in rows.items() if tool != "demcal"}
+        peers = {tool: row for tool, row in rows.items() if not tool.startswith("demcal")}
         if ours is None or not peers:
             continue
         best_tool = min(peers, key=lambda tool: peers[tool]["median_regret"])

@@ -66,7 +66,7 @@ class OptimizerSettings:
     min_distance: float = 1e-5
     failed_exclusion_radius: float = 0.02
     duplicate_tolerance: float = 1e-7
-    kriging_restarts: int = 5
+    kriging_restarts: int = 3
     early_termination: EarlyTerminationSettings = field(default_factory=EarlyTerminationSettings)
 
     @classmethod
