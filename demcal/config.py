@@ -21,6 +21,7 @@ from demcal.engines import make_engine
 from demcal.engines.base import Engine
 from demcal.errors import ConfigError
 from demcal.objective import Target
+from demcal.optimizer import OptimizerSettings
 from demcal.parameters import CATALOG, ParameterSpec
 from demcal.scenes import SCENES, Scene
 from demcal.timestep import check_fraction
@@ -53,7 +54,8 @@ class Study:
     replicates: int
     seed: int
     timestep_fraction: float
-    optimizer: dict = field(default_factory=dict)
+    optimizer: OptimizerSettings
+    calibration: dict = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
 
     @property
@@ -81,13 +83,15 @@ class Study:
                                   f"range {p.spec.allowed()}")
         return {**self.fixed, **{k: float(v) for k, v in free_values.items()}}
 
-    def simulation_seed(self, evaluation: str, scene: str, replicate: int) -> int:
-        """Seed of one simulation, derived from the study seed, evaluation, scene, replicate.
+    def simulation_seed(self, evaluation: str, scene: str, replicate: int, attempt: int = 0) -> int:
+        """Seed of one simulation, from the study seed, evaluation, scene, replicate and attempt.
 
-        Different replicates and evaluations get independent streams; the same
-        simulation always gets the same seed (reproducible reruns).
+        Different replicates, evaluations and retries get independent streams;
+        the same simulation always gets the same seed (reproducible reruns).
         """
         key = [self.seed, zlib.crc32(evaluation.encode()), zlib.crc32(scene.encode()), replicate]
+        if attempt:
+            key.append(attempt)
         return int(np.random.SeedSequence(key).generate_state(1)[0] % 2_147_483_646) + 1
 
 
@@ -240,6 +244,10 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
                 for name, scene in scenes.items()}
     fraction = float(config.get("timestep_fraction", 0.25))
     warning = check_fraction(fraction)
+    try:
+        optimizer = OptimizerSettings.from_dict(config.get("optimizer", {}))
+    except ValueError as exc:
+        raise ConfigError(str(exc)) from None
     engine_config = dict(config["engine"])
     engine = make_engine(engine_config.pop("name"), engine_config)
     if check_engine:
@@ -247,7 +255,9 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
     return Study(name=config["study"], engine=engine, scenes=scenes, settings=settings,
                  free=free, fixed=fixed, targets=targets,
                  replicates=int(config.get("replicates", 1)), seed=int(config.get("seed", 1)),
-                 timestep_fraction=fraction, optimizer=dict(config.get("optimizer", {})),
+                 timestep_fraction=fraction, optimizer=optimizer,
+                 calibration={"retries": 1, "poll_seconds": 2.0,
+                              **config.get("calibration", {})},
                  warnings=[warning] if warning else [])
 
 

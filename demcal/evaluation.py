@@ -37,12 +37,15 @@ def replicate_dir(study: Study, evaluation: str, scene: str, replicate: int) -> 
     return evaluation_dir(study, evaluation) / scene / f"rep{replicate}"
 
 
-def read_point(study: Study, evaluation: str) -> dict[str, float]:
-    """Free-parameter values of an evaluation from its params.json (checked)."""
+def read_point(study: Study, evaluation: str) -> tuple[dict[str, float], int]:
+    """Free-parameter values and attempt number of an evaluation, from its params.json."""
     record = read_json(evaluation_dir(study, evaluation) / "params.json", "params.json")
     if not isinstance(record.get("parameters"), dict):
         raise SimulationFailed("params.json has no 'parameters' object")
-    return record["parameters"]
+    attempt = record.get("attempt", 0)
+    if not isinstance(attempt, int) or attempt < 0:
+        raise SimulationFailed(f"params.json: attempt {attempt!r} is not a count")
+    return record["parameters"], attempt
 
 
 def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> dict:
@@ -50,27 +53,30 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> dict:
     workdir = replicate_dir(study, evaluation, scene, replicate)
     workdir.mkdir(parents=True, exist_ok=True)
     (workdir / STATE_FILE).unlink(missing_ok=True)
-    seed = study.simulation_seed(evaluation, scene, replicate)
-    record = {"evaluation": evaluation, "scene": scene, "replicate": replicate, "seed": seed,
+    record = {"evaluation": evaluation, "scene": scene, "replicate": replicate,
               "engine": study.engine.name, "engine_version": study.engine.version(),
               "settings": study.settings[scene], "timestep_fraction": study.timestep_fraction,
               "responses_needed": study.responses_needed(scene), "started_at": time.time()}
     try:
-        parameters = study.parameters_for(read_point(study, evaluation))
+        point, attempt = read_point(study, evaluation)
+        parameters = study.parameters_for(point)
     except (ConfigError, SimulationFailed) as exc:
         result = RunResult(FAILED, f"bad parameters: {exc}")
-        parameters = {}
+        parameters, seed, attempt = {}, None, None
     else:
+        seed = study.simulation_seed(evaluation, scene, replicate, attempt)
         job = SimulationJob(scene=scene, parameters=parameters, settings=study.settings[scene],
                             seed=seed, responses=record["responses_needed"],
                             timestep_fraction=study.timestep_fraction,
                             workdir=str(workdir.resolve()),
-                            stop_file=str((evaluation_dir(study, evaluation) / "STOP").resolve()))
+                            stop_file=str((evaluation_dir(study, evaluation) / "STOP").resolve()),
+                            attempt=attempt)
         result = _run_engine(study, job)
     if result.status == OK and result.arrays:
         np.savez(workdir / STATE_FILE, **result.arrays)
         record["state_file"] = STATE_FILE
-    record.update(parameters=parameters, status=result.status, reason=result.reason,
+    record.update(seed=seed, attempt=attempt, parameters=parameters, status=result.status,
+                  reason=result.reason,
                   measurements=result.measurements, cost=result.cost, ended_at=time.time())
     write_json(workdir / "simulation.json", record)
     log.info("simulation %s %s rep%d: %s %s", evaluation, scene, replicate, result.status,
@@ -162,7 +168,7 @@ def objective(study: Study, evaluation: str, response_paths: list[Path]) -> dict
             for name, value in (rec.get("responses") or {}).items():
                 values[f"{rec.get('scene')}.{name}"].append(value)
     try:
-        point = read_point(study, evaluation)
+        point, _ = read_point(study, evaluation)
     except SimulationFailed:
         point = {}
     record = {"evaluation": evaluation, "parameters": point,

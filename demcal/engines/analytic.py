@@ -10,7 +10,7 @@ whole pipeline and the optimizer can be tested in seconds. Engine settings:
   ``chunks`` equal chunks (default 10);
 - ``failures``: list of ``{"when": {parameter: [low, high], ...},
   "mode": "always" | "once", "reason": text}``: a run whose parameters lie in
-  every given interval fails, always or only on its first attempt.
+  every given interval fails, always or only on an evaluation's first attempt.
 """
 
 from __future__ import annotations
@@ -22,9 +22,6 @@ import numpy as np
 from demcal.engines.base import FAILED, OK, TERMINATED, Engine, RunMonitor, RunResult, SimulationJob
 from demcal.errors import ConfigError
 from demcal.scenes import SCENES
-
-_FAILED_ONCE_MARKER = "analytic-failed-once"
-
 
 def _injected_failure(failures: list[dict], parameters: dict) -> dict | None:
     """The first failure rule whose intervals all contain the parameters, or None."""
@@ -75,12 +72,10 @@ class AnalyticEngine(Engine):
                 return RunResult(TERMINATED, "stop requested", cost=cost(chunk - 1))
             time.sleep(duration / chunks)
             progress = chunk / chunks
-            if failure is not None and progress >= 0.5:
-                marker = job.partial_file.parent / _FAILED_ONCE_MARKER
-                if failure.get("mode", "always") == "always" or not marker.exists():
-                    marker.touch()
-                    return RunResult(FAILED, failure.get("reason", "injected failure"),
-                                     cost=cost(chunk))
+            if failure is not None and progress >= 0.5 and (
+                    failure.get("mode", "always") == "always" or job.attempt == 0):
+                return RunResult(FAILED, failure.get("reason", "injected failure"),
+                                 cost=cost(chunk))
             early = {r: responses[r] for r in job.responses} if progress >= 0.5 else None
             monitor.progress(progress, "run", early)
         return RunResult(OK, measurements={r: responses[r] for r in job.responses},

@@ -36,6 +36,7 @@ class SimulationJob:
     timestep_fraction: float
     workdir: str
     stop_file: str
+    attempt: int = 0  # 0 for the first run of an evaluation, then 1, 2, ... for retries
 
     @property
     def partial_file(self) -> Path:

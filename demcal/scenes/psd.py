@@ -5,13 +5,22 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.stats import truncnorm
 
 
 def diameter_range(d50: float, sigma_ln: float, truncation: float) -> tuple[float, float]:
     """Smallest and largest diameter [m]: d50 exp(-+ k sigma_ln)."""
     spread = math.exp(truncation * sigma_ln)
     return d50 / spread, d50 * spread
+
+
+def truncated_standard_normal(count: int, truncation: float,
+                              rng: np.random.Generator) -> np.ndarray:
+    """``count`` draws of N(0, 1) restricted to [-truncation, truncation] (rejection sampling)."""
+    out = np.empty(0)
+    while len(out) < count:
+        z = rng.standard_normal(2 * (count - len(out)) + 16)
+        out = np.concatenate([out, z[np.abs(z) <= truncation]])
+    return out[:count]
 
 
 def sample_diameters(count: int, d50: float, sigma_ln: float, truncation: float,
@@ -23,5 +32,4 @@ def sample_diameters(count: int, d50: float, sigma_ln: float, truncation: float,
     """
     if sigma_ln == 0.0:
         return np.full(count, d50)
-    z = truncnorm.rvs(-truncation, truncation, size=count, random_state=rng)
-    return d50 * np.exp(sigma_ln * z)
+    return d50 * np.exp(sigma_ln * truncated_standard_normal(count, truncation, rng))

@@ -1,0 +1,154 @@
+"""``demcal`` command line: run, status and stop a calibration.
+
+    demcal run [CONFIG] [--profile profiles/local] [--workers N]
+    demcal status [CONFIG]
+    demcal stop [CONFIG]
+
+CONFIG defaults to config/config.yaml. Errors in the configuration or on
+disk are printed as one message (exit code 2), never as a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import fcntl
+import logging
+import os
+import sys
+from pathlib import Path
+
+from demcal.config import Study, load_study_file
+from demcal.daemon import Calibration, profile_settings, request_stop
+from demcal.errors import DemcalError
+from demcal.evaluation import evaluation_dir
+from demcal.files import read_json
+from demcal.optimizer import Optimizer
+from demcal.summary import evaluation_summary
+
+DEFAULT_CONFIG = "config/config.yaml"
+DEFAULT_PROFILE = Path(__file__).resolve().parents[1] / "profiles" / "local"
+
+
+def _workers(study: Study, profile: Path | None, given: int | None) -> int:
+    """Evaluations in flight: --workers, else calibration.workers, else the profile's jobs, else 2."""
+    return int(given or study.calibration.get("workers")
+               or profile_settings(profile).get("jobs", 2))
+
+
+def _child_cores(profile: Path | None, workers: int) -> int | None:
+    """Cores each child Snakemake may use: none set on a cluster executor, else a fair share."""
+    if profile_settings(profile).get("executor", "local") != "local":
+        return None
+    return max(1, (os.cpu_count() or 1) // workers)
+
+
+def run(args) -> int:
+    study = load_study_file(args.config)
+    profile = Path(args.profile) if args.profile else None
+    study.results_dir.mkdir(parents=True, exist_ok=True)
+    lock = open(study.results_dir / "daemon.lock", "w")
+    try:
+        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        raise DemcalError(f"another demcal daemon is running study {study.name!r} "
+                          f"(lock {study.results_dir / 'daemon.lock'})") from None
+    logging.basicConfig(filename=study.results_dir / "daemon.log", level=logging.INFO,
+                        format="%(asctime)s %(levelname)s %(message)s")
+    for warning in study.warnings:
+        print(f"demcal: warning: {warning}", file=sys.stderr)
+    workers = _workers(study, profile, args.workers)
+    calibration = Calibration(study, Path(args.config), profile, workers,
+                              retries=int(study.calibration["retries"]),
+                              poll_seconds=float(study.calibration["poll_seconds"]),
+                              child_cores=_child_cores(profile, workers))
+    interactive = sys.stderr.isatty()
+
+    def show(line: str) -> None:
+        if interactive:
+            print("\r\033[K" + line, end="", file=sys.stderr, flush=True)
+        else:
+            show.count = getattr(show, "count", 0) + 1
+            if show.count % max(1, int(30 / calibration.poll_seconds)) == 1:
+                print(line, file=sys.stderr, flush=True)
+
+    try:
+        reason = calibration.run(show)
+    except KeyboardInterrupt:
+        print(f"\ndemcal: interrupted; {len(calibration.children)} evaluations keep running "
+              f"and are collected by the next 'demcal run' ('demcal stop' stops them)",
+              file=sys.stderr)
+        return 130
+    print(file=sys.stderr)
+    print(f"demcal: calibration of {study.name!r} finished: {reason}")
+    print_best(study)
+    return 0
+
+
+def print_best(study: Study) -> None:
+    best_file = study.results_dir / "best.json"
+    if not best_file.exists():
+        print("demcal: no evaluation succeeded; see "
+              f"{study.results_dir / 'evaluations.csv'} for the reasons")
+        return
+    best = read_json(best_file, "best.json")
+    evaldir = evaluation_dir(study, best["evaluation"])
+    record = read_json(evaldir / "objective.json", "objective.json")
+    print("best point (lowest surrogate prediction among the evaluated points):")
+    print(evaluation_summary(study, record, evaldir))
+    print(f"all evaluations: {study.results_dir / 'evaluations.csv'}")
+
+
+def status(args) -> int:
+    study = load_study_file(args.config, check_engine=False)
+    state = study.results_dir / "optimizer.json"
+    if not state.exists():
+        print(f"demcal: study {study.name!r} has not started ({state} missing)")
+        return 0
+    optimizer = Optimizer.from_json(state.read_text())
+    counts = {}
+    for record in optimizer.records:
+        counts[record["status"]] = counts.get(record["status"], 0) + 1
+    print(f"study {study.name!r}: " + ", ".join(f"{n} {s}" for s, n in sorted(counts.items()))
+          + f" of a budget of {optimizer.settings.max_evaluations}")
+    if (study.results_dir / "best.json").exists():
+        print_best(study)
+    return 0
+
+
+def stop(args) -> int:
+    study = load_study_file(args.config, check_engine=False)
+    request_stop(study)
+    print(f"demcal: asked the daemon of {study.name!r} to stop; running evaluations end as "
+          f"'terminated'")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="demcal", description="Calibrate DEM simulations.")
+    commands = parser.add_subparsers(dest="command", required=True)
+    for name, func, text in (("run", run, "run (or resume) a calibration"),
+                             ("status", status, "show the state of a calibration"),
+                             ("stop", stop, "stop a running calibration cleanly")):
+        sub = commands.add_parser(name, help=text)
+        sub.add_argument("config", nargs="?", default=DEFAULT_CONFIG)
+        sub.set_defaults(func=func)
+        if name == "run":
+            sub.add_argument("--profile", default=str(DEFAULT_PROFILE),
+                             help="Snakemake profile directory for the evaluations "
+                                  "(default: demcal's profiles/local)")
+            sub.add_argument("--workers", type=int, help="evaluations in flight")
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except DemcalError as exc:
+        print(f"demcal: {exc}", file=sys.stderr)
+        return 2
+    except Exception as exc:  # a bug: say where the details are, keep the terminal clean
+        logging.getLogger("demcal").exception("internal error")
+        print(f"demcal: internal error: {type(exc).__name__}: {exc} (traceback in the "
+              f"study's daemon.log; please report it)", file=sys.stderr)
+        return 3
+
+
+if __name__ == "__main__":
+    sys.exit(main())

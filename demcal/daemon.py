@@ -1,0 +1,422 @@
+"""The calibration daemon: owns the optimizer, runs one child Snakemake per evaluation.
+
+Asynchronous master-worker loop after Samuelsson (2023), Algorithm 5: keep up
+to P evaluations in flight, tell the optimizer each result as it arrives,
+watch running simulations' partial outputs and stop hopeless ones (section
+2.6), stop on the optimizer's stopping rules.
+
+Crash safety: everything needed to resume is on disk, written before it is
+acted on. For a new point the order is ask -> write ``params.json`` -> save
+the optimizer state -> launch (``launch.json`` holds the child's pid). A
+daemon killed at any moment and started again reloads the optimizer state;
+the optimizer is deterministic, so a point asked but not yet saved is asked
+again with the same id and values; pending evaluations are re-attached
+(child still alive), read back (objective written) or launched again. A
+completed evaluation is never redone.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import logging
+import math
+import os
+import shutil
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import yaml
+
+from demcal.config import Study
+from demcal.errors import DemcalError, SimulationFailed
+from demcal.evaluation import evaluation_dir
+from demcal.files import atomic_write_text, read_json, read_partial, write_json
+from demcal.objective import objective_value, relative_error
+from demcal.optimizer import Optimizer
+
+log = logging.getLogger("demcal.daemon")
+ROOT = Path(__file__).resolve().parents[1]
+SNAKEFILE = ROOT / "Snakefile"
+STOP_CALIBRATION = "STOP_CALIBRATION"
+
+
+def evaluation_id(proposal_id: int) -> str:
+    return f"e{proposal_id:04d}"
+
+
+def proposal_id(evaluation: str) -> int:
+    return int(evaluation[1:])
+
+
+@dataclass
+class Child:
+    """A running child Snakemake of one evaluation (ours, or re-attached after a restart)."""
+
+    evaluation: str
+    pid: int
+    process: subprocess.Popen | None
+    started: float
+
+    def finished(self) -> bool:
+        if self.process is not None:
+            return self.process.poll() is not None
+        return not _alive(self.pid)
+
+    def returncode(self) -> int | None:
+        return None if self.process is None else self.process.returncode
+
+
+def _alive(pid: int) -> bool:
+    """True if ``pid`` is a live process that is not a zombie."""
+    try:
+        status = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    return status.rsplit(")", 1)[1].split()[0] != "Z"
+
+
+def _is_snakemake_for(pid: int, target: str) -> bool:
+    try:
+        cmdline = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
+    except OSError:
+        return False
+    return any(b"snakemake" in part for part in cmdline) and target.encode() in cmdline
+
+
+class Calibration:
+    """One study's calibration on disk under ``results/<study>/``."""
+
+    def __init__(self, study: Study, configfile: Path, profile: Path | None, workers: int,
+                 retries: int, poll_seconds: float = 2.0, child_cores: int | None = None):
+        self.study, self.configfile, self.profile = study, Path(configfile).resolve(), profile
+        self.workers, self.retries, self.poll_seconds = workers, retries, poll_seconds
+        self.child_cores = child_cores
+        self.dir = study.results_dir
+        self.state_file = self.dir / "optimizer.json"
+        self.children: dict[str, Child] = {}
+        self.names = [p.name for p in study.free]
+        self.optimizer = self._load_or_create_optimizer()
+        self.started_at = self._load_start_time()
+        self.stop_requested: set[str] = set()
+
+    # -- state ------------------------------------------------------------------
+    def _load_or_create_optimizer(self) -> Optimizer:
+        if self.state_file.exists():
+            try:
+                return Optimizer.from_json(self.state_file.read_text())
+            except (ValueError, KeyError) as exc:
+                raise DemcalError(f"{self.state_file}: optimizer state unreadable ({exc}); "
+                                  f"move it away to start the calibration afresh") from None
+        return Optimizer([p.lower for p in self.study.free], [p.upper for p in self.study.free],
+                         self.study.optimizer, seed=self.study.seed, workers=self.workers)
+
+    def _load_start_time(self) -> float:
+        path = self.dir / "calibration.json"
+        if path.exists():
+            return float(read_json(path, "calibration.json").get("started_at", time.time()))
+        now = time.time()
+        write_json(path, {"started_at": now, "study": self.study.name})
+        return now
+
+    def save_state(self) -> None:
+        atomic_write_text(self.state_file, self.optimizer.to_json())
+
+    def elapsed(self) -> float:
+        return time.time() - self.started_at
+
+    # -- launching ---------------------------------------------------------------
+    def target(self, evaluation: str) -> str:
+        return str(evaluation_dir(self.study, evaluation) / "objective.json")
+
+    def child_command(self, evaluation: str) -> list[str]:
+        command = [sys.executable, "-m", "snakemake", "-s", str(SNAKEFILE),
+                   "--configfile", str(self.configfile), "--nolock", "--rerun-incomplete",
+                   "--rerun-triggers", "mtime", "--quiet", "rules"]
+        if self.profile is not None:
+            command += ["--profile", str(self.profile)]
+        if self.child_cores is not None:
+            command += ["--cores", str(self.child_cores)]
+        return command + [self.target(evaluation)]
+
+    def launch(self, evaluation: str) -> None:
+        """Start the child Snakemake of an evaluation; record its pid in launch.json."""
+        evaldir = evaluation_dir(self.study, evaluation)
+        (evaldir / "logs").mkdir(parents=True, exist_ok=True)
+        with open(evaldir / "logs" / "snakemake.log", "a") as out:
+            process = subprocess.Popen(self.child_command(evaluation), stdin=subprocess.DEVNULL,
+                                       stdout=out, stderr=subprocess.STDOUT,
+                                       start_new_session=True)
+        now = time.time()
+        write_json(evaldir / "launch.json", {"pid": process.pid, "started_at": now})
+        self.children[evaluation] = Child(evaluation, process.pid, process, now)
+        log.info("launched %s (pid %d)", evaluation, process.pid)
+
+    def propose(self) -> None:
+        """Fill free worker slots with new points from the optimizer."""
+        while len(self.children) < self.workers:
+            proposals = self.optimizer.ask(1)
+            if not proposals:
+                return
+            proposal = proposals[0]
+            evaluation = evaluation_id(proposal.id)
+            point = dict(zip(self.names, proposal.x))
+            params = evaluation_dir(self.study, evaluation) / "params.json"
+            write_json(params, {"parameters": point, "attempt": 0, "previous_failures": [],
+                                "in_initial_design": proposal.in_initial_design})
+            self.save_state()
+            self.launch(evaluation)
+
+    # -- resuming ----------------------------------------------------------------
+    def resume(self) -> None:
+        """Re-attach, read back or relaunch the evaluations pending in the saved state."""
+        for pid in self.optimizer.pending():
+            evaluation = evaluation_id(pid)
+            evaldir = evaluation_dir(self.study, evaluation)
+            if not (evaldir / "params.json").exists():
+                raise DemcalError(f"{evaldir}/params.json is missing for a pending evaluation; "
+                                  f"the results directory was changed by hand")
+            launch = evaldir / "launch.json"
+            if launch.exists():
+                pid_running = int(read_json(launch, "launch.json").get("pid", -1))
+                if _alive(pid_running) and _is_snakemake_for(pid_running, self.target(evaluation)):
+                    self.children[evaluation] = Child(evaluation, pid_running, None, time.time())
+                    log.info("re-attached %s (pid %d)", evaluation, pid_running)
+                    continue
+            if (evaldir / "objective.json").exists():
+                self.children[evaluation] = Child(evaluation, -1, None, time.time())
+                continue  # finished while no daemon ran: collected in the next poll
+            self.launch(evaluation)
+
+    # -- collecting ----------------------------------------------------------------
+    def collect(self) -> None:
+        """Tell the optimizer about every finished child; retry failures up to the cap."""
+        for evaluation, child in list(self.children.items()):
+            if not child.finished():
+                continue
+            del self.children[evaluation]
+            evaldir = evaluation_dir(self.study, evaluation)
+            try:
+                record = read_json(evaldir / "objective.json", "objective.json")
+            except SimulationFailed as exc:
+                tail = _log_tail(evaldir / "logs" / "snakemake.log")
+                record = {"status": "failed",
+                          "reason": f"workflow ended with code {child.returncode()} and no "
+                                    f"objective ({exc}): {tail}"}
+            self.finish(evaluation, record)
+
+    def finish(self, evaluation: str, record: dict) -> None:
+        evaldir = evaluation_dir(self.study, evaluation)
+        params = read_json(evaldir / "params.json", "params.json")
+        status = record.get("status")
+        if status == "failed" and params.get("attempt", 0) < self.retries:
+            self.retry(evaluation, params, record.get("reason", ""))
+            return
+        pid = proposal_id(evaluation)
+        if status == "ok":
+            replicates = _objective_per_replicate(self.study, record)
+            self.optimizer.tell(pid, value=record["objective"], replicates=replicates or None)
+        elif status == "terminated":
+            self.optimizer.tell(pid, status="terminated")
+        else:
+            self.optimizer.tell(pid, status="failed")
+        self.save_state()
+        self.stop_requested.discard(evaluation)
+        log.info("%s: %s %s", evaluation, status,
+                 record.get("objective", "") if status == "ok" else record.get("reason", ""))
+        self.write_tables()
+
+    def retry(self, evaluation: str, params: dict, reason: str) -> None:
+        """Run a failed evaluation again with new seeds (attempt + 1)."""
+        evaldir = evaluation_dir(self.study, evaluation)
+        for scene in self.study.scenes:
+            shutil.rmtree(evaldir / scene, ignore_errors=True)
+        (evaldir / "objective.json").unlink(missing_ok=True)
+        params["attempt"] = params.get("attempt", 0) + 1
+        params["previous_failures"] = params.get("previous_failures", []) + [reason]
+        write_json(evaldir / "params.json", params)
+        log.info("%s failed (%s); retry %d of %d", evaluation, reason, params["attempt"],
+                 self.retries)
+        self.launch(evaluation)
+
+    # -- early termination ---------------------------------------------------------
+    def watch_running(self) -> None:
+        """Stop running evaluations whose partial objective is hopeless (thesis sec. 2.6)."""
+        for evaluation in self.children:
+            if evaluation in self.stop_requested:
+                continue
+            estimate = partial_objective(self.study, evaluation_dir(self.study, evaluation))
+            if estimate is None or self.optimizer.best_observed is None:
+                continue
+            decision = self.optimizer.early_termination(proposal_id(evaluation), estimate)
+            if decision.stop:
+                (evaluation_dir(self.study, evaluation) / "STOP").touch()
+                self.stop_requested.add(evaluation)
+                log.info("%s: early stop: %s", evaluation, decision.reason)
+
+    # -- outputs ---------------------------------------------------------------------
+    def write_tables(self) -> None:
+        write_evaluations_csv(self.study, self.dir / "evaluations.csv")
+        best = self.optimizer.best()
+        if best is not None:
+            evaluation = evaluation_id(best["id"])
+            record = read_json(evaluation_dir(self.study, evaluation) / "objective.json",
+                               "objective.json")
+            write_json(self.dir / "best.json", {
+                "evaluation": evaluation, "parameters": dict(zip(self.names, best["x"])),
+                "objective": best["value"], "predicted_objective": best["predicted"],
+                "responses": record.get("responses", {}), "targets": record.get("targets", {}),
+                "relative_errors": record.get("relative_errors", {})})
+
+    def progress_line(self) -> str:
+        records = [r["status"] for r in self.optimizer.records]
+        done = sum(s == "ok" for s in records)
+        failed = sum(s == "failed" for s in records)
+        stopped = sum(s == "terminated" for s in records)
+        budget = self.optimizer.settings.max_evaluations
+        best = self.optimizer.best()
+        best_text = "no result yet" if best is None else (
+            f"best {best['value']:.4g} at " + ", ".join(
+                f"{n}={v:.3g}" for n, v in zip(self.names, best["x"])))
+        elapsed = self.elapsed()
+        finished = done + failed + stopped
+        eta = ""
+        if finished:
+            eta = f", ~{_clock((budget - finished) * elapsed / finished)} to budget"
+        return (f"[demcal {self.study.name}] {finished}/{budget} done ({failed} failed, "
+                f"{stopped} stopped early), {len(self.children)} running | {best_text} | "
+                f"{_clock(elapsed)} elapsed{eta}")
+
+    # -- the loop ------------------------------------------------------------------
+    def run(self, show_progress=print) -> str:
+        """Calibrate until a stopping rule holds and nothing is running; return the reason."""
+        self.resume()
+        reason = None
+        while True:
+            self.collect()
+            self.watch_running()
+            if (self.dir / STOP_CALIBRATION).exists():
+                reason = reason or "stopped on request (demcal stop)"
+            reason = reason or self.optimizer.stop_reason(self.elapsed())
+            if reason is None:
+                self.propose()
+                if not self.children:
+                    reason = "no more points to evaluate"
+            if reason is not None and not self.children:
+                break
+            show_progress(self.progress_line())
+            time.sleep(self.poll_seconds)
+        self.write_tables()
+        show_progress(self.progress_line())
+        log.info("calibration finished: %s", reason)
+        return reason
+
+    def stop_children(self) -> None:
+        """Ask every running evaluation to stop cleanly (STOP file)."""
+        for evaluation in self.children:
+            (evaluation_dir(self.study, evaluation) / "STOP").touch()
+
+
+def _clock(seconds: float) -> str:
+    seconds = int(max(seconds, 0))
+    return f"{seconds // 3600}:{seconds // 60 % 60:02d}:{seconds % 60:02d}"
+
+
+def _log_tail(path: Path, lines: int = 3) -> str:
+    try:
+        return " | ".join(path.read_text(errors="replace").strip().splitlines()[-lines:])
+    except OSError:
+        return ""
+
+
+def _objective_per_replicate(study: Study, record: dict) -> list[float]:
+    """Eq. 3.3 per replicate index, for the optimizer's noise estimate (equal replicate counts)."""
+    reps = record.get("replicates", {})
+    counts = {len(v) for v in reps.values()}
+    if len(counts) != 1 or counts == {1}:
+        return []
+    return [objective_value(study.targets, {k: v[i] for k, v in reps.items()})
+            for i in range(counts.pop())]
+
+
+def partial_objective(study: Study, evaldir: Path) -> float | None:
+    """Objective estimate from the latest early estimates in the replicates' partial.csv.
+
+    Each targeted response's estimate is averaged over the replicates that
+    have one; the sum runs over the targets with an estimate (so it is a
+    lower bound of eq. 3.3 when some responses are not estimated yet).
+    """
+    estimates: dict[str, list[float]] = {}
+    for scene in study.scenes:
+        for rep in range(study.replicates):
+            latest = {}
+            for row in read_partial(evaldir / scene / f"rep{rep}" / "partial.csv"):
+                if row["response"] is not None and row["value"] is not None:
+                    latest[row["response"]] = row["value"]
+            for response, value in latest.items():
+                estimates.setdefault(f"{scene}.{response}", []).append(value)
+    total, used = 0.0, 0
+    for t in study.targets:
+        if t.key in estimates:
+            mean = sum(estimates[t.key]) / len(estimates[t.key])
+            total += t.weight * relative_error(mean, t.value) ** 2
+            used += 1
+    return total if used and math.isfinite(total) else None
+
+
+def write_evaluations_csv(study: Study, path: Path) -> None:
+    """One row per evaluation: parameters, responses per replicate, objective, status, cost."""
+    names = [p.name for p in study.free]
+    header = ["evaluation", "status", "reason", "objective", "attempts", *names,
+              *[t.key for t in study.targets],
+              *[f"{t.key}.rep{r}" for t in study.targets for r in range(study.replicates)],
+              "started_at", "ended_at", "cpu_s"]
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, fieldnames=header, extrasaction="ignore")
+    writer.writeheader()
+    for evaldir in sorted((study.results_dir / "evals").glob("e[0-9]*")):
+        try:
+            params = read_json(evaldir / "params.json", "params.json")
+        except SimulationFailed:
+            continue
+        objective_file = evaldir / "objective.json"
+        try:
+            record = read_json(objective_file, "objective.json")
+            ended = objective_file.stat().st_mtime
+        except (SimulationFailed, OSError):
+            record, ended = {"status": "running"}, ""
+        launch = {}
+        if (evaldir / "launch.json").exists():
+            launch = read_json(evaldir / "launch.json", "launch.json")
+        writer.writerow({
+            "evaluation": evaldir.name, "status": record.get("status"),
+            "reason": record.get("reason", ""), "objective": record.get("objective", ""),
+            "attempts": params.get("attempt", 0) + 1, **params.get("parameters", {}),
+            **record.get("responses", {}),
+            **{f"{key}.rep{i}": value for key, values in record.get("replicates", {}).items()
+               for i, value in enumerate(values)},
+            "started_at": launch.get("started_at", ""), "ended_at": ended,
+            "cpu_s": (record.get("cost") or {}).get("cpu_s", "")})
+    atomic_write_text(path, buffer.getvalue())
+
+
+def profile_settings(profile: Path | None) -> dict:
+    if profile is None:
+        return {}
+    path = Path(profile) / "config.yaml"
+    try:
+        return yaml.safe_load(path.read_text()) or {}
+    except (OSError, yaml.YAMLError) as exc:
+        raise DemcalError(f"profile {profile}: cannot read {path}: {exc}") from None
+
+
+def request_stop(study: Study) -> None:
+    """Make a running daemon stop proposing and stop running evaluations cleanly."""
+    study.results_dir.mkdir(parents=True, exist_ok=True)
+    (study.results_dir / STOP_CALIBRATION).touch()
+    for launch in (study.results_dir / "evals").glob("*/launch.json"):
+        if not (launch.parent / "objective.json").exists():
+            (launch.parent / "STOP").touch()
