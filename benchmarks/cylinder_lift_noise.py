@@ -7,7 +7,7 @@ once per seed through the same simulate -> extract jobs as the workflow, in a
 scratch directory, one simulation at a time. Prints a markdown table: mean and
 standard deviation of each response (and the angle by both measures), seconds
 per simulation and particle-steps per second; writes the raw figures to
-benchmarks/results/cylinder_lift_noise.json.
+benchmarks/results/cylinder_lift_noise_<study>.json.
 """
 
 from __future__ import annotations
@@ -56,7 +56,7 @@ def main() -> None:
                         bottom_layer=study.settings[scene]["d50"])
             rows.append(row)
             print(json.dumps(row), flush=True)
-    out = ROOT / "benchmarks" / "results" / "cylinder_lift_noise.json"
+    out = ROOT / "benchmarks" / "results" / f"cylinder_lift_noise_{study.name}.json"
     out.parent.mkdir(exist_ok=True)
     out.write_text(json.dumps({"config": args.config, "point": point,
                                "settings": study.settings[scene], "runs": rows}, indent=2))

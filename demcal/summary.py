@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 
 from demcal.config import Study
@@ -45,3 +47,16 @@ def recent_summaries(study: Study, since: float) -> list[str]:
             except SimulationFailed as exc:
                 out.append(f"demcal: {exc}")
     return out
+
+
+def write_report(snakefile: str, configfile: str, study: Study) -> str:
+    """Run ``snakemake --report`` for the study; return a line saying where it is."""
+    report = study.results_dir / "report.html"
+    proc = subprocess.run(
+        [sys.executable, "-m", "snakemake", "-s", str(snakefile), "--configfile", str(configfile),
+         "--nolock", "--report", str(report)],
+        stdin=subprocess.DEVNULL, capture_output=True, text=True, check=False)
+    if proc.returncode != 0:
+        tail = " | ".join(proc.stderr.strip().splitlines()[-3:])
+        return f"demcal: the report could not be made ({tail}); figures in {report.parent}/plots/"
+    return f"demcal: report: {report} (figures in {report.parent}/plots/)"

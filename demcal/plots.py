@@ -1,0 +1,168 @@
+"""Figures of a calibration, from results/<study>/evaluations.csv (PNG, for the report).
+
+- objective against evaluation number, with the best so far;
+- objective against wall-clock time and against accumulated CPU time (error
+  against run time);
+- each free parameter against evaluation number (traces);
+- each targeted response against evaluation number, with target and spread.
+Early-stopped evaluations are marked with crosses on the lower edge, failed
+ones with red bars: they have no objective.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from demcal.config import Study  # noqa: E402
+from demcal.files import read_json  # noqa: E402
+
+FIGURES = ("objective_vs_evaluation", "objective_vs_time", "parameter_traces",
+           "responses_vs_targets")
+
+
+def load_table(study: Study) -> pd.DataFrame:
+    """evaluations.csv with evaluation number, wall time since start and cumulative CPU time."""
+    table = pd.read_csv(study.results_dir / "evaluations.csv")
+    table["number"] = np.arange(1, len(table) + 1)
+    start = read_json(study.results_dir / "calibration.json", "calibration.json")["started_at"]
+    table["ended_at"] = pd.to_numeric(table["ended_at"], errors="coerce")
+    table["cpu_s"] = pd.to_numeric(table["cpu_s"], errors="coerce").fillna(0.0)
+    table["wall_h"] = (table["ended_at"] - start) / 3600.0
+    order = table.sort_values("ended_at").index
+    table.loc[order, "cpu_h"] = table.loc[order, "cpu_s"].cumsum() / 3600.0
+    return table
+
+
+def _mark_unfinished(ax, table: pd.DataFrame, x: str) -> None:
+    for status, style in (("terminated", dict(marker="x", color="tab:orange")),
+                          ("failed", dict(marker="|", color="tab:red"))):
+        rows = table[table["status"] == status]
+        if len(rows):
+            ax.plot(rows[x], np.zeros(len(rows)), linestyle="none", markersize=9,
+                    transform=ax.get_xaxis_transform(), clip_on=False,
+                    label=f"{status} ({len(rows)})", **style)
+
+
+def _objective_axes(ax, table: pd.DataFrame, x: str, xlabel: str) -> None:
+    ok = table[table["status"] == "ok"].sort_values(x)
+    ax.semilogy(ok[x], ok["objective"], "o", color="tab:blue", label="evaluated")
+    ax.semilogy(ok[x], ok["objective"].cummin(), "-", color="black", label="best so far")
+    _mark_unfinished(ax, table, x)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("objective (eq. 3.3)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+
+
+def plot_objective_vs_evaluation(study: Study, table: pd.DataFrame, path: Path) -> None:
+    fig, ax = plt.subplots(figsize=(7, 4))
+    _objective_axes(ax, table, "number", "evaluation number")
+    ax.set_title(f"{study.name}: objective against evaluation")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_objective_vs_time(study: Study, table: pd.DataFrame, path: Path) -> None:
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
+    _objective_axes(axes[0], table, "wall_h", "wall-clock time since start [h]")
+    _objective_axes(axes[1], table, "cpu_h", "accumulated simulation CPU time [h]")
+    fig.suptitle(f"{study.name}: error against run time")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_parameter_traces(study: Study, table: pd.DataFrame, best: dict | None,
+                          path: Path) -> None:
+    fig, axes = plt.subplots(len(study.free), 1, figsize=(7, 2.2 * len(study.free)),
+                             sharex=True, squeeze=False)
+    for ax, p in zip(axes[:, 0], study.free):
+        for status, color in (("ok", "tab:blue"), ("terminated", "tab:orange"),
+                              ("failed", "tab:red")):
+            rows = table[table["status"] == status]
+            ax.plot(rows["number"], rows[p.name], "o", color=color, markersize=4, label=status)
+        if best is not None:
+            ax.axhline(best["parameters"][p.name], color="black", lw=1, label="best")
+        ax.set_ylim(p.lower, p.upper)
+        unit = "" if p.spec.unit == "-" else f" [{p.spec.unit}]"
+        ax.set_ylabel(p.name + unit, fontsize=8)
+        ax.grid(True, alpha=0.3)
+    axes[0, 0].legend(fontsize=7, ncol=4)
+    axes[-1, 0].set_xlabel("evaluation number")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_responses_vs_targets(study: Study, table: pd.DataFrame, best: dict | None,
+                              path: Path) -> None:
+    fig, axes = plt.subplots(len(study.targets), 1, figsize=(7, 2.4 * len(study.targets)),
+                             sharex=True, squeeze=False)
+    ok = table[table["status"] == "ok"]
+    for ax, t in zip(axes[:, 0], study.targets):
+        unit = study.scenes[t.scene].responses[t.response].unit
+        ax.plot(ok["number"], ok[t.key], "o", color="tab:blue", markersize=4, label="simulated")
+        ax.axhline(t.value, color="green", lw=1.5, label="target")
+        if t.spread:
+            ax.axhspan(t.value - t.spread, t.value + t.spread, color="green", alpha=0.15,
+                       label="measurement spread")
+        if best is not None:
+            row = table[table["evaluation"] == best["evaluation"]]
+            ax.plot(row["number"], row[t.key], "*", color="black", markersize=12, label="best")
+        ax.set_ylabel(f"{t.key}\n[{unit}]", fontsize=8)
+        ax.grid(True, alpha=0.3)
+    axes[0, 0].legend(fontsize=7, ncol=4)
+    axes[-1, 0].set_xlabel("evaluation number")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def write_plots(study: Study, outdir: Path) -> list[Path]:
+    """All figures of the calibration as PNG files in ``outdir``."""
+    outdir.mkdir(parents=True, exist_ok=True)
+    table = load_table(study)
+    best_file = study.results_dir / "best.json"
+    best = read_json(best_file, "best.json") if best_file.exists() else None
+    paths = {name: outdir / f"{name}.png" for name in FIGURES}
+    plot_objective_vs_evaluation(study, table, paths["objective_vs_evaluation"])
+    plot_objective_vs_time(study, table, paths["objective_vs_time"])
+    plot_parameter_traces(study, table, best, paths["parameter_traces"])
+    plot_responses_vs_targets(study, table, best, paths["responses_vs_targets"])
+    return list(paths.values())
+
+
+def best_point_table(study: Study) -> pd.DataFrame:
+    """Parameters and responses of the best point against the targets."""
+    best = read_json(study.results_dir / "best.json", "best.json")
+    rows = [{"quantity": name, "value": value, "target": "", "relative_error_percent": "",
+             "unit": next(p.spec.unit for p in study.free if p.name == name)}
+            for name, value in best["parameters"].items()]
+    for t in study.targets:
+        rows.append({"quantity": t.key, "value": best["responses"].get(t.key), "target": t.value,
+                     "relative_error_percent": 100 * best["relative_errors"].get(t.key, np.nan),
+                     "unit": study.scenes[t.scene].responses[t.response].unit})
+    rows.append({"quantity": "objective", "value": best["objective"], "target": 0,
+                 "relative_error_percent": "", "unit": "-"})
+    return pd.DataFrame(rows)
+
+
+def write_report_files(smk) -> None:
+    """Entry point of the workflow's plots job."""
+    import logging
+
+    from demcal.config import load_study
+
+    logging.basicConfig(filename=smk.log[0], level=logging.INFO, force=True)
+    study = load_study(smk.config, check_engine=False)
+    best_csv = Path(smk.output[0])
+    write_plots(study, best_csv.parent)
+    best_point_table(study).to_csv(best_csv, index=False)

@@ -1,0 +1,31 @@
+# The whole calibration as one local job: the daemon (demcal run) proposes
+# points and runs one child Snakemake per evaluation with the same profile,
+# so the simulations go where the profile sends them (local cores, SLURM).
+# Killed or interrupted, the same command resumes it.
+
+
+def invocation_profile():
+    """The --profile this Snakemake was started with (or $SNAKEMAKE_PROFILE), else local."""
+    args = sys.argv
+    for i, arg in enumerate(args):
+        if arg == "--profile" and i + 1 < len(args):
+            return os.path.abspath(args[i + 1])
+        if arg.startswith("--profile="):
+            return os.path.abspath(arg.split("=", 1)[1])
+    return os.path.abspath(os.environ.get("SNAKEMAKE_PROFILE", f"{workflow.basedir}/profiles/local"))
+
+
+rule calibrate:
+    input:
+        config=workflow.configfiles[0],
+    output:
+        f"results/{STUDY.name}/best.json",
+    log:
+        f"results/{STUDY.name}/logs/calibrate.log",
+    localrule: True
+    params:
+        python=sys.executable,
+        profile=invocation_profile(),
+    shell:
+        "{params.python:q} -m demcal.cli run {input.config:q} --profile {params.profile:q}"
+        " 2> >(tee {log:q} >&2)"
