@@ -18,7 +18,9 @@ completed evaluation is never redone.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
+import json
 import logging
 import math
 import os
@@ -42,6 +44,25 @@ log = logging.getLogger("demcal.daemon")
 ROOT = Path(__file__).resolve().parents[1]
 SNAKEFILE = ROOT / "Snakefile"
 STOP_CALIBRATION = "STOP_CALIBRATION"
+
+
+#: Optimizer settings a resumed calibration takes from the current config.
+RESUMABLE_SETTINGS = ("max_evaluations", "max_seconds", "target_objective",
+                      "no_improvement_evaluations", "early_termination")
+
+
+def study_definition(study: Study) -> dict:
+    """What makes evaluations of a study comparable; resuming with another one is refused."""
+    return json.loads(json.dumps({
+        "parameters": {p.name: [p.lower, p.upper] for p in study.free},
+        "fixed": study.fixed,
+        "targets": [[t.key, t.value, t.weight] for t in study.targets],
+        "settings": study.settings,
+        "engine": {"name": study.engine.name, **study.engine.settings},
+        "replicates": study.replicates,
+        "timestep_fraction": study.timestep_fraction,
+        "seed": study.seed,
+    }))
 
 
 def evaluation_id(proposal_id: int) -> str:
@@ -105,21 +126,34 @@ class Calibration:
 
     # -- state ------------------------------------------------------------------
     def _load_or_create_optimizer(self) -> Optimizer:
+        """The saved optimizer (with the config's current budget and stopping rules), or a new one."""
         if self.state_file.exists():
             try:
-                return Optimizer.from_json(self.state_file.read_text())
+                optimizer = Optimizer.from_json(self.state_file.read_text())
             except (ValueError, KeyError) as exc:
                 raise DemcalError(f"{self.state_file}: optimizer state unreadable ({exc}); "
                                   f"move it away to start the calibration afresh") from None
+            optimizer.settings = dataclasses.replace(optimizer.settings, **{
+                name: getattr(self.study.optimizer, name) for name in RESUMABLE_SETTINGS})
+            return optimizer
         return Optimizer([p.lower for p in self.study.free], [p.upper for p in self.study.free],
                          self.study.optimizer, seed=self.study.seed, workers=self.workers)
 
     def _load_start_time(self) -> float:
+        """Start of the calibration; refuses to resume one made with another study definition."""
         path = self.dir / "calibration.json"
+        definition = study_definition(self.study)
         if path.exists():
-            return float(read_json(path, "calibration.json").get("started_at", time.time()))
+            record = read_json(path, "calibration.json")
+            changed = sorted(k for k in definition if record.get("definition", {}).get(k)
+                             != definition[k])
+            if changed:
+                raise DemcalError(
+                    f"{self.dir} holds a calibration of a different study definition (changed: "
+                    f"{', '.join(changed)}); give the study a new name or move {self.dir} away")
+            return float(record["started_at"])
         now = time.time()
-        write_json(path, {"started_at": now, "study": self.study.name})
+        write_json(path, {"started_at": now, "study": self.study.name, "definition": definition})
         return now
 
     def save_state(self) -> None:
@@ -234,7 +268,9 @@ class Calibration:
         evaldir = evaluation_dir(self.study, evaluation)
         for scene in self.study.scenes:
             shutil.rmtree(evaldir / scene, ignore_errors=True)
-        (evaldir / "objective.json").unlink(missing_ok=True)
+        for stale in ("objective.json", "STOP"):
+            (evaldir / stale).unlink(missing_ok=True)
+        self.stop_requested.discard(evaluation)
         params["attempt"] = params.get("attempt", 0) + 1
         params["previous_failures"] = params.get("previous_failures", []) + [reason]
         write_json(evaldir / "params.json", params)
@@ -293,6 +329,7 @@ class Calibration:
     # -- the loop ------------------------------------------------------------------
     def run(self, show_progress=print) -> str:
         """Calibrate until a stopping rule holds and nothing is running; return the reason."""
+        (self.dir / STOP_CALIBRATION).unlink(missing_ok=True)  # a new run overrides an old stop
         self.resume()
         reason = None
         while True:

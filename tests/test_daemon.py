@@ -166,3 +166,19 @@ def test_bad_config_is_one_message(tmp_path):
     assert proc.returncode == 2
     assert err.strip() == ("demcal: optimizer.strategy: 'guess' is not one of dycors, "
                            "kriging_ei")
+
+
+def test_resume_with_a_changed_study_is_refused_but_budget_may_grow(tmp_path):
+    config = study(tmp_path, "grow", optimizer={"max_evaluations": 4})
+    finish(demcal(tmp_path, "run", config))
+    assert len(evaluations(tmp_path, "grow")) == 4
+    config = study(tmp_path, "grow", optimizer={"max_evaluations": 6})
+    out = finish(demcal(tmp_path, "run", config))
+    assert len(evaluations(tmp_path, "grow")) == 6 and "(6 of 6)" in out
+    changed = yaml.safe_load(config.read_text())
+    changed["targets"][0]["value"] *= 1.1
+    config.write_text(yaml.safe_dump(changed))
+    proc = demcal(tmp_path, "run", config)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 2
+    assert "different study definition (changed: targets)" in err
