@@ -143,6 +143,10 @@ def main(argv: list[str] | None = None) -> int:
     except DemcalError as exc:
         print(f"demcal: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:  # full disk, permissions: finished evaluations stay on disk
+        print(f"demcal: {exc}; fix it and run the same command again (finished evaluations "
+              f"are kept)", file=sys.stderr)
+        return 2
     except Exception as exc:  # a bug: say where the details are, keep the terminal clean
         logging.getLogger("demcal").exception("internal error")
         print(f"demcal: internal error: {type(exc).__name__}: {exc} (traceback in the "

@@ -11,6 +11,10 @@ ones with red bars: they have no objective.
 
 from __future__ import annotations
 
+import html
+import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import matplotlib
@@ -166,3 +170,31 @@ def write_report_files(smk) -> None:
     best_csv = Path(smk.output[0])
     write_plots(study, best_csv.parent)
     best_point_table(study).to_csv(best_csv, index=False)
+
+
+def dag_svg(dot_source: str) -> str:
+    """Render DOT with Graphviz; without it, an SVG that says how to get the drawing."""
+    if shutil.which("dot") is None:
+        lines = ["Graphviz is not installed (apt install graphviz): DAG not drawn.",
+                 "DOT source:"] + dot_source.splitlines()
+        text = "".join(f'<text x="10" y="{20 + 16 * i}" font-family="monospace" '
+                       f'font-size="12">{html.escape(line)}</text>'
+                       for i, line in enumerate(lines))
+        return (f'<svg xmlns="http://www.w3.org/2000/svg" width="900" '
+                f'height="{40 + 16 * len(lines)}">{text}</svg>\n')
+    proc = subprocess.run(["dot", "-Tsvg"], input=dot_source, capture_output=True, text=True,
+                          check=True, timeout=120)
+    return proc.stdout
+
+
+def write_evaluation_dag(smk) -> None:
+    """Entry point of the workflow's evaluation_dag job."""
+    proc = subprocess.run(
+        [sys.executable, "-m", "snakemake", "-s", smk.params.snakefile, "--configfile",
+         smk.params.config, "--nolock", "--dag", "dot", smk.params.target],
+        capture_output=True, text=True, check=False, stdin=subprocess.DEVNULL, timeout=300)
+    Path(smk.log[0]).write_text(proc.stderr)
+    if proc.returncode != 0 or "digraph" not in proc.stdout:
+        raise SystemExit(f"snakemake --dag failed (see {smk.log[0]})")
+    dot_source = proc.stdout[proc.stdout.index("digraph"):]
+    Path(smk.output[0]).write_text(dag_svg(dot_source))

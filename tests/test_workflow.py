@@ -148,3 +148,29 @@ def test_garbled_files_become_recorded_failures(tmp_path, analytic_config, monke
     monkeypatch.chdir(tmp_path)
     record = objective(study, "x", [simulation.parent / "responses.json", tmp_path / "none.json"])
     assert record["status"] == "failed" and "responses.json missing" in record["reason"]
+
+
+def test_default_target_calibrates_and_reports(tmp_path, analytic_config):
+    analytic_config["optimizer"] = {"max_evaluations": 5}
+    analytic_config["calibration"] = {"workers": 2, "poll_seconds": 0.3}
+    analytic_config["replicates"] = 1
+    proc = run_snakemake(tmp_path, analytic_config, "--profile", str(ROOT / "profiles" / "local"))
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    study = tmp_path / "results" / "unit"
+    assert "report: results/unit/report.html" in proc.stdout
+    assert (study / "report.html").stat().st_size > 100_000
+    for name in ("objective_vs_evaluation", "objective_vs_time", "parameter_traces",
+                 "responses_vs_targets"):
+        assert (study / "plots" / f"{name}.png").read_bytes()[:4] == b"\x89PNG"
+    assert "<svg" in (study / "plots" / "evaluation_dag.svg").read_text()
+    table = (study / "plots" / "best_point.csv").read_text()
+    assert "cylinder_lift.angle_of_repose" in table and "objective" in table
+
+
+def test_dag_drawing_without_graphviz_says_how_to_get_it(monkeypatch):
+    import demcal.plots
+
+    monkeypatch.setattr(demcal.plots.shutil, "which", lambda name: None)
+    svg = demcal.plots.dag_svg('digraph { simulate -> "extract" }')
+    assert svg.startswith("<svg") and "apt install graphviz" in svg
+    assert "simulate -&gt; &quot;extract&quot;" in svg

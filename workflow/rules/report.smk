@@ -35,10 +35,8 @@ rule evaluation_dag:
         f"results/{STUDY.name}/logs/evaluation_dag.log",
     localrule: True
     params:
-        python=sys.executable,
         snakefile=workflow.main_snakefile,
         config=workflow.configfiles[0],
         target=f"results/{STUDY.name}/evals/e0000/objective.json",
-    shell:
-        "{params.python:q} -m snakemake -s {params.snakefile:q} --configfile {params.config:q}"
-        " --nolock --dag dot {params.target:q} 2> {log:q} | dot -Tsvg > {output:q} 2>> {log:q}"
+    script:
+        "../../scripts/evaluation_dag.py"
