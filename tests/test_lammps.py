@@ -88,6 +88,16 @@ def test_bulk_density_alone_skips_the_lift(tmp_path):
     assert stages == {"fill"} and "heap_x" not in result.arrays
 
 
+def test_dumps_only_when_asked(tmp_path):
+    quiet = tiny_job(tmp_path / "quiet", responses=("bulk_density",))
+    simulate(quiet)
+    asked = tiny_job(tmp_path / "asked", responses=("bulk_density",))
+    asked.settings = {**asked.settings, "dump_interval": 0.05}
+    simulate(asked)
+    assert not (tmp_path / "quiet" / "dump.lammpstrj").exists()
+    assert (tmp_path / "asked" / "dump.lammpstrj").read_text().count("ITEM: TIMESTEP") >= 3
+
+
 def test_stop_request_terminates_cleanly(tmp_path):
     job = tiny_job(tmp_path, youngs_modulus=5.0e8)
     timer = threading.Timer(1.5, (tmp_path / "STOP").touch)

@@ -108,6 +108,9 @@ SCENE = Scene(
                                   1.0e-6, 1.0),
         "max_settle_time": SettingSpec(2.0, "s", "simulated time limit of each settling stage",
                                        0.01, 100.0),
+        "dump_interval": SettingSpec(0.0, "s", "simulated time between particle dumps "
+                                               "(dump.lammpstrj, for viewing); 0 = no dumps",
+                                     0.0, 100.0),
         "aor_method": SettingSpec("flank_fit", "", "angle of repose measure",
                                   choices=("flank_fit", "height_radius")),
         "aor_band_lower": SettingSpec(0.2, "-", "flank fit: lowest surface height, fraction of heap "

@@ -14,6 +14,7 @@ fill has settled.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -122,6 +123,10 @@ class CylinderLift:
             "thermo_style custom step atoms c_ke_translation c_ke_rotation",
             f"thermo {self.chunk}", "thermo_modify lost ignore norm no",
         ])
+        if s["dump_interval"] > 0.0:
+            every = max(1, round(s["dump_interval"] / self.dt))
+            dump = Path(self.job.workdir) / "dump.lammpstrj"
+            self.lmp.command(f"dump particles all custom {every} {dump} id x y z radius")
 
     # -- stepping -------------------------------------------------------------
     def kinetic_energy(self) -> float:
