@@ -131,12 +131,18 @@ class Optimizer:
             )
             damping = st.pending_damping(candidates, self._points("pending"), self.step.sigma)
             return candidates[int(np.argmax(improvement * damping))]
-        if s.polish_candidate and weight == max(s.weights) and keep[-1]:
-            return candidates[-1]  # the most exploitative step takes the surrogate minimum itself
+        if s.polish_candidate and (weight == max(s.weights) or self._in_final_exploitation()) and keep[-1]:
+            return candidates[-1]  # exploitative steps take the surrogate minimum itself
         scores = st.weighted_scores(
             surrogate.predict(candidates), st.nearest_distances(candidates, distance_set), weight
         )
         return candidates[int(np.argmin(scores))]
+
+    def _in_final_exploitation(self) -> bool:
+        """True once the points handed out reach the last ``final_exploitation`` share of the budget."""
+        s = self.settings
+        handed_out = self.completed_evaluations() + len(self._points("pending"))
+        return handed_out >= s.max_evaluations * (1.0 - s.final_exploitation)
 
     def _space_filling_point(self, distance_set: np.ndarray, failed: np.ndarray) -> np.ndarray:
         s = self.settings

@@ -42,7 +42,9 @@ class OptimizerSettings:
     (Samuelsson 2023, section 3.7: q + P). ``surrogate`` None means the
     strategy's own: cubic_rbf for dycors, kriging for kriging_ei.
     ``polish_candidate``: at the most exploitative weight, propose the
-    local minimum of the surrogate within 2 sigma of the best point.
+    local minimum of the surrogate within 2 sigma of the best point, and
+    always so in the last ``final_exploitation`` share of the budget (both
+    additions to the thesis, chosen from the benchmark).
     ``failure_tolerance`` None means max(4, d): the thesis' 4 for its 2-D
     case, growing with the dimension as in Regis & Shoemaker (2013).
     """
@@ -63,6 +65,7 @@ class OptimizerSettings:
     failure_tolerance: int | None = None
     weights: tuple[float, ...] = (0.3, 0.5, 0.8, 0.95)
     polish_candidate: bool = True
+    final_exploitation: float = 0.1
     min_distance: float = 1e-5
     failed_exclusion_radius: float = 0.02
     duplicate_tolerance: float = 1e-7
@@ -139,6 +142,7 @@ class OptimizerSettings:
         for weight in self.weights:
             _number("weights", weight, 0.0, 1.0)
         _boolean("polish_candidate", self.polish_candidate)
+        _number("final_exploitation", self.final_exploitation, 0.0, 1.0)
         _number("min_distance", self.min_distance, 0.0, 1.0)
         _number("failed_exclusion_radius", self.failed_exclusion_radius, 0.0, 1.0)
         _number("duplicate_tolerance", self.duplicate_tolerance, 0.0, 1.0)

@@ -88,9 +88,10 @@ def weighted_scores(predicted: np.ndarray, distances: np.ndarray, weight: float)
 def surrogate_minimum(surrogate, center: np.ndarray, radius: float) -> np.ndarray:
     """Local minimum of the surrogate in a box of half-width ``radius`` around ``center``.
 
-    An addition to the thesis: at the most exploitative weight of the cycle
-    this point is proposed directly (when admissible), which lets the search
-    refine the optimum below the spacing of the random candidates.
+    An addition to the thesis: at the most exploitative weight of the cycle,
+    and for the last share of the budget, this point is proposed directly
+    (when admissible), which lets the search refine the optimum below the
+    spacing of the random candidates.
     """
     low = np.maximum(center - radius, 0.0)
     high = np.minimum(center + radius, 1.0)
