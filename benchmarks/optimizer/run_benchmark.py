@@ -44,6 +44,7 @@ from demcal.optimizer import Optimizer  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 NOISE_FRACTION = 0.02
+RESULT_FIELDS = ["tool", "problem", "noise", "seed", "evaluations", "regret", "seconds_per_proposal", "reported_x"]
 TOOLS = ("demcal", "demcal_kriging_ei", "pysot_dycors", "pysot_srbf", "optuna_gp", "optuna_tpe", "skopt_gp")
 
 
@@ -315,7 +316,9 @@ def summarise(rows: list[dict]) -> list[dict]:
     return table
 
 
-def write_report(table: list[dict], async_rows: list[dict], command: str, out: Path, elapsed: float) -> None:
+def write_report(
+    table: list[dict], async_rows: list[dict], command: str, out: Path, elapsed: float, note: str = ""
+) -> None:
     lines = [
         "# Optimizer benchmark",
         "",
@@ -323,6 +326,7 @@ def write_report(table: list[dict], async_rows: list[dict], command: str, out: P
         "",
         f"Machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores (shared), "
         f"Python {platform.python_version()}; total {elapsed / 60:.1f} min. Written by run_benchmark.py.",
+        note,
         "",
         "Regret: true function value at the point the tool reports as best, minus the optimum. "
         "Noise: Gaussian, sd 2 % of the function range. Seconds: tool time per proposal "
@@ -395,6 +399,11 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--noise", default="none,2%", help="comma-separated: none, 2%%")
     parser.add_argument("--workers", type=int, default=4, help="P for the asynchronous run")
     parser.add_argument("--no-async", action="store_true", help="skip the asynchronous run")
+    parser.add_argument(
+        "--reuse",
+        type=Path,
+        help="earlier results.csv: its rows of tools not run now join the table (said in RESULTS.md)",
+    )
     parser.add_argument("--out", type=Path, default=HERE, help="folder for results.csv, async.csv, RESULTS.md")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
@@ -406,22 +415,25 @@ def main(argv: list[str] | None = None) -> None:
     noise_levels = [n == "2%" for n in args.noise.split(",") if n]
     seeds = list(range(args.seeds))
     args.out.mkdir(parents=True, exist_ok=True)
+    reused = []
+    if args.reuse:
+        with open(args.reuse, newline="") as handle:
+            reused = [row for row in csv.DictReader(handle) if row["tool"] not in tools]
     for name in ("results.csv", "async.csv"):
         (args.out / name).unlink(missing_ok=True)
     command = "python benchmarks/optimizer/run_benchmark.py " + " ".join(argv if argv is not None else sys.argv[1:])
     started = time.perf_counter()
-    rows = []
+    rows = list(reused)
     with open(args.out / "results.csv", "w", newline="") as handle:
-        writer = None
+        writer = csv.DictWriter(handle, fieldnames=RESULT_FIELDS)
+        writer.writeheader()
+        writer.writerows(reused)
         for problem in problems:
             for noisy in noise_levels:
                 for tool in tools:
                     for seed in seeds:
                         row = one_run(tool, problem, noisy, seed)
                         rows.append(row)
-                        if writer is None:
-                            writer = csv.DictWriter(handle, fieldnames=list(row))
-                            writer.writeheader()
                         writer.writerow(row)
                         handle.flush()
                         print(
@@ -434,7 +446,9 @@ def main(argv: list[str] | None = None) -> None:
         for problem in problems:
             async_rows.append(async_experiment(problem, seeds, args.workers, False, args.out))
             print(f"async {problem.name}: {async_rows[-1]}", flush=True)
-    write_report(summarise(rows), async_rows, command, args.out, time.perf_counter() - started)
+    reused_tools = sorted({row["tool"] for row in reused})
+    note = f"Rows of {', '.join(reused_tools)} reused from {args.reuse} (an earlier run)." if reused else ""
+    write_report(summarise(rows), async_rows, command, args.out, time.perf_counter() - started, note)
 
 
 if __name__ == "__main__":
