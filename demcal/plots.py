@@ -95,7 +95,10 @@ def plot_parameter_traces(study: Study, table: pd.DataFrame, best: dict | None,
             ax.plot(rows["number"], rows[p.name], "o", color=color, markersize=4, label=status)
         if best is not None:
             ax.axhline(best["parameters"][p.name], color="black", lw=1, label="best")
-        ax.set_ylim(p.lower, p.upper)
+        margin = 0.03 * (p.upper - p.lower)  # keep points on the bounds visible
+        ax.set_ylim(p.lower - margin, p.upper + margin)
+        for bound in (p.lower, p.upper):
+            ax.axhline(bound, color="grey", lw=0.8, ls=":")
         unit = "" if p.spec.unit == "-" else f" [{p.spec.unit}]"
         ax.set_ylabel(p.name + unit, fontsize=8)
         ax.grid(True, alpha=0.3)
