@@ -105,7 +105,6 @@ class Surrogate:
     (optional) the variance of each value, e.g. from replicates.
     """
 
-    predicts_std = False
     caps_large_values = True
 
     def __init__(self, duplicate_tolerance: float = 1e-7):
@@ -226,7 +225,6 @@ class KrigingSurrogate(Surrogate):
     replicate variance, when given, is its starting value.
     """
 
-    predicts_std = True
     caps_large_values = False  # capping plus a nugget made the fit mostly trend and noise
 
     def __init__(self, duplicate_tolerance: float = 1e-7, restarts: int = 5, seed: int = 0):

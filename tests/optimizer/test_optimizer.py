@@ -105,7 +105,7 @@ def test_best_is_the_surrogate_best_not_the_luckiest_sample():
 
 @pytest.mark.parametrize("strategy", ["dycors", "kriging_ei"])
 def test_state_round_trip_gives_the_same_next_proposal(strategy):
-    settings = {"max_evaluations": 30, "strategy": strategy, "kriging_restarts": 2}
+    settings = {"max_evaluations": 30, "strategy": strategy, "kriging_restarts": 1}
     optimizer = Optimizer([0, 0, 0], [1, 2, 3], settings, seed=9, workers=2)
     run(optimizer, 10)
     optimizer.ask(1)  # leave one pending
