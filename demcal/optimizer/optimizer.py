@@ -249,7 +249,7 @@ class Optimizer:
             s.target_objective,
             self.evaluations_without_improvement,
             s.no_improvement_evaluations,
-            self.step.collapsed,
+            self.step.collapsed and s.stop_on_step_collapse,
         )
 
     def early_termination(self, id: int, partial_estimate: float) -> EarlyTerminationDecision:

@@ -45,6 +45,8 @@ class OptimizerSettings:
     local minimum of the surrogate within 2 sigma of the best point, and
     always so in the last ``final_exploitation`` share of the budget (both
     additions to the thesis, chosen from the benchmark).
+    ``stop_on_step_collapse``: whether a step size driven below sigma_min
+    is a stop reason (the step then stays at sigma_min either way).
     ``failure_tolerance`` None means max(4, d): the thesis' 4 for its 2-D
     case, growing with the dimension as in Regis & Shoemaker (2013).
     """
@@ -58,6 +60,7 @@ class OptimizerSettings:
     max_seconds: float | None = None
     target_objective: float | None = None
     no_improvement_evaluations: int | None = None
+    stop_on_step_collapse: bool = True
     candidates: int = 200
     sigma_max: float = 0.2
     sigma_min: float = 0.2 / 2**6
@@ -131,6 +134,7 @@ class OptimizerSettings:
         _number("target_objective", self.target_objective, None, None, optional=True)
         if self.no_improvement_evaluations is not None:
             _integer("no_improvement_evaluations", self.no_improvement_evaluations, 1, None)
+        _boolean("stop_on_step_collapse", self.stop_on_step_collapse)
         _integer("candidates", self.candidates, 1, None)
         _number("sigma_max", self.sigma_max, 0.0, 1.0, open_low=True)
         _number("sigma_min", self.sigma_min, 0.0, self.sigma_max, open_low=True)

@@ -126,3 +126,11 @@ def test_early_termination_uses_progress_and_design_phase():
     assert not adaptive.in_initial_design
     decision = optimizer.early_termination(adaptive.id, 11.0 * optimizer.best_observed)
     assert decision.stop and decision.factor == 10.0
+
+
+@pytest.mark.parametrize("stop_on_collapse", [True, False])
+def test_collapsed_step_size_stops_only_when_asked(stop_on_collapse):
+    optimizer = Optimizer([0, 0], [1, 1], {"stop_on_step_collapse": stop_on_collapse}, seed=11)
+    optimizer.step.collapsed = True
+    reason = optimizer.stop_reason(0.0)
+    assert (reason is not None and reason.startswith("trust region")) == stop_on_collapse
