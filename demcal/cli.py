@@ -3,6 +3,7 @@
     demcal run [CONFIG] [--profile profiles/local] [--workers N]
     demcal status [CONFIG]
     demcal stop [CONFIG]
+    demcal rerun-failed [CONFIG]
 
 CONFIG defaults to config/config.yaml. Errors in the configuration or on
 disk are printed as one message (exit code 2), never as a traceback.
@@ -18,7 +19,7 @@ import sys
 from pathlib import Path
 
 from demcal.config import Study, load_study_file
-from demcal.daemon import Calibration, profile_settings, request_stop
+from demcal.daemon import Calibration, profile_settings, reopen_failed, request_stop
 from demcal.errors import DemcalError
 from demcal.evaluation import evaluation_dir
 from demcal.files import read_json
@@ -42,9 +43,8 @@ def _child_cores(profile: Path | None, workers: int) -> int | None:
     return max(1, (os.cpu_count() or 1) // workers)
 
 
-def run(args) -> int:
-    study = load_study_file(args.config)
-    profile = Path(args.profile) if args.profile else None
+def lock_study(study: Study):
+    """Hold the study's daemon lock (released when the process ends, even by kill -9)."""
     study.results_dir.mkdir(parents=True, exist_ok=True)
     lock = open(study.results_dir / "daemon.lock", "w")
     try:
@@ -52,6 +52,13 @@ def run(args) -> int:
     except BlockingIOError:
         raise DemcalError(f"another demcal daemon is running study {study.name!r} "
                           f"(lock {study.results_dir / 'daemon.lock'})") from None
+    return lock
+
+
+def run(args) -> int:
+    study = load_study_file(args.config)
+    profile = Path(args.profile) if args.profile else None
+    lock = lock_study(study)  # noqa: F841  (held until the process ends)
     logging.basicConfig(filename=study.results_dir / "daemon.log", level=logging.INFO,
                         format="%(asctime)s %(levelname)s %(message)s")
     for warning in study.warnings:
@@ -123,12 +130,26 @@ def stop(args) -> int:
     return 0
 
 
+def rerun_failed(args) -> int:
+    study = load_study_file(args.config, check_engine=False)
+    lock = lock_study(study)  # noqa: F841  (no daemon may run meanwhile)
+    reopened = reopen_failed(study)
+    if not reopened:
+        print(f"demcal: study {study.name!r} has no failed evaluations")
+    else:
+        print(f"demcal: {len(reopened)} failed evaluations ({', '.join(reopened)}) will run again "
+              f"with new seeds on the next 'demcal run' or 'snakemake --profile ...'")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="demcal", description="Calibrate DEM simulations.")
     commands = parser.add_subparsers(dest="command", required=True)
     for name, func, text in (("run", run, "run (or resume) a calibration"),
                              ("status", status, "show the state of a calibration"),
-                             ("stop", stop, "stop a running calibration cleanly")):
+                             ("stop", stop, "stop a running calibration cleanly"),
+                             ("rerun-failed", rerun_failed,
+                              "rerun the failed evaluations (new seeds) on the next run")):
         sub = commands.add_parser(name, help=text)
         sub.add_argument("config", nargs="?", default=DEFAULT_CONFIG)
         sub.set_defaults(func=func)

@@ -450,6 +450,41 @@ def profile_settings(profile: Path | None) -> dict:
         raise DemcalError(f"profile {profile}: cannot read {path}: {exc}") from None
 
 
+def reopen_failed(study: Study) -> list[str]:
+    """Mark every failed evaluation for a rerun with new seeds by the next daemon run.
+
+    The optimizer forgets the failure (the point is pending again), the
+    evaluation's outputs are removed and its attempt count goes on, so the
+    rerun uses new seeds; best.json goes too, so Snakemake's default target
+    runs the daemon again.
+    """
+    state_file = study.results_dir / "optimizer.json"
+    if not state_file.exists():
+        raise DemcalError(f"study {study.name!r} has not started ({state_file} missing)")
+    optimizer = Optimizer.from_json(state_file.read_text())
+    reopened = []
+    for evaldir in sorted((study.results_dir / "evals").glob("e[0-9]*")):
+        try:
+            status = read_json(evaldir / "objective.json", "objective.json").get("status")
+        except SimulationFailed:
+            continue
+        if status != "failed":
+            continue
+        params = read_json(evaldir / "params.json", "params.json")
+        optimizer.reopen(proposal_id(evaldir.name))
+        for scene in study.scenes:
+            shutil.rmtree(evaldir / scene, ignore_errors=True)
+        for stale in ("objective.json", "STOP", "launch.json"):
+            (evaldir / stale).unlink(missing_ok=True)
+        params["attempt"] = params.get("attempt", 0) + 1
+        write_json(evaldir / "params.json", params)
+        reopened.append(evaldir.name)
+    atomic_write_text(state_file, optimizer.to_json())
+    (study.results_dir / "best.json").unlink(missing_ok=True)
+    write_evaluations_csv(study, study.results_dir / "evaluations.csv")
+    return reopened
+
+
 def request_stop(study: Study) -> None:
     """Make a running daemon stop proposing and stop running evaluations cleanly."""
     study.results_dir.mkdir(parents=True, exist_ok=True)

@@ -182,3 +182,20 @@ def test_resume_with_a_changed_study_is_refused_but_budget_may_grow(tmp_path):
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 2
     assert "different study definition (changed: targets)" in err
+
+
+def test_rerun_failed_reruns_them_with_new_seeds(tmp_path):
+    failures = [{"when": {"sliding_friction_pp": [0.1, 0.3]}, "mode": "once",
+                 "reason": "node lost"}]
+    config = study(tmp_path, "again", engine={"failures": failures},
+                   optimizer={"max_evaluations": 5, "early_termination": {"enabled": False}},
+                   calibration={"retries": 0})
+    finish(demcal(tmp_path, "run", config))
+    failed = set(evaluations(tmp_path, "again").query("status == 'failed'")["evaluation"])
+    assert failed
+    out = finish(demcal(tmp_path, "rerun-failed", config))
+    assert f"{len(failed)} failed evaluations" in out
+    finish(demcal(tmp_path, "run", config))
+    table = evaluations(tmp_path, "again")
+    assert len(table) == 5 and set(table["status"]) == {"ok"}
+    assert set(table[table["attempts"] == 2]["evaluation"]) == failed

@@ -50,8 +50,8 @@ def test_objective_matches_eq_3_3_of_the_closed_form(tmp_path, analytic_config):
         assert (evaldir / "cylinder_lift" / f"rep{rep}" / "partial.csv").exists()
 
 
-def test_default_target_evaluates_the_centre_of_the_bounds(tmp_path, analytic_config):
-    proc = run_snakemake(tmp_path, analytic_config)
+def test_evaluate_centre_runs_the_middle_of_the_bounds(tmp_path, analytic_config):
+    proc = run_snakemake(tmp_path, analytic_config, "evaluate_centre")
     assert proc.returncode == 0, proc.stderr[-3000:]
     record = json.loads((tmp_path / "results/unit/evals/centre/objective.json").read_text())
     assert record["parameters"] == {"sliding_friction_pp": 0.5, "rolling_friction_pp": 0.16}

@@ -189,6 +189,17 @@ class Optimizer:
         record.update(status=status, value=value if status == "ok" else None, variance=variance, replicates=replicates)
         self._update_progress(record)
 
+    def reopen(self, id: int) -> None:
+        """Make a told evaluation pending again, to be rerun and told anew (rerun on request).
+
+        Its old outcome leaves the surrogate data; the step-size history is kept.
+        """
+        record = self._record(id)
+        if record["status"] == "pending":
+            raise ValueError(f"evaluation {id} is still pending")
+        record.update(status="pending", value=None, variance=None, replicates=None)
+        self._surrogate_version = -1
+
     def _update_progress(self, record: dict) -> None:
         status, value = record["status"], record["value"]
         if status == "failed":

@@ -134,3 +134,21 @@ def test_collapsed_step_size_stops_only_when_asked(stop_on_collapse):
     optimizer.step.collapsed = True
     reason = optimizer.stop_reason(0.0)
     assert (reason is not None and reason.startswith("trust region")) == stop_on_collapse
+
+
+def test_reopened_failure_is_pending_again_and_can_be_told():
+    optimizer = Optimizer([0, 0], [1, 1], {"max_evaluations": 3}, seed=4)
+    proposals = optimizer.ask(3)
+    optimizer.tell(proposals[0].id, status="failed")
+    for p in proposals[1:]:
+        optimizer.tell(p.id, sphere(p.x))
+    assert optimizer.stop_reason(0.0).startswith("evaluation budget")
+    optimizer.reopen(proposals[0].id)
+    assert optimizer.pending() == [proposals[0].id]
+    assert optimizer.stop_reason(0.0) is None
+    assert optimizer.ask() == []  # the budget is held by the reopened point
+    optimizer.tell(proposals[0].id, 0.5)
+    assert optimizer.completed_evaluations() == 3
+    fresh = Optimizer([0], [1], {}, seed=1)
+    with pytest.raises(ValueError, match="still pending"):
+        fresh.reopen(fresh.ask()[0].id)
