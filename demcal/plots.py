@@ -44,6 +44,24 @@ def load_table(study: Study) -> pd.DataFrame:
     return table
 
 
+def _save(fig, path: Path) -> None:
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _stacked(rows: int, height: float):
+    """A column of ``rows`` panels sharing the evaluation-number axis."""
+    fig, axes = plt.subplots(rows, 1, figsize=(7, height * rows), sharex=True, squeeze=False)
+    return fig, axes[:, 0]
+
+
+def _finish_stack(fig, axes, path: Path) -> None:
+    axes[0].legend(fontsize=7, ncol=4)
+    axes[-1].set_xlabel("evaluation number")
+    _save(fig, path)
+
+
 def _mark_unfinished(ax, table: pd.DataFrame, x: str) -> None:
     for status, style in (("terminated", dict(marker="x", color="tab:orange")),
                           ("failed", dict(marker="|", color="tab:red"))):
@@ -69,9 +87,7 @@ def plot_objective_vs_evaluation(study: Study, table: pd.DataFrame, path: Path) 
     fig, ax = plt.subplots(figsize=(7, 4))
     _objective_axes(ax, table, "number", "evaluation number")
     ax.set_title(f"{study.name}: objective against evaluation")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _save(fig, path)
 
 
 def plot_objective_vs_time(study: Study, table: pd.DataFrame, path: Path) -> None:
@@ -79,16 +95,13 @@ def plot_objective_vs_time(study: Study, table: pd.DataFrame, path: Path) -> Non
     _objective_axes(axes[0], table, "wall_h", "wall-clock time since start [h]")
     _objective_axes(axes[1], table, "cpu_h", "accumulated simulation CPU time [h]")
     fig.suptitle(f"{study.name}: error against run time")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _save(fig, path)
 
 
 def plot_parameter_traces(study: Study, table: pd.DataFrame, best: dict | None,
                           path: Path) -> None:
-    fig, axes = plt.subplots(len(study.free), 1, figsize=(7, 2.2 * len(study.free)),
-                             sharex=True, squeeze=False)
-    for ax, p in zip(axes[:, 0], study.free):
+    fig, axes = _stacked(len(study.free), 2.2)
+    for ax, p in zip(axes, study.free):
         for status, color in (("ok", "tab:blue"), ("terminated", "tab:orange"),
                               ("failed", "tab:red")):
             rows = table[table["status"] == status]
@@ -102,19 +115,14 @@ def plot_parameter_traces(study: Study, table: pd.DataFrame, best: dict | None,
         unit = "" if p.spec.unit == "-" else f" [{p.spec.unit}]"
         ax.set_ylabel(p.name + unit, fontsize=8)
         ax.grid(True, alpha=0.3)
-    axes[0, 0].legend(fontsize=7, ncol=4)
-    axes[-1, 0].set_xlabel("evaluation number")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _finish_stack(fig, axes, path)
 
 
 def plot_responses_vs_targets(study: Study, table: pd.DataFrame, best: dict | None,
                               path: Path) -> None:
-    fig, axes = plt.subplots(len(study.targets), 1, figsize=(7, 2.4 * len(study.targets)),
-                             sharex=True, squeeze=False)
+    fig, axes = _stacked(len(study.targets), 2.4)
     ok = table[table["status"] == "ok"]
-    for ax, t in zip(axes[:, 0], study.targets):
+    for ax, t in zip(axes, study.targets):
         unit = study.scenes[t.scene].responses[t.response].unit
         ax.plot(ok["number"], ok[t.key], "o", color="tab:blue", markersize=4, label="simulated")
         ax.axhline(t.value, color="green", lw=1.5, label="target")
@@ -126,11 +134,7 @@ def plot_responses_vs_targets(study: Study, table: pd.DataFrame, best: dict | No
             ax.plot(row["number"], row[t.key], "*", color="black", markersize=12, label="best")
         ax.set_ylabel(f"{t.key}\n[{unit}]", fontsize=8)
         ax.grid(True, alpha=0.3)
-    axes[0, 0].legend(fontsize=7, ncol=4)
-    axes[-1, 0].set_xlabel("evaluation number")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _finish_stack(fig, axes, path)
 
 
 def write_plots(study: Study, outdir: Path) -> list[Path]:
