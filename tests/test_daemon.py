@@ -3,63 +3,11 @@
 import json
 import os
 import signal
-import subprocess
-import sys
 import time
-from pathlib import Path
 
-import pandas as pd
-import pytest
 import yaml
 
-from demcal.scenes import SCENES
-
-ROOT = Path(__file__).resolve().parents[1]
-TRUTH = {"sliding_friction_pp": 0.4, "rolling_friction_pp": 0.1}
-
-
-def true_targets():
-    """Responses of the closed form at TRUTH: the calibration's known optimum."""
-    params = {"sliding_friction_pw": 0.5, "rolling_friction_pw": 0.1, "restitution": 0.5,
-              "youngs_modulus": 5e6, "poisson_ratio": 0.3, "particle_density": 2500.0, **TRUTH}
-    exact = SCENES["cylinder_lift"].analytic_model(params, {})
-    return [{"scene": "cylinder_lift", "response": name, "value": value}
-            for name, value in exact.items()]
-
-
-def study(tmp_path, name, **overrides):
-    config = {
-        "study": name,
-        "engine": {"name": "analytic", "noise": 0.0, "duration": 0.5},
-        "parameters": {"sliding_friction_pp": {"lower": 0.1, "upper": 0.9},
-                       "rolling_friction_pp": {"lower": 0.02, "upper": 0.3}},
-        "targets": true_targets(),
-        "optimizer": {"max_evaluations": 14},
-        "calibration": {"workers": 2, "poll_seconds": 0.3, "retries": 1},
-        "seed": 5,
-    }
-    for key, value in overrides.items():
-        config[key] = {**config.get(key, {}), **value} if isinstance(value, dict) else value
-    path = tmp_path / f"{name}.yaml"
-    path.write_text(yaml.safe_dump(config))
-    return path
-
-
-def demcal(tmp_path, *args, **popen):
-    command = [sys.executable, "-m", "demcal.cli", *map(str, args)]
-    return subprocess.Popen(command, cwd=tmp_path, stdin=subprocess.DEVNULL,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **popen)
-
-
-def finish(proc, timeout=240):
-    out, err = proc.communicate(timeout=timeout)
-    assert proc.returncode == 0, err[-3000:]
-    return out
-
-
-def evaluations(tmp_path, name):
-    return pd.read_csv(tmp_path / "results" / name / "evaluations.csv")
-
+from conftest import ROOT, demcal, evaluations, finish, study
 
 def test_local_calibration_reaches_the_known_optimum(tmp_path):
     """20 evaluations get the responses within about 3 % of the targets (objective 0 at TRUTH).

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from test_daemon import ROOT, demcal, evaluations, study
+from conftest import ROOT, demcal, evaluations, study
 
 pytestmark = [
     pytest.mark.slurm,
