@@ -225,20 +225,26 @@ class Optimizer:
         return [r["id"] for r in self.records if r["status"] == "pending"]
 
     def best(self) -> dict | None:
-        """The evaluated point with the lowest surrogate prediction (not the luckiest sample).
+        """The evaluated point that is good both as observed and as the surrogate predicts it.
 
-        Returns x (real units), value (observed, mean of replicates),
-        predicted (surrogate value there) and id; None before any value.
+        Each evaluated point is scored by the larger of its observed value and
+        the surrogate's prediction there, and the lowest score wins: a lucky
+        noisy sample (observed low, predicted high) is passed over, and so is
+        a point where a smoothing surrogate blurs a sharp valley (predicted
+        low, observed high). Returns x (real units), value (observed, mean of
+        replicates), predicted (surrogate value there) and id; None before
+        any value.
         """
         finished = [r for r in self.records if r["status"] == "ok"]
         if not finished:
             return None
+        observed = np.array([r["value"] for r in finished])
         surrogate = self._fitted_surrogate()
         if surrogate is None:
-            predicted = np.array([r["value"] for r in finished])
+            predicted = observed
         else:
             predicted = surrogate.predict(np.array([r["x"] for r in finished]))
-        index = int(np.argmin(predicted))
+        index = int(np.argmin(np.maximum(observed, predicted)))
         record = finished[index]
         return {
             "id": record["id"],
