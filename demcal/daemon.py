@@ -35,7 +35,7 @@ import yaml
 from demcal.config import Study
 from demcal.errors import DemcalError, SimulationFailed
 from demcal.evaluation import evaluation_dir
-from demcal.files import atomic_write_text, read_json, read_partial, write_json
+from demcal.files import atomic_write_text, log_tail, read_json, read_partial, write_json
 from demcal.objective import objective_value, relative_error
 from demcal.optimizer import Optimizer
 
@@ -235,7 +235,7 @@ class Calibration:
             try:
                 record = read_json(evaldir / "objective.json", "objective.json")
             except SimulationFailed as exc:
-                tail = _log_tail(evaldir / "logs" / "snakemake.log")
+                tail = log_tail(evaldir / "logs" / "snakemake.log", lines=3)
                 record = {"status": "failed",
                           "reason": f"workflow ended with code {child.returncode()} and no "
                                     f"objective ({exc}): {tail}"}
@@ -359,13 +359,6 @@ class Calibration:
 def _clock(seconds: float) -> str:
     seconds = int(max(seconds, 0))
     return f"{seconds // 3600}:{seconds // 60 % 60:02d}:{seconds % 60:02d}"
-
-
-def _log_tail(path: Path, lines: int = 3) -> str:
-    try:
-        return " | ".join(path.read_text(errors="replace").strip().splitlines()[-lines:])
-    except OSError:
-        return ""
 
 
 def _objective_per_replicate(study: Study, record: dict) -> list[float]:

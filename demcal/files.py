@@ -120,3 +120,12 @@ def read_partial(path: Path) -> list[dict]:
     except FileNotFoundError:
         return []
     return rows
+
+
+def log_tail(path: Path, lines: int = 5) -> str:
+    """The last ``lines`` lines of a log joined with " | " (empty if unreadable), for reasons."""
+    try:
+        text = Path(path).read_text(errors="replace").strip().splitlines()
+    except OSError:
+        return ""
+    return " | ".join(text[-lines:])

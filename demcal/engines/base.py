@@ -12,6 +12,7 @@ state (``arrays``).
 from __future__ import annotations
 
 import json
+import signal
 import time
 from abc import ABC, abstractmethod
 from dataclasses import asdict, dataclass, field
@@ -59,6 +60,14 @@ class RunResult:
     measurements: dict[str, float] = field(default_factory=dict)
     arrays: dict[str, np.ndarray] = field(default_factory=dict)
     cost: dict[str, float] = field(default_factory=dict)
+
+
+def signal_name(returncode: int) -> str:
+    """Name of the signal that ended a process with a negative ``returncode`` (SIGSEGV, ...)."""
+    try:
+        return signal.Signals(-returncode).name
+    except ValueError:
+        return f"signal {-returncode}"
 
 
 class RunMonitor:

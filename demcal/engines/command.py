@@ -23,9 +23,10 @@ import subprocess
 import time
 from pathlib import Path
 
-from demcal.engines.base import FAILED, OK, TERMINATED, Engine, RunMonitor, RunResult, SimulationJob
+from demcal.engines.base import (FAILED, OK, TERMINATED, Engine, RunMonitor, RunResult,
+                                 SimulationJob, signal_name)
 from demcal.errors import ConfigError, SimulationFailed
-from demcal.files import read_json
+from demcal.files import log_tail, read_json
 
 POLL_SECONDS = 0.5
 GRACE_SECONDS = 10.0
@@ -113,8 +114,8 @@ class CommandEngine(Engine):
         if outcome is not None:
             return RunResult(outcome[0], outcome[1], cost=cost)
         if proc.returncode != 0:
-            tail = " | ".join((workdir / LOG_FILE).read_text(errors="replace").splitlines()[-5:])
-            how = (f"died from {signal.Signals(-proc.returncode).name}" if proc.returncode < 0
+            tail = log_tail(workdir / LOG_FILE)
+            how = (f"died from {signal_name(proc.returncode)}" if proc.returncode < 0
                    else f"exited with code {proc.returncode}")
             return RunResult(FAILED, f"simulator {how}: {tail}", cost=cost)
         try:

@@ -13,7 +13,6 @@ from __future__ import annotations
 import ctypes
 import os
 import resource
-import signal
 import subprocess
 import sys
 import time
@@ -22,9 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
-from demcal.engines.base import FAILED, Engine, RunMonitor, RunResult, SimulationJob
+from demcal.engines.base import FAILED, Engine, RunMonitor, RunResult, SimulationJob, signal_name
 from demcal.errors import ConfigError
-from demcal.files import read_json
+from demcal.files import log_tail, read_json
 
 JOB_FILE, RESULT_FILE, STATE_FILE, WORKER_LOG = (
     "lammps-job.json", "lammps-result.json", "lammps-state.npz", "lammps-worker.log")
@@ -54,21 +53,6 @@ def lammps_version() -> str:
         return metadata.version("lammps")
     except metadata.PackageNotFoundError:
         return "not installed"
-
-
-def _signal_name(returncode: int) -> str:
-    try:
-        return signal.Signals(-returncode).name
-    except ValueError:
-        return f"signal {-returncode}"
-
-
-def _log_tail(path: Path, lines: int = 5) -> str:
-    try:
-        text = path.read_text(errors="replace").strip().splitlines()
-    except OSError:
-        return ""
-    return " | ".join(text[-lines:])
 
 
 class LammpsEngine(Engine):
@@ -103,11 +87,11 @@ class LammpsEngine(Engine):
         cost = {"wall_s": time.monotonic() - start,
                 "cpu_s": (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)}
         if proc.returncode < 0:
-            return RunResult(FAILED, f"LAMMPS process died from {_signal_name(proc.returncode)} "
-                                     f"(log: {_log_tail(workdir / WORKER_LOG)})", cost=cost)
+            return RunResult(FAILED, f"LAMMPS process died from {signal_name(proc.returncode)} "
+                                     f"(log: {log_tail(workdir / WORKER_LOG)})", cost=cost)
         if proc.returncode != 0 or not (workdir / RESULT_FILE).exists():
             return RunResult(FAILED, f"LAMMPS worker exited with code {proc.returncode}: "
-                                     f"{_log_tail(workdir / WORKER_LOG)}", cost=cost)
+                                     f"{log_tail(workdir / WORKER_LOG)}", cost=cost)
         record = read_json(workdir / RESULT_FILE, "LAMMPS worker result")
         arrays = {}
         if (workdir / STATE_FILE).exists():
