@@ -39,7 +39,7 @@ def test_initial_points_are_proposed_first():
 
 
 def test_workers_enlarge_the_initial_design():
-    assert Optimizer([0, 0], [1, 1], {}, seed=0, workers=4).initial_size == 8
+    assert Optimizer([0, 0], [1, 1], {}, seed=0, workers=4).initial_size == 7
 
 
 def test_pending_points_are_never_duplicated():
@@ -152,3 +152,17 @@ def test_reopened_failure_is_pending_again_and_can_be_told():
     fresh = Optimizer([0], [1], {}, seed=1)
     with pytest.raises(ValueError, match="still pending"):
         fresh.reopen(fresh.ask()[0].id)
+
+
+def test_four_workers_start_the_adaptive_phase_with_a_surrogate():
+    """d = 2, P = 4: design of 7 = d + 1 + P; when the last design point is running, 4 = d + 2 are finished."""
+    optimizer = Optimizer([0, 0], [1, 1], {"max_evaluations": 20}, seed=3, workers=4)
+    running = [p.id for p in optimizer.ask(4)]
+    for _ in range(3):
+        optimizer.tell(running.pop(0), 1.0 + len(running))
+        running += [p.id for p in optimizer.ask()]
+    assert len(running) == 4 and not optimizer.design_queue
+    optimizer.tell(running.pop(0), 0.5)
+    assert optimizer.completed_evaluations() == 4
+    assert optimizer._fitted_surrogate() is not None
+    assert optimizer.ask()[0].in_initial_design is False
