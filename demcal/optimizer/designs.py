@@ -17,22 +17,13 @@ from scipy.spatial.distance import pdist
 from scipy.stats import qmc
 
 
-def minimum_surrogate_points(dimension: int) -> int:
-    """Finished points the surrogate needs: d + 1 for a unique linear tail (eq. 2.11, rank P = d + 1) plus one."""
-    return dimension + 2
-
-
 def default_initial_size(dimension: int, workers: int = 1) -> int:
-    """Initial design size max(2d + 1, q + P - 1) with q = d + 2 (Samuelsson 2023, sec. 3.2 and 3.7).
+    """Initial design size q + P with q = 2d + 1 (Samuelsson 2023, sec. 3.7, Table 4.2).
 
-    The SLHD needs at least 2d + 1 points for full rank (sec. 3.2). With P
-    workers, the adaptive phase must be able to start as soon as every
-    design point is finished or running (sec. 3.7, "q + P points"): a
-    worker asks only when it is idle, so at most P - 1 points are running
-    then and q + P - 1 points leave q finished for the surrogate. Design
-    points are not adaptive, so the design is not made larger than that.
+    The extra point per worker lets the adaptive phase start as soon as all
+    design points are finished or running, so no worker idles.
     """
-    return max(2 * dimension + 1, minimum_surrogate_points(dimension) + workers - 1)
+    return 2 * dimension + 1 + max(workers - 1, 0)
 
 
 def latin_hypercube(size: int, dimension: int, rng: np.random.Generator) -> np.ndarray:

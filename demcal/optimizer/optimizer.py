@@ -18,7 +18,7 @@ import numpy as np
 
 from . import strategies as st
 from .bounds import Bounds
-from .designs import default_initial_size, initial_design, minimum_surrogate_points
+from .designs import default_initial_size, initial_design
 from .early_termination import EarlyTerminationDecision, early_termination_decision
 from .settings import OptimizerSettings
 from .stopping import stop_reason
@@ -299,7 +299,7 @@ class Optimizer:
     def _fitted_surrogate(self) -> Surrogate | None:
         """The surrogate on all finished values, refitted only when they changed."""
         finished = [r for r in self.records if r["status"] == "ok"]
-        if len(finished) < minimum_surrogate_points(self.bounds.dimension):
+        if len(finished) < self.bounds.dimension + 2:
             return None
         if self._surrogate_version != len(finished):
             s = self.settings

@@ -38,8 +38,8 @@ class OptimizerSettings:
     """Everything that tunes the optimizer; build it with :meth:`from_dict`.
 
     Step sizes and distances are in the unit box (each parameter scaled to
-    [0, 1]). ``initial_size`` None means max(2d+1, d+1+P) for P workers
-    (Samuelsson 2023, section 3.7: q + P; see designs.default_initial_size). ``surrogate`` None means the
+    [0, 1]). ``initial_size`` None means 2d+1 plus one point per worker
+    (Samuelsson 2023, section 3.7: q + P). ``surrogate`` None means the
     strategy's own: cubic_rbf for dycors, kriging for kriging_ei.
     ``polish_candidate``: at the most exploitative weight, propose the
     local minimum of the surrogate within 2 sigma of the best point, and

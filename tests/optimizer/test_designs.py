@@ -44,8 +44,7 @@ def test_sobol_points_lie_in_the_unit_box():
 
 def test_default_size_is_2d_plus_1_plus_one_per_extra_worker():
     assert default_initial_size(2) == 5
-    assert default_initial_size(2, workers=4) == 7  # d + 1 + P
-    assert default_initial_size(6, workers=4) == 13  # 2d + 1 is larger
+    assert default_initial_size(2, workers=4) == 8
     assert default_initial_size(6, workers=1) == 13
 
 

@@ -39,7 +39,7 @@ def test_initial_points_are_proposed_first():
 
 
 def test_workers_enlarge_the_initial_design():
-    assert Optimizer([0, 0], [1, 1], {}, seed=0, workers=4).initial_size == 7
+    assert Optimizer([0, 0], [1, 1], {}, seed=0, workers=4).initial_size == 8
 
 
 def test_pending_points_are_never_duplicated():
@@ -155,14 +155,14 @@ def test_reopened_failure_is_pending_again_and_can_be_told():
 
 
 def test_four_workers_start_the_adaptive_phase_with_a_surrogate():
-    """d = 2, P = 4: design of 7 = d + 1 + P; when the last design point is running, 4 = d + 2 are finished."""
+    """d = 2, P = 4: design of 2d + P = 8; when the last design point is running, 2d + 1 = 5 are finished."""
     optimizer = Optimizer([0, 0], [1, 1], {"max_evaluations": 20}, seed=3, workers=4)
     running = [p.id for p in optimizer.ask(4)]
-    for _ in range(3):
-        optimizer.tell(running.pop(0), 1.0 + len(running))
+    for value in (4.0, 3.0, 2.0, 1.0):
+        optimizer.tell(running.pop(0), value)
         running += [p.id for p in optimizer.ask()]
-    assert len(running) == 4 and not optimizer.design_queue
+    assert running == [4, 5, 6, 7] and not optimizer.design_queue
     optimizer.tell(running.pop(0), 0.5)
-    assert optimizer.completed_evaluations() == 4
+    assert optimizer.completed_evaluations() == 5
     assert optimizer._fitted_surrogate() is not None
     assert optimizer.ask()[0].in_initial_design is False
