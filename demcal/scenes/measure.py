@@ -1,4 +1,4 @@
-"""Bulk measurements from particle positions: surface profile, bulk density, angle of repose.
+"""Bulk measurements from particle positions: surface profile, bulk density, slope angles.
 
 All lengths in m, angles returned in degrees. Particles are given as centre
 positions ``x`` (N x 3, floor at z = 0) and radii ``r`` (N).
@@ -21,12 +21,21 @@ def surface_columns(x: np.ndarray, r: np.ndarray, cell: float,
     centres fall in it (the highest point of material). Returns the radial
     distance of each column centre from ``centre`` and its top height.
     """
-    ij = np.floor((x[:, :2] - np.asarray(centre)) / cell).astype(np.int64)
+    centres, top = column_tops(x - np.array([*centre, 0.0]), r, cell)
+    return np.hypot(centres[:, 0], centres[:, 1]), top
+
+
+def column_tops(x: np.ndarray, r: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndarray]:
+    """Highest point max(z + r) of the spheres in each occupied column of a square grid.
+
+    The grid has side ``cell`` and a corner at x = y = 0. Returns the column
+    centres (K x 2) and their top heights (K).
+    """
+    ij = np.floor(x[:, :2] / cell).astype(np.int64)
     keys, inverse = np.unique(ij, axis=0, return_inverse=True)
     top = np.full(len(keys), -np.inf)
     np.maximum.at(top, inverse.ravel(), x[:, 2] + r)
-    centres = (keys + 0.5) * cell
-    return np.hypot(centres[:, 0], centres[:, 1]), top
+    return (keys + 0.5) * cell, top
 
 
 def fill_bulk_density(x: np.ndarray, r: np.ndarray, mass: np.ndarray,
@@ -107,3 +116,44 @@ def heap_angle_height_radius(x: np.ndarray, r: np.ndarray, cell: float,
         keep &= np.hypot(*(centres - centroid).T) <= radius
     height = float(z_top.max()) - bottom_layer
     return math.degrees(math.atan2(max(height, 0.0), radius))
+
+
+def box_bulk_density(x: np.ndarray, mass: np.ndarray,
+                     box: tuple[float, float, float]) -> float:
+    """Bulk density [kg/m^3] of a filled box: mass of the spheres whose centres lie inside / volume.
+
+    ``box`` = (length, width, height) [m] of a box with a corner at the origin
+    (Richter & Will 2021: mass in the box over the box volume). Counting by
+    centre, a sphere cut by the top face counts whole.
+    """
+    length, width, height = box
+    inside = ((x[:, 0] >= 0.0) & (x[:, 0] <= length) & (x[:, 1] >= 0.0) & (x[:, 1] <= width)
+              & (x[:, 2] >= 0.0) & (x[:, 2] <= height))
+    return float(np.sum(mass[inside]) / (length * width * height))
+
+
+def box_slope_angle(x: np.ndarray, r: np.ndarray, cell: float, length: float,
+                    band: tuple[float, float] = (0.2, 0.8)) -> float:
+    """Shear angle [deg]: slope of the material left in a box open at x = ``length``.
+
+    The surface (``column_tops`` on a grid of side ``cell``) of the spheres
+    whose centres lie in 0 <= x <= length is fitted with a line
+    z = a - tan(phi) x over the columns whose top lies between ``band[0]`` and
+    ``band[1]`` of the highest top, leaving out the struck-off plateau at the
+    back wall and the toe at the opening (Richter & Will 2021 fit a line
+    through the uppermost particles). With fewer than three distinct column
+    positions along x in the band, all columns are fitted. A surface rising
+    towards the opening counts as 0 deg.
+    """
+    kept = (x[:, 0] >= 0.0) & (x[:, 0] <= length)
+    if not kept.any():
+        raise SimulationFailed("no particles left in the box: no slope to measure")
+    centres, top = column_tops(x[kept], r[kept], cell)
+    highest = top.max()
+    in_band = (top >= band[0] * highest) & (top <= band[1] * highest)
+    if len(np.unique(centres[in_band, 0])) < 3:
+        in_band = np.ones_like(top, dtype=bool)
+    if len(np.unique(centres[in_band, 0])) < 2:
+        raise SimulationFailed("slope covers a single column along the box: no slope to measure")
+    slope = np.polyfit(centres[in_band, 0], top[in_band], 1)[0]
+    return max(0.0, math.degrees(math.atan(-slope)))

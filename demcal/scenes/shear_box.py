@@ -1,0 +1,182 @@
+"""Shear box test (Richter & Will 2021, sec. 3.5, after Rössler et al.): bulk density and shear angle.
+
+Not a direct shear cell: a box is filled with material, one end wall (the
+flap) is opened, and the material flows out until the rest stands in the box
+with a slope falling towards the opening. Richter & Will take the shear angle
+from a straight line through the uppermost particles of that slope and the
+bulk density from the mass in the filled box over the box volume.
+
+Scaling (their eq. 4): Rössler et al.'s box (length 100 mm along the outflow,
+width 100 mm, height 150 mm) is scaled by S = 10 d_max / min(l, w, h), so
+its smallest side is ten largest particles: the particle count does not
+change with d50 (only with the width of the PSD) and the shear angle does
+not depend on d50. Here the ten is the setting ``box_size_dmax`` and the
+base box is a setting too.
+
+Filling (a choice: the paper does not describe it): spheres enough to fill
+the box at the densest random packing are generated above the floor inside
+the box walls, fall and settle; then every sphere whose centre lies above
+the box top is removed (struck off). Bulk density = mass of the spheres
+whose centres lie inside the box / box volume. The flap is then removed at
+once; spheres that leave over the floor's edge fall away and are deleted.
+
+Defaults: Richter & Will's gravel 8/16 (Table 3: d50 11.16 mm, sigma_ln
+0.26); a cut at 1.5 sigma gives 7.6-16.5 mm, the sieve range. The PSD is
+sampled by number (``demcal.scenes.psd``); Richter & Will fit the lognormal
+to the mass distribution Q3, whose median is exp(3 sigma_ln^2) times the
+number median: convert d50 before entering a sieve analysis here. About
+5000 spheres are generated at the defaults, 4600 stay in the struck-off box.
+"""
+
+from __future__ import annotations
+
+import math
+
+from demcal.errors import ConfigError
+from demcal.scenes import measure
+from demcal.scenes.base import ResponseSpec, Scene, SettingSpec
+from demcal.scenes.psd import diameter_range
+
+#: Spheres generated fill the box at the densest random packing, so the
+#: settled fill always reaches above the box top before it is struck off.
+FILL_SOLID_FRACTION = 0.64
+#: Fewest surface columns of width d50 along the box for a slope fit.
+MIN_SLOPE_COLUMNS = 5
+#: Most spheres a box may need: the count grows with the PSD's width, as
+#: (d_max / d50)^3 (about 5000 at the defaults).
+MAX_PARTICLES = 100_000
+
+
+def _saturating(value: float, scale: float) -> float:
+    """1 - exp(-value / scale): 0 at 0, rising to 1."""
+    return 1.0 - math.exp(-value / scale)
+
+
+def analytic_model(p: dict, settings: dict) -> dict:
+    """Closed-form stand-in for the test engine: smooth, monotone, plausible trends.
+
+    The shear angle rises with sliding and rolling friction (particle-particle
+    more than particle-wall) and saturates, falls slightly with restitution
+    and rises with the width of the PSD; the packing loosens with friction,
+    mostly rolling friction, and packs denser with a wider PSD, after Richter
+    & Will's sensitivity findings (sec. 4.1: the angle depends on neither d50
+    nor stiffness nor density). Not physics: a known landscape for the
+    pipeline and the optimizer.
+    """
+    grip = _saturating(p["sliding_friction_pp"], 0.3)
+    roll = _saturating(p["rolling_friction_pp"], 0.1)
+    spread = settings.get("sigma_ln", 0.0)
+    angle = (8.0 + 30.0 * grip * (0.4 + 0.6 * roll)
+             + 3.0 * _saturating(p["sliding_friction_pw"], 0.3)
+             + 2.0 * _saturating(p["rolling_friction_pw"], 0.1)
+             - 2.0 * (p["restitution"] - 0.5) + 4.0 * spread)
+    solid_fraction = (0.63 - 0.03 * grip - 0.07 * roll - 0.01 * (p["restitution"] - 0.5)
+                      + 0.04 * spread)
+    return {"shear_angle": angle, "bulk_density": p["particle_density"] * solid_fraction}
+
+
+def box_dimensions(settings: dict) -> tuple[float, float, float]:
+    """Inner length (outflow direction), width and height of the scaled box [m] (eq. 4)."""
+    _, d_max = diameter_range(settings["d50"], settings["sigma_ln"], settings["psd_truncation"])
+    base = (settings["base_length"], settings["base_width"], settings["base_height"])
+    scale = settings["box_size_dmax"] * d_max / min(base)
+    return tuple(scale * side for side in base)
+
+
+def mean_sphere_volume(d50: float, sigma_ln: float, truncation: float) -> float:
+    """Expected volume [m^3] of one sphere of the truncated lognormal PSD (by number).
+
+    With ln d ~ N(ln d50, s^2) cut at +-k s: E[d^3] = d50^3 exp(4.5 s^2)
+    (Phi(k - 3 s) - Phi(-k - 3 s)) / (Phi(k) - Phi(-k)).
+    """
+    def phi(z: float) -> float:
+        return 0.5 * (1.0 + math.erf(z / math.sqrt(2.0)))
+
+    k, s = truncation, sigma_ln
+    moment = math.exp(4.5 * s * s) * (phi(k - 3 * s) - phi(-k - 3 * s)) / (phi(k) - phi(-k))
+    return math.pi / 6.0 * d50**3 * moment
+
+
+def fill_particle_count(settings: dict) -> int:
+    """Spheres generated: enough to fill the box at ``FILL_SOLID_FRACTION``."""
+    length, width, height = box_dimensions(settings)
+    return math.ceil(FILL_SOLID_FRACTION * length * width * height / mean_sphere_volume(
+        settings["d50"], settings["sigma_ln"], settings["psd_truncation"]))
+
+
+def _bulk_density(state: dict, settings: dict) -> float:
+    return measure.box_bulk_density(state["fill_x"], state["fill_mass"], box_dimensions(settings))
+
+
+def _shear_angle(state: dict, settings: dict) -> float:
+    length, _, _ = box_dimensions(settings)
+    return measure.box_slope_angle(state["slope_x"], state["slope_r"], settings["d50"], length,
+                                   (settings["angle_band_lower"], settings["angle_band_upper"]))
+
+
+def check_settings(settings: dict, field_prefix: str) -> None:
+    """Cross-setting checks a single range cannot express."""
+    if settings["angle_band_lower"] >= settings["angle_band_upper"]:
+        raise ConfigError(
+            f"{field_prefix}.angle_band_lower: {settings['angle_band_lower']:g} must be below "
+            f"angle_band_upper ({settings['angle_band_upper']:g})")
+    length, _, _ = box_dimensions(settings)
+    columns = length / settings["d50"]
+    if columns < MIN_SLOPE_COLUMNS:
+        raise ConfigError(
+            f"{field_prefix}.box_size_dmax: the box is only {columns:.3g} median diameters "
+            f"long ({length:g} m); the slope fit needs at least {MIN_SLOPE_COLUMNS}: raise "
+            f"box_size_dmax")
+    count = fill_particle_count(settings)
+    if count > MAX_PARTICLES:
+        raise ConfigError(
+            f"{field_prefix}.sigma_ln: the box (smallest side {settings['box_size_dmax']:g} "
+            f"largest particles) needs {count} spheres of this PSD, more than {MAX_PARTICLES}; "
+            f"narrow the PSD (sigma_ln, psd_truncation) or lower box_size_dmax")
+
+
+SCENE = Scene(
+    name="shear_box",
+    description="shear box test (Richter & Will 2021): bulk density of the filled box and "
+                "shear angle of the material left after the flap opens",
+    parameters=("sliding_friction_pp", "sliding_friction_pw", "rolling_friction_pp",
+                "rolling_friction_pw", "restitution", "youngs_modulus", "poisson_ratio",
+                "particle_density"),
+    responses={
+        "bulk_density": ResponseSpec("kg/m^3", "mass of the spheres whose centres lie in the "
+                                               "filled, struck-off box / box volume"),
+        "shear_angle": ResponseSpec("deg", "slope of the material left in the box after the "
+                                           "flap opened: line fit of the surface against the "
+                                           "distance along the box",
+                                    ("angle_band_lower", "angle_band_upper")),
+    },
+    settings={
+        "d50": SettingSpec(11.16e-3, "m", "median particle diameter (by number)", 1.0e-5, 0.1),
+        "sigma_ln": SettingSpec(0.26, "-", "std. dev. of ln(diameter); 0 = monodisperse",
+                                0.0, 1.2),
+        "psd_truncation": SettingSpec(1.5, "sigma", "lognormal cut at d50 exp(+-k sigma_ln)",
+                                      0.5, 4.0),
+        "box_size_dmax": SettingSpec(10.0, "d_max", "smallest inner box side in largest "
+                                                    "particle diameters (Richter & Will: 10)",
+                                     4.0, 40.0),
+        "base_length": SettingSpec(0.10, "m", "unscaled box length along the outflow "
+                                              "(Rössler et al.: 100 mm)", 1.0e-3, 10.0),
+        "base_width": SettingSpec(0.10, "m", "unscaled box width (100 mm)", 1.0e-3, 10.0),
+        "base_height": SettingSpec(0.15, "m", "unscaled box height (150 mm)", 1.0e-3, 10.0),
+        "rest_speed": SettingSpec(5.0e-3, "m/s", "rms particle speed below which material is "
+                                                 "at rest", 1.0e-6, 1.0),
+        "max_settle_time": SettingSpec(5.0, "s", "simulated time limit of the fill and of the "
+                                                 "outflow", 0.01, 100.0),
+        "dump_interval": SettingSpec(0.0, "s", "simulated time between particle dumps "
+                                               "(dump.lammpstrj, for viewing); 0 = no dumps",
+                                     0.0, 100.0),
+        "angle_band_lower": SettingSpec(0.2, "-", "slope fit: lowest surface height, fraction "
+                                                  "of the highest", 0.0, 0.9),
+        "angle_band_upper": SettingSpec(0.8, "-", "slope fit: highest surface height, fraction "
+                                                  "of the highest", 0.1, 1.0),
+    },
+    analytic_model=analytic_model,
+    extractors={"bulk_density": _bulk_density, "shear_angle": _shear_angle},
+    drivers={"lammps": "demcal.scenes.shear_box_lammps"},
+    check_settings=check_settings,
+)

