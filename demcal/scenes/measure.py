@@ -118,6 +118,86 @@ def heap_angle_height_radius(x: np.ndarray, r: np.ndarray, cell: float,
     return math.degrees(math.atan2(max(height, 0.0), radius))
 
 
+def surface_profile_along_x(x: np.ndarray, r: np.ndarray, cell: float,
+                            x_range: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """Free-surface height of a quasi-2-D pile against x: max(z + r) per x-bin of width ``cell``.
+
+    Only spheres with centres in ``x_range`` count; empty bins are left out.
+    Returns the bin centres and heights.
+    """
+    inside = (x[:, 0] >= x_range[0]) & (x[:, 0] < x_range[1])
+    bins = np.floor((x[inside, 0] - x_range[0]) / cell).astype(np.int64)
+    if len(bins) == 0:
+        return np.empty(0), np.empty(0)
+    top = np.full(bins.max() + 1, -np.inf)
+    np.maximum.at(top, bins, x[inside, 2] + r[inside])
+    occupied = np.isfinite(top)
+    return (x_range[0] + (np.arange(len(top)) + 0.5) * cell)[occupied], top[occupied]
+
+
+def falling_sigmoid(position: np.ndarray, low: float, high: float, centre: float,
+                    width: float) -> np.ndarray:
+    """low + (high - low) / (1 + exp((position - centre) / width)): a step falling with position."""
+    return low + (high - low) / (1.0 + np.exp(np.clip((position - centre) / width, -50.0, 50.0)))
+
+
+def heap_angle_sigmoid_fit(position: np.ndarray, height: np.ndarray) -> float:
+    """Angle of repose [deg] at the inflexion point of a sigmoid fitted to a pile profile.
+
+    Samuelsson (2023), sec. 4.1: the profile h(x) of a pile that falls away
+    with x is fitted with ``falling_sigmoid``; its steepest slope, at the
+    inflexion point, is (high - low) / (4 width), and the angle is its arctangent.
+    """
+    from scipy.optimize import curve_fit
+
+    if len(height) < 5:
+        raise SimulationFailed(f"pile profile has only {len(height)} columns: no pile to measure")
+    span = float(position.max() - position.min())
+    guess = (float(height.min()), float(height.max()), float(np.median(position)), 0.1 * span)
+    bounds = ([-np.inf, -np.inf, position.min(), 1e-6 * span],
+              [np.inf, np.inf, position.max(), 10.0 * span])
+    try:
+        (low, high, _centre, width), _ = curve_fit(falling_sigmoid, position, height, p0=guess,
+                                                   bounds=bounds, maxfev=5000)
+    except RuntimeError as exc:
+        raise SimulationFailed(f"sigmoid fit of the pile profile failed: {exc}") from None
+    return max(0.0, math.degrees(math.atan((high - low) / (4.0 * width))))
+
+
+def discharge_rate(times: np.ndarray, held_mass: np.ndarray, total_mass: float,
+                   band: tuple[float, float]) -> float:
+    """Mass flow [kg/s] out of a container: slope of its held mass against time.
+
+    Samuelsson (2023), sec. 4.1 fits a line to the mass above the hopper
+    outlet sampled over time; here only the samples whose discharged fraction
+    1 - m/m_total lies in ``band`` count, which leaves out the start-up and
+    the emptying of the last layers. With fewer than three samples in the
+    band (a flow that stalled) the mean rate over the whole record is used.
+    """
+    discharged = 1.0 - held_mass / total_mass
+    in_band = (discharged >= band[0]) & (discharged <= band[1])
+    if in_band.sum() >= 3:
+        return float(-np.polyfit(times[in_band], held_mass[in_band], 1)[0])
+    elapsed = float(times[-1] - times[0])
+    return float((held_mass[0] - held_mass[-1]) / elapsed) if elapsed > 0.0 else 0.0
+
+
+def slide_time_with_penalty(times: np.ndarray, remaining_mass: np.ndarray, total_mass: float,
+                            empty_fraction: float, end_time: float) -> float:
+    """Time [s] until the material has left the slide, penalised if it never does.
+
+    Samuelsson (2023), sec. 4.1: the first time the mass still on the way
+    (here: in the hopper or on the slide) is below ``empty_fraction`` of the
+    total; if it never is, ``end_time`` (the simulation's time limit) plus
+    10 times the fraction remaining, so that very high friction still gives a
+    graded response.
+    """
+    below = np.flatnonzero(remaining_mass < empty_fraction * total_mass)
+    if len(below):
+        return float(times[below[0]])
+    return float(end_time + 10.0 * remaining_mass[-1] / total_mass)
+
+
 def box_bulk_density(x: np.ndarray, mass: np.ndarray,
                      box: tuple[float, float, float]) -> float:
     """Bulk density [kg/m^3] of a filled box: mass of the spheres whose centres lie inside / volume.
