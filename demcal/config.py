@@ -24,7 +24,7 @@ from demcal.objective import Target
 from demcal.optimizer import OptimizerSettings
 from demcal.parameters import CATALOG, ParameterSpec
 from demcal.scenes import SCENES, Scene
-from demcal.timestep import check_fraction
+from demcal.timestep import RAYLEIGH_PARAMETERS, check_fraction, rayleigh_cost, rayleigh_time_range
 
 SCHEMA_PATH = Path(__file__).resolve().parents[1] / "workflow" / "schemas" / "config.schema.yaml"
 
@@ -55,6 +55,8 @@ class Study:
     seed: int
     timestep_fraction: float
     optimizer: OptimizerSettings
+    #: W_RL of the Rayleigh time-step cost term (Rackl & Hanley 2017, eq. 10); 0 = off.
+    rayleigh_cost_weight: float = 0.0
     calibration: dict = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
 
@@ -66,6 +68,17 @@ class Study:
         """Responses of ``scene`` that some target asks for, in declaration order."""
         wanted = {t.response for t in self.targets if t.scene == scene}
         return [r for r in self.scenes[scene].responses if r in wanted]
+
+    def timestep_cost(self, free_values: dict[str, float]) -> float:
+        """Squared Rayleigh time-step cost of a point, added to its objective (0 when off)."""
+        if self.rayleigh_cost_weight == 0.0:
+            return 0.0
+        bounds = {name: (self.fixed[name], self.fixed[name]) for name in RAYLEIGH_PARAMETERS
+                  if name in self.fixed}
+        bounds.update({p.name: (p.lower, p.upper) for p in self.free})
+        term = rayleigh_cost(self.parameters_for(free_values), rayleigh_time_range(bounds),
+                             self.rayleigh_cost_weight)
+        return term * term
 
     def parameters_for(self, free_values: dict[str, float]) -> dict[str, float]:
         """All parameters of a point: the fixed ones overlaid with the free values (checked)."""
@@ -244,6 +257,12 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
                 for name, scene in scenes.items()}
     fraction = float(config.get("timestep_fraction", 0.25))
     warning = check_fraction(fraction)
+    cost_weight = float(config.get("rayleigh_cost_weight", 0.0))
+    if cost_weight > 0.0 and not {p.name for p in free} & set(RAYLEIGH_PARAMETERS):
+        raise ConfigError(
+            f"rayleigh_cost_weight: {cost_weight:g} needs one of "
+            f"{', '.join(RAYLEIGH_PARAMETERS)} among the free parameters (the Rayleigh time "
+            f"step depends only on them); set it to 0 or free one of them")
     try:
         optimizer = OptimizerSettings.from_dict(config.get("optimizer", {}))
     except ValueError as exc:
@@ -256,6 +275,7 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
                  free=free, fixed=fixed, targets=targets,
                  replicates=int(config.get("replicates", 1)), seed=int(config.get("seed", 1)),
                  timestep_fraction=fraction, optimizer=optimizer,
+                 rayleigh_cost_weight=cost_weight,
                  calibration={"retries": 1, "poll_seconds": 2.0,
                               **config.get("calibration", {})},
                  warnings=[warning] if warning else [])

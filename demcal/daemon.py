@@ -61,6 +61,9 @@ def study_definition(study: Study) -> dict:
         "replicates": study.replicates,
         "timestep_fraction": study.timestep_fraction,
         "seed": study.seed,
+        # only when used, so that studies from before the term still resume
+        **({"rayleigh_cost_weight": study.rayleigh_cost_weight}
+           if study.rayleigh_cost_weight else {}),
     }))
 
 
@@ -367,7 +370,8 @@ def _objective_per_replicate(study: Study, record: dict) -> list[float]:
     counts = {len(v) for v in reps.values()}
     if len(counts) != 1 or counts == {1}:
         return []
-    return [objective_value(study.targets, {k: v[i] for k, v in reps.items()})
+    cost = study.timestep_cost(record["parameters"])
+    return [objective_value(study.targets, {k: v[i] for k, v in reps.items()}) + cost
             for i in range(counts.pop())]
 
 
@@ -376,7 +380,8 @@ def partial_objective(study: Study, evaldir: Path) -> float | None:
 
     Each targeted response's estimate is averaged over the replicates that
     have one; the sum runs over the targets with an estimate (so it is a
-    lower bound of eq. 3.3 when some responses are not estimated yet).
+    lower bound of eq. 3.3 when some responses are not estimated yet), plus
+    the Rayleigh time-step cost, known from the start.
     """
     estimates: dict[str, list[float]] = {}
     for scene in study.scenes:
@@ -388,6 +393,8 @@ def partial_objective(study: Study, evaldir: Path) -> float | None:
             for response, value in latest.items():
                 estimates.setdefault(f"{scene}.{response}", []).append(value)
     total, used = 0.0, 0
+    if study.rayleigh_cost_weight:
+        total = study.timestep_cost(read_json(evaldir / "params.json", "params.json")["parameters"])
     for t in study.targets:
         if t.key in estimates:
             mean = sum(estimates[t.key]) / len(estimates[t.key])

@@ -182,7 +182,9 @@ def objective(study: Study, evaluation: str, response_paths: list[Path]) -> dict
     else:
         means = {key: replicate_mean(v) for key, v in values.items()}
         record.update(
-            status=OK, reason="", objective=objective_value(study.targets, means),
+            status=OK, reason="",
+            objective=objective_value(study.targets, means) + study.timestep_cost(point),
+            timestep_cost=study.timestep_cost(point),
             responses=means, replicates=dict(values),
             spread={key: replicate_spread(v) for key, v in values.items()},
             relative_errors={t.key: relative_error(means[t.key], t.value) for t in study.targets},

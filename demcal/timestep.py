@@ -50,3 +50,35 @@ def timestep(fraction: float, radius_min: float, density: float,
              youngs_modulus: float, poisson_ratio: float) -> float:
     """Time step [s] = fraction * T_R of the smallest, softest particle."""
     return fraction * rayleigh_time(radius_min, density, youngs_modulus, poisson_ratio)
+
+
+#: Material parameters the Rayleigh time depends on.
+RAYLEIGH_PARAMETERS = ("particle_density", "youngs_modulus", "poisson_ratio")
+
+
+def rayleigh_time_range(bounds: dict[str, tuple[float, float]]) -> tuple[float, float]:
+    """Smallest and largest Rayleigh time per metre of radius [s/m] over a parameter box.
+
+    ``bounds`` gives (lower, upper) of density, Young's modulus and Poisson's
+    ratio (equal for a fixed one); T_R is monotone in each, so the extremes
+    lie at corners of the box.
+    """
+    corners = [rayleigh_time(1.0, rho, e, nu) for rho in bounds["particle_density"]
+               for e in bounds["youngs_modulus"] for nu in bounds["poisson_ratio"]]
+    return min(corners), max(corners)
+
+
+def rayleigh_cost(parameters: dict[str, float], time_range: tuple[float, float],
+                  weight: float) -> float:
+    """Rackl & Hanley (2017), eq. 10: W_RL (r_max - dt_R) / (r_max - r_min), in [0, W_RL].
+
+    Zero at the largest Rayleigh time the bounds allow, W_RL at the smallest;
+    squared, it joins the relative errors of the responses in the objective,
+    steering among equally good parameter sets to the cheapest to simulate.
+    """
+    low, high = time_range
+    if weight == 0.0 or high <= low:
+        return 0.0
+    time = rayleigh_time(1.0, parameters["particle_density"], parameters["youngs_modulus"],
+                         parameters["poisson_ratio"])
+    return weight * (high - time) / (high - low)

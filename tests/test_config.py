@@ -119,3 +119,20 @@ def test_missing_file_and_bad_yaml(tmp_path):
     bad.write_text("study: [unclosed\n")
     with pytest.raises(ConfigError, match="not valid YAML"):
         load_study_file(bad)
+
+
+def test_rayleigh_cost_needs_a_free_material_parameter(analytic_config):
+    config = analytic_config
+    config["rayleigh_cost_weight"] = 1.0
+    with pytest.raises(ConfigError, match="rayleigh_cost_weight: 1 needs one of particle_density"):
+        load_study(config)
+
+
+def test_rayleigh_cost_enters_the_objective_of_a_stiff_point(analytic_config):
+    config = analytic_config
+    config["parameters"]["youngs_modulus"] = {"lower": 5.0e6, "upper": 5.0e8}
+    config["rayleigh_cost_weight"] = 0.5
+    study = load_study(config)
+    point = {p.name: p.lower for p in study.free}
+    assert study.timestep_cost(point) == pytest.approx(0.0)
+    assert study.timestep_cost({**point, "youngs_modulus": 5.0e8}) == pytest.approx(0.25)

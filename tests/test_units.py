@@ -74,3 +74,20 @@ def test_rolling_stiffness_follows_ai_et_al():
     k_pp2, _ = sds_rolling_coefficients(0.2, 2e-3, 2500, 5e6, 0.3, wall=False)
     assert k_pp2 / k_pp == pytest.approx(4.0)  # k_roll ~ mu_r^2
     assert sds_rolling_coefficients(0.0, 2e-3, 2500, 5e6, 0.3, wall=True) == (0.0, 0.0)
+
+
+def test_rayleigh_cost_is_zero_at_the_largest_time_step_and_the_weight_at_the_smallest():
+    """Rackl & Hanley (2017) eq. 10 over E in [5e6, 5e8] Pa, rho 2500, nu 0.3."""
+    from demcal.timestep import rayleigh_cost, rayleigh_time_range
+
+    bounds = {"particle_density": (2500.0, 2500.0), "youngs_modulus": (5.0e6, 5.0e8),
+              "poisson_ratio": (0.3, 0.3)}
+    low, high = rayleigh_time_range(bounds)
+    assert high / low == pytest.approx(10.0)  # T_R ~ E^-1/2
+    soft = {"particle_density": 2500.0, "youngs_modulus": 5.0e6, "poisson_ratio": 0.3}
+    stiff = {**soft, "youngs_modulus": 5.0e8}
+    middle = {**soft, "youngs_modulus": 5.0e7}  # T_R = high / sqrt(10)
+    assert rayleigh_cost(soft, (low, high), 1.0) == pytest.approx(0.0)
+    assert rayleigh_cost(stiff, (low, high), 0.5) == pytest.approx(0.5)
+    assert rayleigh_cost(middle, (low, high), 1.0) == pytest.approx(
+        (1 - 10 ** -0.5) / (1 - 0.1))

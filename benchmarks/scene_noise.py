@@ -1,0 +1,108 @@
+"""Noise and cost of a scene at one point: several seeds, the study's engine (real LAMMPS).
+
+    python benchmarks/scene_noise.py CONFIG [--scene NAME] [--seeds 5] [--jobs 2]
+                                    [--point NAME=VALUE ...] [--tag TAG]
+
+Runs one point (default: the middle of the free parameters' bounds; --point
+overrides single parameters) once per seed through the same simulate ->
+extract jobs as the workflow, in a scratch directory, ``--jobs`` at a time.
+Prints a markdown table of each targeted response (mean, standard deviation,
+min, max), seconds per simulation and particle-steps per second, and writes
+the raw figures to benchmarks/results/noise_<study>_<scene>[_<tag>].json.
+Synthetic-truth targets are the means of such a run at the chosen true point.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import tempfile
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+from demcal.config import load_study_file
+from demcal.evaluation import evaluation_dir, extract, replicate_dir, simulate
+from demcal.files import write_json
+
+ROOT = Path(__file__).resolve().parents[1]
+EVALUATION = "noise"
+
+
+def run_seed(config: str, scene: str, replicate: int) -> dict:
+    """One simulate -> extract of replicate ``replicate`` (its own seed) in the current directory."""
+    study = load_study_file(config)
+    start = time.monotonic()
+    sim = simulate(study, EVALUATION, scene, replicate)
+    responses = extract(study, replicate_dir(study, EVALUATION, scene, replicate)
+                        / "simulation.json")
+    return {"replicate": replicate, "seed": sim["seed"], "status": sim["status"],
+            "reason": sim["reason"], "wall_s": time.monotonic() - start, **sim["cost"],
+            **responses["responses"]}
+
+
+def parse_point(study, overrides: list[str]) -> dict[str, float]:
+    point = {p.name: 0.5 * (p.lower + p.upper) for p in study.free}
+    for item in overrides:
+        name, _, value = item.partition("=")
+        if name not in point:
+            raise SystemExit(f"--point {item}: {name!r} is not a free parameter of the study "
+                             f"({', '.join(point)})")
+        point[name] = float(value)
+    return point
+
+
+def summary(rows: list[dict], responses: list[str]) -> str:
+    lines = ["| quantity | mean | std. dev. | min | max |", "|---|---|---|---|---|"]
+    for key in [*responses, "wall_s", "cpu_s", "steps"]:
+        values = [r[key] for r in rows if key in r]
+        if values:
+            sd = statistics.stdev(values) if len(values) > 1 else 0.0
+            lines.append(f"| {key} | {statistics.fmean(values):.4g} | {sd:.3g} | "
+                         f"{min(values):.4g} | {max(values):.4g} |")
+    rate = [r["particle_steps"] / r["cpu_s"] for r in rows if r.get("cpu_s")]
+    if rate:
+        lines.append(f"| particle-steps per CPU second | {statistics.fmean(rate):.3g} | | "
+                     f"{min(rate):.3g} | {max(rate):.3g} |")
+    return "\n".join(lines)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("config")
+    parser.add_argument("--scene", help="default: the study's first scene")
+    parser.add_argument("--seeds", type=int, default=5)
+    parser.add_argument("--jobs", type=int, default=2, help="simulations at a time")
+    parser.add_argument("--point", nargs="*", default=[], metavar="NAME=VALUE")
+    parser.add_argument("--tag", default="", help="suffix of the result file")
+    args = parser.parse_args()
+    config = str(Path(args.config).resolve())
+    study = load_study_file(config)
+    scene = args.scene or next(iter(study.scenes))
+    point = parse_point(study, args.point)
+    with tempfile.TemporaryDirectory() as scratch:
+        os.chdir(scratch)
+        write_json(evaluation_dir(study, EVALUATION) / "params.json", {"parameters": point})
+        with ProcessPoolExecutor(args.jobs) as pool:
+            rows = list(pool.map(run_seed, [config] * args.seeds, [scene] * args.seeds,
+                                 range(args.seeds)))
+    for row in rows:
+        print(json.dumps(row))
+    name = f"noise_{study.name}_{scene}" + (f"_{args.tag}" if args.tag else "")
+    out = ROOT / "benchmarks" / "results" / f"{name}.json"
+    out.parent.mkdir(exist_ok=True)
+    out.write_text(json.dumps({"config": os.path.relpath(config, ROOT), "scene": scene,
+                               "point": point, "settings": study.settings[scene],
+                               "timestep_fraction": study.timestep_fraction, "runs": rows},
+                              indent=2))
+    ok = [r for r in rows if r["status"] == "ok"]
+    print(f"\n{scene} at {point}: {len(ok)} of {len(rows)} runs ok ({out.name})\n")
+    if not ok:
+        raise SystemExit("no run succeeded: nothing to summarise")
+    print(summary(ok, study.responses_needed(scene)))
+
+
+if __name__ == "__main__":
+    main()
