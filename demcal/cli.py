@@ -4,6 +4,7 @@
     demcal status [CONFIG]
     demcal stop [CONFIG]
     demcal rerun-failed [CONFIG]
+    demcal convergence [CONFIG] [--scene S] [--fractions F ...] [--sizes N ...] [--seeds 2]
 
 CONFIG defaults to config/config.yaml. Errors in the configuration or on
 disk are printed as one message (exit code 2), never as a traceback.
@@ -142,6 +143,14 @@ def rerun_failed(args) -> int:
     return 0
 
 
+def convergence(args) -> int:
+    from demcal import convergence as study
+
+    study.run(args.config, args.scene, args.fractions, args.sizes, args.seeds, args.jobs,
+              args.point)
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="demcal", description="Calibrate DEM simulations.")
     commands = parser.add_subparsers(dest="command", required=True)
@@ -149,7 +158,10 @@ def main(argv: list[str] | None = None) -> int:
                              ("status", status, "show the state of a calibration"),
                              ("stop", stop, "stop a running calibration cleanly"),
                              ("rerun-failed", rerun_failed,
-                              "rerun the failed evaluations (new seeds) on the next run")):
+                              "rerun the failed evaluations (new seeds) on the next run"),
+                             ("convergence", convergence,
+                              "error against run time: one point at several time steps and "
+                              "sizes")):
         sub = commands.add_parser(name, help=text)
         sub.add_argument("config", nargs="?", default=DEFAULT_CONFIG)
         sub.set_defaults(func=func)
@@ -158,6 +170,19 @@ def main(argv: list[str] | None = None) -> int:
                              help="Snakemake profile directory for the evaluations "
                                   "(default: demcal's profiles/local)")
             sub.add_argument("--workers", type=int, help="evaluations in flight")
+        if name == "convergence":
+            sub.add_argument("--scene", help="default: the study's first scene")
+            sub.add_argument("--fractions", type=float, nargs="+",
+                             help="time steps as fractions of the Rayleigh time "
+                                  "(default 0.5 0.35 0.25 0.125)")
+            sub.add_argument("--sizes", type=float, nargs="+",
+                             help="values of the scene's size setting (particle count or box "
+                                  "scale; default 0.5, 1 and 2 times the configured one)")
+            sub.add_argument("--seeds", type=int, default=2, help="seeds per variant")
+            sub.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
+                             help="simulations at a time")
+            sub.add_argument("--point", nargs="*", default=[], metavar="NAME=VALUE",
+                             help="free parameter values (default: centre of the bounds)")
     args = parser.parse_args(argv)
     try:
         return args.func(args)

@@ -16,6 +16,7 @@ import time
 import traceback
 from collections import defaultdict
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -24,6 +25,7 @@ from demcal.engines.base import FAILED, OK, TERMINATED, RunMonitor, RunResult, S
 from demcal.errors import ConfigError, DemcalError, SimulationFailed
 from demcal.files import read_json, write_json
 from demcal.objective import objective_value, relative_error, replicate_mean, replicate_spread
+from demcal.scenes.base import Scene
 
 log = logging.getLogger("demcal")
 STATE_FILE = "state.npz"
@@ -115,16 +117,25 @@ def extract(study: Study, simulation_path: Path) -> dict:
 
 
 def _responses(study: Study, sim: dict, workdir: Path) -> dict[str, float]:
-    scene = study.scenes[sim["scene"]]
-    settings = sim["settings"]
+    return scene_responses(study.scenes[sim["scene"]], study.responses_needed(sim["scene"]),
+                           sim.get("measurements", {}), lambda: _load_state(workdir, sim),
+                           sim["settings"])
+
+
+def scene_responses(scene: Scene, wanted: list[str], measurements: dict,
+                    load_state: Callable[[], dict], settings: dict) -> dict[str, float]:
+    """Each wanted response: measured by the engine, else computed by the scene from the state.
+
+    ``load_state`` is called at most once, and only if some response needs it.
+    """
     state = None
     out = {}
-    for name in study.responses_needed(scene.name):
-        if name in sim.get("measurements", {}):
-            value = sim["measurements"][name]
+    for name in wanted:
+        if name in measurements:
+            value = measurements[name]
         else:
             if state is None:
-                state = _load_state(workdir, sim)
+                state = load_state()
             value = scene.extractors[name](state, settings)
         if value is None or not np.isfinite(value):
             raise SimulationFailed(f"response {name} is not a finite number ({value})")

@@ -73,6 +73,9 @@ class Scene:
     drivers: dict[str, str] = field(default_factory=dict)
     #: Cross-setting checks a single range cannot express: (settings, field prefix) -> None.
     check_settings: Callable[[dict, str], None] | None = None
+    #: The setting that sets the simulated amount of material (particle count or a scale
+    #: factor), varied by the convergence study.
+    size_setting: str = "particle_count"
 
     def resolve_settings(self, given: dict | None, field_prefix: str) -> dict:
         """Defaults overlaid with the given settings, each checked against its spec."""

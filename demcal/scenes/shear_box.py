@@ -179,4 +179,5 @@ SCENE = Scene(
     extractors={"bulk_density": _bulk_density, "shear_angle": _shear_angle},
     drivers={"lammps": "demcal.scenes.shear_box_lammps"},
     check_settings=check_settings,
+    size_setting="box_size_dmax",
 )

@@ -1,0 +1,197 @@
+"""Error against run time: one point of a scene at several time steps and sizes.
+
+``demcal convergence CONFIG`` runs the study's centre point (or ``--point``)
+for each time-step fraction of the Rayleigh time at the configured size, and
+for each size (the scene's ``size_setting``: particle count, or the box scale
+of the shear box) at the configured fraction, plus the finest combination
+(smallest fraction, largest size), which is the reference. Each variant runs
+with the same ``--seeds`` seeds. For every response it reports the relative
+deviation of the seed mean from the reference's, next to the seed-to-seed
+spread (the noise a calibration cannot beat) and the CPU time per
+simulation. Output: ``results/<study>/convergence/<scene>.csv`` (every run),
+``<scene>_summary.csv`` and ``<scene>.png``.
+"""
+
+from __future__ import annotations
+
+import statistics
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+
+from demcal.config import Study, load_study_file
+from demcal.engines.base import OK, RunMonitor, SimulationJob
+from demcal.errors import ConfigError, DemcalError
+from demcal.evaluation import scene_responses
+from demcal.timestep import check_fraction
+
+DEFAULT_FRACTIONS = (0.5, 0.35, 0.25, 0.125)
+#: Sizes tried by default, as multiples of the configured size.
+DEFAULT_SIZE_FACTORS = (0.5, 1.0, 2.0)
+
+
+@dataclass(frozen=True)
+class Variant:
+    """One resolution of the scene: time-step fraction and value of its size setting."""
+
+    fraction: float
+    size: float
+
+    @property
+    def label(self) -> str:
+        return f"dt{self.fraction:g}_size{self.size:g}"
+
+
+def plan(study: Study, scene: str, fractions: list[float],
+         sizes: list[float]) -> tuple[list[Variant], Variant]:
+    """The variants to run and the reference (finest) one; each is checked like a config."""
+    size_setting = study.scenes[scene].size_setting
+    base = Variant(study.timestep_fraction, study.settings[scene][size_setting])
+    reference = Variant(min(fractions), max(sizes))
+    variants = sorted({*(Variant(f, base.size) for f in fractions),
+                       *(Variant(base.fraction, s) for s in sizes), reference},
+                      key=lambda v: (v.size, -v.fraction))
+    for v in variants:
+        check_fraction(v.fraction, "--fractions")
+        study.scenes[scene].resolve_settings({**study.settings[scene], size_setting: v.size},
+                                             f"--sizes ({size_setting})")
+    return variants, reference
+
+
+def run_variant(config: str, scene: str, variant: Variant, seed_index: int,
+                point: dict[str, float], workdir: str) -> dict:
+    """One simulation of ``variant``; returns its responses and cost (a failure keeps its reason)."""
+    study = load_study_file(config)
+    size_setting = study.scenes[scene].size_setting
+    settings = study.scenes[scene].resolve_settings(
+        {**study.settings[scene], size_setting: variant.size}, "settings")
+    Path(workdir).mkdir(parents=True, exist_ok=True)
+    job = SimulationJob(scene=scene, parameters=study.parameters_for(point), settings=settings,
+                        seed=study.simulation_seed("convergence", scene, seed_index),
+                        responses=study.responses_needed(scene),
+                        timestep_fraction=variant.fraction, workdir=workdir,
+                        stop_file=str(Path(workdir) / "STOP"))
+    result = study.engine.run(job, RunMonitor(job))
+    row = {"fraction": variant.fraction, "size": variant.size, "seed_index": seed_index,
+           "status": result.status, "reason": result.reason,
+           "wall_s": result.cost.get("wall_s"), "cpu_s": result.cost.get("cpu_s"),
+           "steps": result.cost.get("steps")}
+    if result.status == OK:
+        try:
+            row.update(scene_responses(study.scenes[scene], job.responses, result.measurements,
+                                       lambda: result.arrays, settings))
+        except DemcalError as exc:
+            row.update(status="failed", reason=str(exc))
+    return row
+
+
+def summarise(runs: pd.DataFrame, responses: list[str], reference: Variant) -> pd.DataFrame:
+    """Per variant: mean of each response, its deviation from the reference [%], CPU time.
+
+    ``<response>_noise_pct`` is the seed-to-seed standard deviation of the
+    variant relative to its mean.
+    """
+    ok = runs[runs["status"] == OK]
+    ref = ok[(ok["fraction"] == reference.fraction) & (ok["size"] == reference.size)]
+    rows = []
+    for (fraction, size), group in ok.groupby(["fraction", "size"]):
+        row = {"fraction": fraction, "size": size, "runs_ok": len(group),
+               "cpu_s": group["cpu_s"].mean(), "wall_s": group["wall_s"].mean(),
+               "reference": (fraction, size) == (reference.fraction, reference.size)}
+        for name in responses:
+            mean = group[name].mean()
+            row[name] = mean
+            row[f"{name}_deviation_pct"] = (100.0 * (mean - ref[name].mean()) / ref[name].mean()
+                                            if len(ref) else float("nan"))
+            row[f"{name}_noise_pct"] = (100.0 * statistics.stdev(group[name]) / abs(mean)
+                                        if len(group) > 1 and mean else float("nan"))
+        rows.append(row)
+    failed = runs[runs["status"] != OK]
+    for _, run in failed.iterrows():
+        rows.append({"fraction": run["fraction"], "size": run["size"], "runs_ok": 0,
+                     "failure": run["reason"]})
+    return pd.DataFrame(rows)
+
+
+def plot(summary: pd.DataFrame, responses: list[str], size_setting: str, path: Path) -> None:
+    """|deviation from the reference| against CPU seconds per simulation, one panel per response."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ok = summary[summary["runs_ok"] > 0]
+    fig, axes = plt.subplots(1, len(responses), figsize=(5.0 * len(responses), 4.0), squeeze=False)
+    for ax, name in zip(axes[0], responses):
+        for _, row in ok.iterrows():
+            ax.scatter(row["cpu_s"], abs(row[f"{name}_deviation_pct"]),
+                       marker="*" if row["reference"] else "o", color="k" if row["reference"]
+                       else "tab:blue")
+            ax.annotate(f"dt {row['fraction']:g}, {size_setting} {row['size']:g}",
+                        (row["cpu_s"], abs(row[f"{name}_deviation_pct"])), fontsize=7,
+                        xytext=(3, 3), textcoords="offset points")
+        noise = ok[f"{name}_noise_pct"].median()
+        if noise == noise:  # not NaN
+            ax.axhline(noise, color="tab:red", linestyle="--", label=f"seed noise {noise:.2g} %")
+            ax.legend(fontsize=8)
+        ax.set_xlabel("CPU seconds per simulation")
+        ax.set_ylabel(f"|{name} - reference| [%]")
+        ax.set_title(name)
+        ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def run(config: str, scene: str | None, fractions: list[float] | None,
+        sizes: list[float] | None, seeds: int, jobs: int, point_overrides: list[str]) -> Path:
+    """Run the study and write its files; returns the summary CSV's path."""
+    config = str(Path(config).resolve())
+    study = load_study_file(config)
+    scene = scene or next(iter(study.scenes))
+    if scene not in study.scenes:
+        raise ConfigError(f"--scene {scene}: not a scene of the study ({', '.join(study.scenes)})")
+    size_setting = study.scenes[scene].size_setting
+    base_size = study.settings[scene][size_setting]
+    if sizes is None:
+        sizes = [f * base_size for f in DEFAULT_SIZE_FACTORS]
+        if study.scenes[scene].settings[size_setting].integer:
+            sizes = [float(round(s)) for s in sizes]
+    variants, reference = plan(study, scene, list(fractions or DEFAULT_FRACTIONS), sizes)
+    point = {p.name: 0.5 * (p.lower + p.upper) for p in study.free}
+    for item in point_overrides:
+        name, _, value = item.partition("=")
+        if name not in point:
+            raise ConfigError(f"--point {item}: {name!r} is not a free parameter "
+                              f"({', '.join(point)})")
+        point[name] = float(value)
+    out = study.results_dir / "convergence"
+    tasks = [(v, k) for v in variants for k in range(seeds)]
+    print(f"demcal convergence: {scene}, {len(variants)} variants x {seeds} seeds = "
+          f"{len(tasks)} simulations, {jobs} at a time; reference {reference.label}", flush=True)
+    rows = []
+    with ProcessPoolExecutor(jobs) as pool:
+        futures = [pool.submit(run_variant, config, scene, v, k, point,
+                               str((out / scene / v.label / f"seed{k}").resolve()))
+                   for v, k in tasks]
+        for done, future in enumerate(futures, 1):
+            row = future.result()
+            rows.append(row)
+            print(f"  [{done}/{len(tasks)}] dt {row['fraction']:g} T_R, {size_setting} "
+                  f"{row['size']:g}, seed {row['seed_index']}: {row['status']} "
+                  f"({row['cpu_s'] or 0:.0f} s CPU) {row['reason']}", flush=True)
+    runs = pd.DataFrame(rows)
+    responses = study.responses_needed(scene)
+    summary = summarise(runs, responses, reference)
+    runs.to_csv(out / f"{scene}.csv", index=False)
+    summary_path = out / f"{scene}_summary.csv"
+    summary.to_csv(summary_path, index=False)
+    if (summary["runs_ok"] > 0).any():
+        plot(summary, responses, size_setting, out / f"{scene}.png")
+    with pd.option_context("display.width", 200, "display.max_columns", 30):
+        print(summary.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    print(f"demcal convergence: table {summary_path}, plot {out / f'{scene}.png'}")
+    return summary_path
+

@@ -1,0 +1,55 @@
+"""demcal convergence: plan of variants, deviations from the reference, files (analytic engine)."""
+
+import pandas as pd
+import pytest
+import yaml
+
+from demcal.cli import main
+from demcal.config import load_study
+from demcal.convergence import Variant, plan
+
+
+def test_plan_holds_both_sweeps_and_the_finest_reference(analytic_config):
+    study = load_study(analytic_config)
+    variants, reference = plan(study, "cylinder_lift", [0.5, 0.25, 0.125], [1000.0, 2000.0])
+    assert reference == Variant(0.125, 2000.0)
+    assert set(variants) == {Variant(0.5, 2000.0), Variant(0.25, 2000.0), Variant(0.125, 2000.0),
+                             Variant(0.25, 1000.0)}
+
+
+def test_plan_refuses_an_unsafe_fraction_and_a_bad_size(analytic_config):
+    study = load_study(analytic_config)
+    with pytest.raises(Exception, match="--fractions: 0.8 is above 0.5"):
+        plan(study, "cylinder_lift", [0.8, 0.25], [2000.0])
+    with pytest.raises(Exception, match=r"--sizes \(particle_count\).particle_count: 5.0 is outside"):
+        plan(study, "cylinder_lift", [0.25], [5.0])
+
+
+def test_convergence_writes_table_and_plot(tmp_path, monkeypatch, analytic_config, capsys):
+    monkeypatch.chdir(tmp_path)
+    config = tmp_path / "study.yaml"
+    config.write_text(yaml.safe_dump(analytic_config))
+    code = main(["convergence", str(config), "--fractions", "0.25", "0.125", "--sizes", "1000",
+                 "2000", "--seeds", "2", "--jobs", "1"])
+    assert code == 0
+    out = tmp_path / "results" / analytic_config["study"] / "convergence"
+    summary = pd.read_csv(out / "cylinder_lift_summary.csv")
+    assert len(summary) == 3 and summary["runs_ok"].tolist() == [2, 2, 2]
+    reference = summary[summary["reference"]]
+    assert reference[["fraction", "size"]].values.tolist() == [[0.125, 2000.0]]
+    assert reference["bulk_density_deviation_pct"].iloc[0] == 0.0
+    # the analytic engine ignores the resolution and this config has no noise:
+    # every variant matches the reference exactly
+    assert summary["bulk_density_deviation_pct"].abs().max() == pytest.approx(0.0, abs=1e-9)
+    assert (out / "cylinder_lift.png").stat().st_size > 0
+    assert len(pd.read_csv(out / "cylinder_lift.csv")) == 6
+    assert "reference dt0.125_size2000" in capsys.readouterr().out
+
+
+def test_convergence_unknown_scene_is_one_clear_error(tmp_path, monkeypatch, analytic_config,
+                                                      capsys):
+    monkeypatch.chdir(tmp_path)
+    config = tmp_path / "study.yaml"
+    config.write_text(yaml.safe_dump(analytic_config))
+    assert main(["convergence", str(config), "--scene", "shear_box"]) == 2
+    assert "--scene shear_box: not a scene of the study (cylinder_lift)" in capsys.readouterr().err
