@@ -174,3 +174,36 @@ def test_dag_drawing_without_graphviz_says_how_to_get_it(monkeypatch):
     svg = demcal.plots.dag_svg('digraph { simulate -> "extract" }')
     assert svg.startswith("<svg") and "apt install graphviz" in svg
     assert "simulate -&gt; &quot;extract&quot;" in svg
+
+
+def test_joint_study_runs_every_scene_replicate_in_parallel(tmp_path, analytic_config):
+    """Two scenes x 2 replicates in one evaluation: four simulate/extract pairs, two at a time."""
+    config = {**analytic_config, "engine": {"name": "analytic", "noise": 0.0, "duration": 1.5},
+              "parameters": {**analytic_config["parameters"],
+                             "sliding_friction_pw": {"lower": 0.2, "upper": 0.9}},
+              "targets": [*analytic_config["targets"],
+                          {"scene": "calibration_device", "response": "mass_flow",
+                           "value": 0.02, "unit": "kg/s"},
+                          {"scene": "calibration_device", "response": "slide_time",
+                           "value": 0.6, "unit": "s"}]}
+    evaldir = write_point(tmp_path, "unit", "e1", sliding_friction_pp=0.4,
+                          rolling_friction_pp=0.1, sliding_friction_pw=0.4)
+    proc = run_snakemake(tmp_path, config, "results/unit/evals/e1/objective.json")
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    record = json.loads((evaldir / "objective.json").read_text())
+    assert record["status"] == "ok"
+    assert set(record["responses"]) == {"cylinder_lift.angle_of_repose",
+                                        "cylinder_lift.bulk_density",
+                                        "calibration_device.mass_flow",
+                                        "calibration_device.slide_time"}
+    spans = []
+    for scene in ("cylinder_lift", "calibration_device"):
+        for rep in (0, 1):
+            sim = json.loads((evaldir / scene / f"rep{rep}" / "simulation.json").read_text())
+            assert sim["responses_needed"] == (["bulk_density", "angle_of_repose"]
+                                               if scene == "cylinder_lift"
+                                               else ["mass_flow", "slide_time"])
+            spans.append((sim["started_at"], sim["ended_at"]))
+    spans.sort()
+    overlapping = sum(1 for a, b in zip(spans, spans[1:]) if b[0] < a[1])
+    assert overlapping >= 2  # with 2 cores, pairs of simulations ran side by side
