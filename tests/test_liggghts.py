@@ -7,8 +7,9 @@ reason, and STOP honoured.
 
 import math
 import shutil
+import sys
 import threading
-from types import SimpleNamespace
+from types import ModuleType, SimpleNamespace
 
 import numpy as np
 import pytest
@@ -16,12 +17,13 @@ import pytest
 from demcal.config import load_study
 from demcal.engines import liggghts
 from demcal.engines.base import FAILED, OK, TERMINATED, RunMonitor, SimulationJob
-from demcal.engines.liggghts import (CylinderLiftInput, LiggghtsEngine, cylinder_triangles,
-                                     place_spheres, polygon_segments, read_dump, write_ascii_stl)
+from demcal.engines.liggghts import LiggghtsEngine, read_dump, write_ascii_stl
 from demcal.errors import ConfigError, SimulationFailed
 from demcal.files import read_partial
 from demcal.parameters import CATALOG
 from demcal.scenes import SCENES
+from demcal.scenes.cylinder_lift_liggghts import (CylinderLiftInput, cylinder_triangles,
+                                                  place_spheres, polygon_segments)
 from demcal.timestep import timestep
 
 SCENE = SCENES["cylinder_lift"]
@@ -149,9 +151,29 @@ def test_check_names_the_install_and_refuses_settings_and_other_scenes(monkeypat
     monkeypatch.setattr(liggghts.shutil, "which", lambda name: "/usr/bin/" + name)
     with pytest.raises(ConfigError, match="takes no settings"):
         LiggghtsEngine({"binary": "x"}).check([SCENE])
-    with pytest.raises(ConfigError, match="no LIGGGHTS input for scene 'shear_box'"):
-        LiggghtsEngine().check([SimpleNamespace(name="shear_box")])
+    with pytest.raises(ConfigError, match="no LIGGGHTS driver for scene 'shear_box'"):
+        LiggghtsEngine().check([SCENE, SCENES["shear_box"]])
     LiggghtsEngine().check([SCENE])
+
+
+def test_run_imports_the_driver_the_scene_names(tmp_path, monkeypatch):
+    monkeypatch.setattr(liggghts.shutil, "which", lambda name: "/usr/bin/" + name)
+    job = tiny_job(tmp_path)
+    scene = SimpleNamespace(drivers={})
+    monkeypatch.setitem(SCENES, "cylinder_lift", scene)
+    result = LiggghtsEngine().run(job, RunMonitor(job))
+    assert result.status == FAILED and "no driver for scene 'cylinder_lift'" in result.reason
+
+    def refuse(workdir):
+        raise SimulationFailed(f"fake driver asked to write into {workdir.name}")
+
+    fake = ModuleType("fake_liggghts_driver")
+    fake.case = lambda job: SimpleNamespace(dumps={}, write=refuse)
+    monkeypatch.setitem(sys.modules, fake.__name__, fake)
+    scene.drivers["liggghts"] = fake.__name__
+    result = LiggghtsEngine().run(job, RunMonitor(job))
+    assert result.status == FAILED
+    assert result.reason == f"fake driver asked to write into {tmp_path.name}"
 
 
 @pytest.mark.parametrize("body, expected", [

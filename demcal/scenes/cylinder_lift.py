@@ -120,6 +120,6 @@ SCENE = Scene(
     },
     analytic_model=analytic_model,
     extractors={"bulk_density": _bulk_density, "angle_of_repose": _angle_of_repose},
-    drivers={"lammps": "demcal.scenes.cylinder_lift_lammps"},
+    drivers={"lammps": "demcal.scenes.cylinder_lift_lammps", "liggghts": "demcal.scenes.cylinder_lift_liggghts"},
     check_settings=check_geometry,
 )
