@@ -43,17 +43,6 @@ def run_seed(config: str, scene: str, replicate: int) -> dict:
             **responses["responses"]}
 
 
-def parse_point(study, overrides: list[str]) -> dict[str, float]:
-    point = {p.name: 0.5 * (p.lower + p.upper) for p in study.free}
-    for item in overrides:
-        name, _, value = item.partition("=")
-        if name not in point:
-            raise SystemExit(f"--point {item}: {name!r} is not a free parameter of the study "
-                             f"({', '.join(point)})")
-        point[name] = float(value)
-    return point
-
-
 def summary(rows: list[dict], responses: list[str]) -> str:
     lines = ["| quantity | mean | std. dev. | min | max |", "|---|---|---|---|---|"]
     for key in [*responses, "wall_s", "cpu_s", "steps"]:
@@ -81,7 +70,7 @@ def main() -> None:
     config = str(Path(args.config).resolve())
     study = load_study_file(config)
     scene = args.scene or next(iter(study.scenes))
-    point = parse_point(study, args.point)
+    point = study.centre_point(args.point)
     with tempfile.TemporaryDirectory() as scratch:
         os.chdir(scratch)
         write_json(evaluation_dir(study, EVALUATION) / "params.json", {"parameters": point})

@@ -69,6 +69,20 @@ class Study:
         wanted = {t.response for t in self.targets if t.scene == scene}
         return [r for r in self.scenes[scene].responses if r in wanted]
 
+    def centre_point(self, overrides: list[str] = ()) -> dict[str, float]:
+        """Free values at the centre of the bounds, changed by ``NAME=VALUE`` overrides."""
+        point = {p.name: 0.5 * (p.lower + p.upper) for p in self.free}
+        for item in overrides:
+            name, _, value = item.partition("=")
+            if name not in point:
+                raise ConfigError(f"--point {item}: {name!r} is not a free parameter "
+                                  f"({', '.join(point)})")
+            try:
+                point[name] = float(value)
+            except ValueError:
+                raise ConfigError(f"--point {item}: {value!r} is not a number") from None
+        return point
+
     def timestep_cost(self, free_values: dict[str, float]) -> float:
         """Squared Rayleigh time-step cost of a point, added to its objective (0 when off)."""
         if self.rayleigh_cost_weight == 0.0:

@@ -160,13 +160,7 @@ def run(config: str, scene: str | None, fractions: list[float] | None,
         if study.scenes[scene].settings[size_setting].integer:
             sizes = [float(round(s)) for s in sizes]
     variants, reference = plan(study, scene, list(fractions or DEFAULT_FRACTIONS), sizes)
-    point = {p.name: 0.5 * (p.lower + p.upper) for p in study.free}
-    for item in point_overrides:
-        name, _, value = item.partition("=")
-        if name not in point:
-            raise ConfigError(f"--point {item}: {name!r} is not a free parameter "
-                              f"({', '.join(point)})")
-        point[name] = float(value)
+    point = study.centre_point(point_overrides)
     out = study.results_dir / "convergence"
     tasks = [(v, k) for v in variants for k in range(seeds)]
     print(f"demcal convergence: {scene}, {len(variants)} variants x {seeds} seeds = "

@@ -225,5 +225,5 @@ def run_snakemake_job(smk, stage: str) -> None:
 def write_centre_point(smk) -> None:
     """params.json at the centre of the free parameters' bounds (the default evaluation)."""
     study = load_study(smk.config, check_engine=False)
-    point = {p.name: 0.5 * (p.lower + p.upper) for p in study.free}
-    write_json(Path(smk.output[0]), {"parameters": point, "proposed_by": "centre of the bounds"})
+    write_json(Path(smk.output[0]), {"parameters": study.centre_point(),
+                                     "proposed_by": "centre of the bounds"})

@@ -136,3 +136,13 @@ def test_rayleigh_cost_enters_the_objective_of_a_stiff_point(analytic_config):
     point = {p.name: p.lower for p in study.free}
     assert study.timestep_cost(point) == pytest.approx(0.0)
     assert study.timestep_cost({**point, "youngs_modulus": 5.0e8}) == pytest.approx(0.25)
+
+
+def test_centre_point_with_overrides_names_a_bad_one(analytic_config):
+    study = load_study(analytic_config)
+    assert study.centre_point(["rolling_friction_pp=0.05"]) == {
+        "sliding_friction_pp": 0.5, "rolling_friction_pp": 0.05}
+    with pytest.raises(ConfigError, match="--point restitution=0.3: 'restitution' is not a free"):
+        study.centre_point(["restitution=0.3"])
+    with pytest.raises(ConfigError, match="--point rolling_friction_pp=x: 'x' is not a number"):
+        study.centre_point(["rolling_friction_pp=x"])

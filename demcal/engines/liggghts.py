@@ -42,7 +42,7 @@ from demcal.engines.base import (FAILED, OK, TERMINATED, Engine, RunMonitor, Run
 from demcal.errors import ConfigError, SimulationFailed
 from demcal.files import log_tail
 from demcal.scenes import SCENES
-from demcal.scenes.lammps_driver import BLOWUP_FACTOR
+from demcal.scenes.particles import BLOWUP_FACTOR
 
 BINARY = "liggghts"
 INSTALL_HINT = "install it with: apt-get install liggghts (Debian/Ubuntu, LIGGGHTS 3.8)"

@@ -16,11 +16,12 @@ import math
 import numpy as np
 
 from demcal.contact import GRAVITY
-from demcal.engines.base import OK, TERMINATED, RunMonitor, RunResult, SimulationJob
+from demcal.engines.base import RunMonitor, RunResult, SimulationJob
 from demcal.scenes import measure
 from demcal.scenes.calibration_device import (EARLY_ESTIMATE_AT, MASS_FLOW_BAND,
                                               device_geometry)
-from demcal.scenes.lammps_driver import INSERTION_SOLID_FRACTION, LammpsDriver, Stopped, num
+from demcal.scenes.lammps_driver import LammpsDriver, num
+from demcal.scenes.particles import INSERTION_SOLID_FRACTION
 
 CONTAINER = "the device"
 #: Material counts as at rest after the opening only after this simulated time [s].
@@ -130,37 +131,26 @@ class CalibrationDevice(LammpsDriver):
                 "remaining": np.array(remaining)}
 
     # -- the test -------------------------------------------------------------
-    def run(self) -> RunResult:
+    def stages(self, measurements: dict[str, float], arrays: dict[str, np.ndarray]) -> None:
         wants = set(self.job.responses)
-        measurements: dict[str, float] = {}
-        arrays: dict[str, np.ndarray] = {}
-        self.build()
-        try:
-            fall_time = math.sqrt(2.0 * (self.g.fill_top - self.g.hopper_bottom) / GRAVITY)
-            measurements["fill_at_rest"] = float(self.settle(
-                "fill", 0.0, 0.2, False, min_time=fall_time, container="the closed hopper"))
-            record = self.discharge(until_slide_empty=bool(wants - {"mass_flow"}))
-            arrays.update(discharge_time=record["times"], hopper_mass=record["held"],
-                          mass_on_the_way=record["remaining"])
+        fall_time = math.sqrt(2.0 * (self.g.fill_top - self.g.hopper_bottom) / GRAVITY)
+        measurements["fill_at_rest"] = float(self.settle(
+            "fill", 0.0, 0.2, False, min_time=fall_time, container="the closed hopper"))
+        record = self.discharge(until_slide_empty=bool(wants - {"mass_flow"}))
+        arrays.update(discharge_time=record["times"], hopper_mass=record["held"],
+                      mass_on_the_way=record["remaining"])
+        if "mass_flow" in wants:
             measurements["mass_flow"] = measure.discharge_rate(
                 record["times"], record["held"], self.total_mass, MASS_FLOW_BAND)
+        if "slide_time" in wants:
             measurements["slide_time"] = measure.slide_time_with_penalty(
                 record["times"], record["remaining"], self.total_mass,
                 self.s["slide_empty_fraction"], self.s["max_time"])
-            if "angle_of_repose" in wants:
-                measurements["pile_at_rest"] = float(self.settle(
-                    "pile", 0.8, 1.0, False, container=CONTAINER))
-                x, r, _ = self.particles()
-                arrays.update(heap_x=x, heap_r=r)
-            measurements = {k: v for k, v in measurements.items()
-                            if k in wants or k.endswith("_at_rest")}
-            status, reason = OK, ""
-        except Stopped:
-            status, reason = TERMINATED, "stop requested"
-        finally:
-            self.lmp.close()
-        return RunResult(status, reason, measurements=measurements,
-                         arrays=arrays if status == OK else {}, cost=self.cost())
+        if "angle_of_repose" in wants:
+            measurements["pile_at_rest"] = float(self.settle(
+                "pile", 0.8, 1.0, False, container=CONTAINER))
+            x, r, _ = self.particles()
+            arrays.update(heap_x=x, heap_r=r)
 
 
 def run(job: SimulationJob, monitor: RunMonitor) -> RunResult:

