@@ -116,7 +116,7 @@ TINY = {"particle_count": 300, "d50": 2.0e-3, "floor_length": 0.08, "slide_lengt
 
 def tiny_job(tmp_path, responses, fraction=0.25, **params):
     values = {name: spec.default for name, spec in CATALOG.items()}
-    values.update(youngs_modulus=5.0e6, **params)
+    values.update({"youngs_modulus": 5.0e6, **params})
     return SimulationJob(scene="calibration_device", parameters=values,
                          settings=settings(**TINY), seed=3, responses=list(responses),
                          timestep_fraction=fraction, workdir=str(tmp_path),
@@ -158,3 +158,30 @@ def test_tiny_device_oversized_time_step_fails_with_a_reason(tmp_path):
     job = tiny_job(tmp_path, ("mass_flow",), fraction=1.5)
     result = LammpsEngine().run(job, RunMonitor(job))
     assert result.status == FAILED and "unstable" in result.reason
+
+
+CORNERS = {
+    "frictionless": dict(sliding_friction_pp=0.0, sliding_friction_pw=0.0,
+                         rolling_friction_pp=0.0, rolling_friction_pw=0.0),
+    "full_friction": dict(sliding_friction_pp=1.0, sliding_friction_pw=1.0,
+                          rolling_friction_pp=1.0, rolling_friction_pw=1.0),
+    "restitution_0.05": dict(restitution=0.05),
+    "restitution_0.95": dict(restitution=0.95),
+    "stiff_5e8_Pa": dict(youngs_modulus=5.0e8),
+}
+
+
+@pytest.mark.lammps
+@pytest.mark.parametrize("corner", CORNERS)
+def test_tiny_device_extreme_corners_are_stable(tmp_path, corner):
+    """Corners of the parameter box: no blow-up, responses finite and in physical ranges.
+
+    Full friction may stop the flow (a clogged slot or material left on the
+    slide): that is a valid outcome, reported through the slide-time penalty.
+    """
+    job = tiny_job(tmp_path, ("mass_flow", "slide_time", "angle_of_repose"), **CORNERS[corner])
+    result = LammpsEngine().run(job, RunMonitor(job))
+    assert result.status == OK, result.reason
+    assert result.measurements["mass_flow"] >= 0.0
+    assert 0.0 < result.measurements["slide_time"] <= job.settings["max_time"] + 10.0
+    assert 0.0 <= SCENE.extractors["angle_of_repose"](result.arrays, job.settings) < 90.0

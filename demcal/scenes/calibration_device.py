@@ -15,9 +15,9 @@ Three responses:
   ``slide_empty_fraction`` of the material is in the hopper or on the slide;
   if that never happens within ``max_time``, ``max_time + 10 * remaining /
   total`` (the thesis' penalty); sensitive to particle-wall friction.
-- ``angle_of_repose`` [deg]: sigmoid fitted to the pile's free flank (the
-  surface profile from its crest towards the end wall), angle at its
-  inflexion point.
+- ``angle_of_repose`` [deg]: sigmoid fitted to the pile's longer flank (the
+  surface profile from its crest outwards; with the defaults, towards the
+  end wall), angle at its inflexion point.
 
 The rig here is a slice of the device: periodic in depth (y), so the pile
 is a 2-D ridge and the outlet a slot across the whole depth; geometry
@@ -119,14 +119,18 @@ def device_geometry(settings: dict, particle_volume: float, d_max: float,
 
 
 def _angle_of_repose(state: dict, settings: dict) -> float:
-    """Sigmoid fit of the flank from the pile's crest towards the end wall."""
+    """Sigmoid fit of the pile's longer flank, measured from its crest outwards."""
     position, height = measure.surface_profile_along_x(
         state["heap_x"], state["heap_r"], settings["d50"], (0.0, settings["floor_length"]))
     if len(height) == 0:
         return measure.heap_angle_sigmoid_fit(position, height)
     crest = position[np.argmax(height)]
-    flank = position <= crest
-    return measure.heap_angle_sigmoid_fit(crest - position[flank], height[flank])
+    towards_wall, towards_slide = position <= crest, position >= crest
+    if towards_wall.sum() >= towards_slide.sum():
+        return measure.heap_angle_sigmoid_fit(crest - position[towards_wall],
+                                              height[towards_wall])
+    return measure.heap_angle_sigmoid_fit(position[towards_slide] - crest,
+                                          height[towards_slide])
 
 
 def check_geometry(settings: dict, field_prefix: str) -> None:
