@@ -2,14 +2,18 @@
 
 ``demcal convergence CONFIG`` runs the study's centre point (or ``--point``)
 for each time-step fraction of the Rayleigh time at the configured size, and
-for each size (the scene's ``size_setting``: particle count, or the box scale
-of the shear box) at the configured fraction, plus the finest combination
+for each size (the scene's ``size_setting``) at the configured fraction, plus the finest combination
 (smallest fraction, largest size), which is the reference. Each variant runs
 with the same ``--seeds`` seeds. For every response it reports the relative
 deviation of the seed mean from the reference's, next to the seed-to-seed
 spread (the noise a calibration cannot beat) and the CPU time per
 simulation. Output: ``results/<study>/convergence/<scene>.csv`` (every run),
 ``<scene>_summary.csv`` and ``<scene>.png``.
+
+A size is the particle count at the same volume of material (``d50``
+scaled by (N0 / N)^(1/3), so the geometry and the amount stay and only the
+resolution changes), or for the shear box its box scale ``box_size_dmax``
+(the box in largest particles, Richter & Will's scale factor).
 """
 
 from __future__ import annotations
@@ -44,6 +48,16 @@ class Variant:
         return f"dt{self.fraction:g}_size{self.size:g}"
 
 
+def variant_settings(study: Study, scene: str, variant: Variant, field: str) -> dict:
+    """The scene's settings at ``variant``'s size, checked (errors name ``field``)."""
+    size_setting = study.scenes[scene].size_setting
+    settings = dict(study.settings[scene])
+    if size_setting == "particle_count":
+        settings["d50"] *= (settings["particle_count"] / variant.size) ** (1.0 / 3.0)
+    settings[size_setting] = variant.size
+    return study.scenes[scene].resolve_settings(settings, field)
+
+
 def plan(study: Study, scene: str, fractions: list[float],
          sizes: list[float]) -> tuple[list[Variant], Variant]:
     """The variants to run and the reference (finest) one; each is checked like a config."""
@@ -55,8 +69,7 @@ def plan(study: Study, scene: str, fractions: list[float],
                       key=lambda v: (v.size, -v.fraction))
     for v in variants:
         check_fraction(v.fraction, "--fractions")
-        study.scenes[scene].resolve_settings({**study.settings[scene], size_setting: v.size},
-                                             f"--sizes ({size_setting})")
+        variant_settings(study, scene, v, f"--sizes ({size_setting})")
     return variants, reference
 
 
@@ -64,9 +77,7 @@ def run_variant(config: str, scene: str, variant: Variant, seed_index: int,
                 point: dict[str, float], workdir: str) -> dict:
     """One simulation of ``variant``; returns its responses and cost (a failure keeps its reason)."""
     study = load_study_file(config)
-    size_setting = study.scenes[scene].size_setting
-    settings = study.scenes[scene].resolve_settings(
-        {**study.settings[scene], size_setting: variant.size}, "settings")
+    settings = variant_settings(study, scene, variant, "settings")
     Path(workdir).mkdir(parents=True, exist_ok=True)
     job = SimulationJob(scene=scene, parameters=study.parameters_for(point), settings=settings,
                         seed=study.simulation_seed("convergence", scene, seed_index),
@@ -74,7 +85,8 @@ def run_variant(config: str, scene: str, variant: Variant, seed_index: int,
                         timestep_fraction=variant.fraction, workdir=workdir,
                         stop_file=str(Path(workdir) / "STOP"))
     result = study.engine.run(job, RunMonitor(job))
-    row = {"fraction": variant.fraction, "size": variant.size, "seed_index": seed_index,
+    row = {"fraction": variant.fraction, "size": variant.size, "d50": settings["d50"],
+           "seed_index": seed_index,
            "status": result.status, "reason": result.reason,
            "wall_s": result.cost.get("wall_s"), "cpu_s": result.cost.get("cpu_s"),
            "steps": result.cost.get("steps")}

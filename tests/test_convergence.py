@@ -53,3 +53,13 @@ def test_convergence_unknown_scene_is_one_clear_error(tmp_path, monkeypatch, ana
     config.write_text(yaml.safe_dump(analytic_config))
     assert main(["convergence", str(config), "--scene", "shear_box"]) == 2
     assert "--scene shear_box: not a scene of the study (cylinder_lift)" in capsys.readouterr().err
+
+
+def test_particle_count_varies_at_constant_volume_of_material(analytic_config):
+    from demcal.convergence import variant_settings
+
+    study = load_study(analytic_config)
+    coarse = variant_settings(study, "cylinder_lift", Variant(0.25, 1000.0), "f")
+    assert coarse["particle_count"] == 1000
+    assert coarse["d50"] == pytest.approx(2.0e-3 * 2.0 ** (1.0 / 3.0))
+    assert coarse["particle_count"] * coarse["d50"] ** 3 == pytest.approx(2000 * 2.0e-3 ** 3)
