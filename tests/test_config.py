@@ -146,11 +146,3 @@ def test_centre_point_with_overrides_names_a_bad_one(analytic_config):
         study.centre_point(["restitution=0.3"])
     with pytest.raises(ConfigError, match="--point rolling_friction_pp=x: 'x' is not a number"):
         study.centre_point(["rolling_friction_pp=x"])
-
-
-@pytest.mark.parametrize("path", sorted((Path(__file__).resolve().parents[1] / "config").rglob(
-    "*.yaml")), ids=lambda p: p.name)
-def test_shipped_studies_are_valid(path):
-    """Every study shipped in config/ loads (engines not checked: LIGGGHTS may be absent)."""
-    study = load_study_file(path, check_engine=False)
-    assert study.targets and study.free
