@@ -73,7 +73,7 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> dict:
                             workdir=str(workdir.resolve()),
                             stop_file=str((evaluation_dir(study, evaluation) / "STOP").resolve()),
                             attempt=attempt)
-        result = _run_engine(study, job)
+        result = run_engine(study, job)
     if result.status == OK and result.arrays:
         np.savez(workdir / STATE_FILE, **result.arrays)
         record["state_file"] = STATE_FILE
@@ -86,7 +86,7 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> dict:
     return record
 
 
-def _run_engine(study: Study, job: SimulationJob) -> RunResult:
+def run_engine(study: Study, job: SimulationJob) -> RunResult:
     """The engine's run; any error it raises becomes a failed result with the reason."""
     try:
         return study.engine.run(job, RunMonitor(job))

@@ -6,15 +6,41 @@ import yaml
 
 from demcal.cli import main
 from demcal.config import load_study
-from demcal.convergence import Variant, plan
+from demcal.convergence import Variant, plan, summarise
 
 
-def test_plan_holds_both_sweeps_and_the_finest_reference(analytic_config):
+def test_plan_holds_both_sweeps_through_the_configured_variant(analytic_config):
     study = load_study(analytic_config)
-    variants, reference = plan(study, "cylinder_lift", [0.5, 0.25, 0.125], [1000.0, 2000.0])
-    assert reference == Variant(0.125, 2000.0)
+    variants, base = plan(study, "cylinder_lift", [0.5, 0.25, 0.125], [1000.0, 4000.0])
+    assert base == Variant(0.25, 2000.0)
     assert set(variants) == {Variant(0.5, 2000.0), Variant(0.25, 2000.0), Variant(0.125, 2000.0),
-                             Variant(0.25, 1000.0)}
+                             Variant(0.25, 1000.0), Variant(0.25, 4000.0)}
+
+
+def test_each_sweep_is_compared_with_its_own_finest_run():
+    """Time step and size effects stay apart: the base row is 0 % in neither sweep here."""
+    runs = pd.DataFrame([
+        # fraction, size, seed, response
+        (0.5, 2000.0, 0, 110.0), (0.5, 2000.0, 1, 112.0),
+        (0.25, 2000.0, 0, 104.0), (0.25, 2000.0, 1, 106.0),
+        (0.125, 2000.0, 0, 100.0), (0.125, 2000.0, 1, 100.0),
+        (0.25, 4000.0, 0, 130.0), (0.25, 4000.0, 1, 130.0),
+        (0.25, 1000.0, 0, 90.0), (0.25, 1000.0, 1, float("nan")),
+    ], columns=["fraction", "size", "seed_index", "flow"])
+    runs["status"] = ["ok"] * 9 + ["failed"]
+    runs["reason"] = [""] * 9 + ["unstable"]
+    runs["cpu_s"], runs["wall_s"] = 1.0, 1.0
+    table = summarise(runs, ["flow"], Variant(0.25, 2000.0))
+    summary = table[table["runs_ok"] > 0].set_index(["fraction", "size"])
+    assert summary.loc[(0.5, 2000.0), "flow_dt_deviation_pct"] == pytest.approx(11.0)
+    assert summary.loc[(0.25, 2000.0), "flow_dt_deviation_pct"] == pytest.approx(5.0)
+    assert summary.loc[(0.25, 2000.0), "flow_size_deviation_pct"] == pytest.approx(-100 * 25 / 130)
+    assert summary.loc[(0.25, 1000.0), "flow_size_deviation_pct"] == pytest.approx(-100 * 40 / 130)
+    assert summary.loc[(0.125, 2000.0), "flow_size_deviation_pct"] != summary.loc[
+        (0.125, 2000.0), "flow_size_deviation_pct"]  # NaN: not in the size sweep
+    assert summary.loc[(0.5, 2000.0), "flow_noise_pct"] == pytest.approx(
+        100 * 2 ** 0.5 / 111.0)
+    assert table[table["runs_ok"] == 0]["failure"].tolist() == ["unstable"]
 
 
 def test_plan_refuses_an_unsafe_fraction_and_a_bad_size(analytic_config):
@@ -35,15 +61,13 @@ def test_convergence_writes_table_and_plot(tmp_path, monkeypatch, analytic_confi
     out = tmp_path / "results" / analytic_config["study"] / "convergence"
     summary = pd.read_csv(out / "cylinder_lift_summary.csv")
     assert len(summary) == 3 and summary["runs_ok"].tolist() == [2, 2, 2]
-    reference = summary[summary["reference"]]
-    assert reference[["fraction", "size"]].values.tolist() == [[0.125, 2000.0]]
-    assert reference["bulk_density_deviation_pct"].iloc[0] == 0.0
     # the analytic engine ignores the resolution and this config has no noise:
-    # every variant matches the reference exactly
-    assert summary["bulk_density_deviation_pct"].abs().max() == pytest.approx(0.0, abs=1e-9)
+    # every variant matches the finest run of its sweep exactly
+    assert summary["bulk_density_dt_deviation_pct"].abs().max() == pytest.approx(0.0, abs=1e-9)
+    assert summary["bulk_density_size_deviation_pct"].abs().max() == pytest.approx(0.0, abs=1e-9)
     assert (out / "cylinder_lift.png").stat().st_size > 0
     assert len(pd.read_csv(out / "cylinder_lift.csv")) == 6
-    assert "reference dt0.125_size2000" in capsys.readouterr().out
+    assert "configured dt0.25_size2000" in capsys.readouterr().out
 
 
 def test_convergence_unknown_scene_is_one_clear_error(tmp_path, monkeypatch, analytic_config,
