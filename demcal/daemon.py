@@ -394,7 +394,11 @@ def partial_objective(study: Study, evaldir: Path) -> float | None:
                 estimates.setdefault(f"{scene}.{response}", []).append(value)
     total, used = 0.0, 0
     if study.rayleigh_cost_weight:
-        total = study.timestep_cost(read_json(evaldir / "params.json", "params.json")["parameters"])
+        try:
+            total = study.timestep_cost(read_json(evaldir / "params.json",
+                                                  "params.json")["parameters"])
+        except (DemcalError, KeyError, TypeError):
+            return None  # the evaluation will record why
     for t in study.targets:
         if t.key in estimates:
             mean = sum(estimates[t.key]) / len(estimates[t.key])

@@ -191,17 +191,28 @@ def objective(study: Study, evaluation: str, response_paths: list[Path]) -> dict
     elif missing := [t.key for t in study.targets if t.key not in values]:
         record.update(status=FAILED, reason=f"no value for targeted responses {missing}")
     else:
-        means = {key: replicate_mean(v) for key, v in values.items()}
-        record.update(
-            status=OK, reason="",
-            objective=objective_value(study.targets, means) + study.timestep_cost(point),
-            timestep_cost=study.timestep_cost(point),
-            responses=means, replicates=dict(values),
-            spread={key: replicate_spread(v) for key, v in values.items()},
-            relative_errors={t.key: relative_error(means[t.key], t.value) for t in study.targets},
-            targets={t.key: t.value for t in study.targets})
+        _objective_of_responses(study, point, values, record)
     write_json(evaluation_dir(study, evaluation) / "objective.json", record)
     return record
+
+
+def _objective_of_responses(study: Study, point: dict, values: dict[str, list[float]],
+                            record: dict) -> None:
+    """Fill ``record`` with eq. 3.3 (plus the Rayleigh cost) of the replicate means, or a failure."""
+    try:
+        timestep_cost = study.timestep_cost(point)
+    except DemcalError as exc:
+        record.update(status=FAILED, reason=f"Rayleigh time-step cost: {exc}")
+        return
+    means = {key: replicate_mean(v) for key, v in values.items()}
+    record.update(
+        status=OK, reason="",
+        objective=objective_value(study.targets, means) + timestep_cost,
+        timestep_cost=timestep_cost,
+        responses=means, replicates=dict(values),
+        spread={key: replicate_spread(v) for key, v in values.items()},
+        relative_errors={t.key: relative_error(means[t.key], t.value) for t in study.targets},
+        targets={t.key: t.value for t in study.targets})
 
 
 def run_snakemake_job(smk, stage: str) -> None:

@@ -21,13 +21,21 @@ def test_discharge_rate_fits_the_band_only():
     times = np.arange(11) * 0.1
     # 1 kg: a slow start (0.05 kg in 0.1 s), then 0.2 kg per 0.1 s, then a slow tail
     held = np.array([1.0, 0.95, 0.75, 0.55, 0.35, 0.15, 0.10, 0.06, 0.03, 0.01, 0.0])
-    assert measure.discharge_rate(times, held, 1.0, (0.2, 0.8)) == pytest.approx(2.0)
+    assert measure.discharge_rate(times, held, 1.0, (0.2, 0.8), 3.0) == pytest.approx(2.0)
 
 
-def test_discharge_rate_of_a_stalled_flow_is_the_mean_rate():
+def test_discharge_rate_of_a_stalled_flow_spreads_its_mass_over_the_time_allowed():
     times = np.array([0.0, 0.1, 0.2, 0.3])
     held = np.array([1.0, 0.9, 0.9, 0.9])  # clogged after 10 % left
-    assert measure.discharge_rate(times, held, 1.0, (0.2, 0.8)) == pytest.approx(0.1 / 0.3)
+    assert measure.discharge_rate(times, held, 1.0, (0.2, 0.8), 2.0) == pytest.approx(0.1 / 2.0)
+    sooner = np.array([1.0, 0.95, 0.95, 0.95])
+    assert measure.discharge_rate(times, sooner, 1.0, (0.2, 0.8), 2.0) < 0.1 / 2.0
+
+
+def test_discharge_rate_sampled_too_coarsely_is_the_mean_rate():
+    times = np.array([0.0, 0.1, 0.2])
+    held = np.array([1.0, 0.5, 0.0])  # one sample in the band
+    assert measure.discharge_rate(times, held, 1.0, (0.2, 0.8), 2.0) == pytest.approx(5.0)
 
 
 def test_slide_time_is_the_first_time_below_the_threshold():
@@ -93,6 +101,8 @@ def test_hopper_holds_the_insertion_volume(wall_angle):
     ({"depth": 5.0e-3, "d50": 2.0e-3}, "depth: 0.005 m is less than 3 of the largest particles"),
     ({"slide_length": 5.0e-3}, "slide_length: 0.005 m puts the outlet past the slide's edge"),
     ({"slide_angle": 85.0}, r"slide_angle: 85.0 is outside the allowed range: a number in \[5, 80\]"),
+    ({"slide_angle": 50.0, "hopper_wall_angle": 45.0},
+     "slide_angle: 50 deg is not below hopper_wall_angle \\(45 deg\\)"),
 ])
 def test_bad_settings_name_field_and_range(given, message):
     with pytest.raises(ConfigError, match=message):

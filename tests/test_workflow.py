@@ -207,3 +207,18 @@ def test_joint_study_runs_every_scene_replicate_in_parallel(tmp_path, analytic_c
     spans.sort()
     overlapping = sum(1 for a, b in zip(spans, spans[1:]) if b[0] < a[1])
     assert overlapping >= 2  # with 2 cores, pairs of simulations ran side by side
+
+
+def test_rayleigh_cost_is_added_to_the_objective(tmp_path, analytic_config):
+    """Rackl & Hanley eq. 10 at the stiffest E of the bounds: the cost is W^2 on top of eq. 3.3."""
+    config = {**analytic_config, "rayleigh_cost_weight": 0.5,
+              "parameters": {**analytic_config["parameters"],
+                             "youngs_modulus": {"lower": 5.0e6, "upper": 5.0e8}}}
+    evaldir = write_point(tmp_path, "unit", "e1", sliding_friction_pp=0.4,
+                          rolling_friction_pp=0.1, youngs_modulus=5.0e8)
+    proc = run_snakemake(tmp_path, config, "results/unit/evals/e1/objective.json")
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    record = json.loads((evaldir / "objective.json").read_text())
+    errors = sum(e * e for e in record["relative_errors"].values())
+    assert record["timestep_cost"] == pytest.approx(0.25)
+    assert record["objective"] == pytest.approx(errors + 0.25)

@@ -2,10 +2,16 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Callable
 
 from demcal.errors import ConfigError
+
+
+def saturating(value: float, scale: float) -> float:
+    """1 - exp(-value / scale): 0 at 0, rising to 1; a building block of the analytic models."""
+    return 1.0 - math.exp(-value / scale)
 
 
 @dataclass(frozen=True)

@@ -32,9 +32,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from demcal.errors import ConfigError
+from demcal.errors import ConfigError, SimulationFailed
 from demcal.scenes import measure
-from demcal.scenes.base import ResponseSpec, Scene, SettingSpec
+from demcal.scenes.base import ResponseSpec, Scene, SettingSpec, saturating
 from demcal.scenes.psd import diameter_range
 
 #: Discharged fractions between which the hopper's mass is fitted for the mass flow.
@@ -42,9 +42,6 @@ MASS_FLOW_BAND = (0.2, 0.8)
 #: Discharged fraction at which the early estimate of the mass flow is written.
 EARLY_ESTIMATE_AT = 0.5
 
-
-def _saturating(value: float, scale: float) -> float:
-    return 1.0 - math.exp(-value / scale)
 
 
 def analytic_model(p: dict, settings: dict) -> dict:
@@ -55,13 +52,13 @@ def analytic_model(p: dict, settings: dict) -> dict:
     wall friction approaches tan(slide angle); the pile angle rises with
     both frictions.
     """
-    grip_pp = _saturating(p["sliding_friction_pp"], 0.4)
+    grip_pp = saturating(p["sliding_friction_pp"], 0.4)
     grip_pw = p["sliding_friction_pw"] / math.tan(math.radians(settings["slide_angle"]))
     bulk = 0.6 * p["particle_density"]
     flow = (bulk * math.sqrt(9.81) * settings["orifice_width"] ** 1.5 * settings["depth"]
-            * (0.75 - 0.25 * grip_pp - 0.1 * _saturating(p["rolling_friction_pp"], 0.1)))
+            * (0.75 - 0.25 * grip_pp - 0.1 * saturating(p["rolling_friction_pp"], 0.1)))
     slide = 0.4 + 0.6 / (1.0 + math.exp(-6.0 * (grip_pw - 0.9)))
-    aor = 10.0 + 18.0 * grip_pp + 6.0 * _saturating(p["sliding_friction_pw"], 0.4)
+    aor = 10.0 + 18.0 * grip_pp + 6.0 * saturating(p["sliding_friction_pw"], 0.4)
     return {"mass_flow": flow, "slide_time": slide, "angle_of_repose": aor}
 
 
@@ -123,7 +120,7 @@ def _angle_of_repose(state: dict, settings: dict) -> float:
     position, height = measure.surface_profile_along_x(
         state["heap_x"], state["heap_r"], settings["d50"], (0.0, settings["floor_length"]))
     if len(height) == 0:
-        return measure.heap_angle_sigmoid_fit(position, height)
+        raise SimulationFailed("no pile on the floor: no angle of repose to measure")
     crest = position[np.argmax(height)]
     towards_wall, towards_slide = position <= crest, position >= crest
     if towards_wall.sum() >= towards_slide.sum():
@@ -141,6 +138,12 @@ def check_geometry(settings: dict, field_prefix: str) -> None:
             raise ConfigError(
                 f"{field_prefix}.{name}: {settings[name]:g} m is less than {multiple:g} of the "
                 f"largest particles ({d_max:g} m); use at least {multiple * d_max:g} m")
+    if settings["slide_angle"] >= settings["hopper_wall_angle"]:
+        raise ConfigError(
+            f"{field_prefix}.slide_angle: {settings['slide_angle']:g} deg is not below "
+            f"hopper_wall_angle ({settings['hopper_wall_angle']:g} deg): the slide, rising "
+            f"under the hopper's sloping wall, would cut into the hopper; use a smaller "
+            f"slide_angle or a steeper hopper_wall_angle")
     if settings["slide_length"] * 2.0 < settings["orifice_width"]:
         raise ConfigError(
             f"{field_prefix}.slide_length: {settings['slide_length']:g} m puts the outlet past "

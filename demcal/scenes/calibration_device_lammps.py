@@ -121,7 +121,7 @@ class CalibrationDevice(LammpsDriver):
                 estimated = True
                 estimate = {"mass_flow": measure.discharge_rate(
                     np.array(times), np.array(held), self.total_mass,
-                    (MASS_FLOW_BAND[0], EARLY_ESTIMATE_AT))}
+                    (MASS_FLOW_BAND[0], EARLY_ESTIMATE_AT), s["max_time"])}
             self.monitor.progress(0.2 + 0.6 * done / limit, "discharge", estimate)
             finished = (on_way if until_slide_empty else hopper) < empty
             resting = energy < at_rest_energy and done * self.dt >= MIN_FLOW_TIME
@@ -141,7 +141,8 @@ class CalibrationDevice(LammpsDriver):
                       mass_on_the_way=record["remaining"])
         if "mass_flow" in wants:
             measurements["mass_flow"] = measure.discharge_rate(
-                record["times"], record["held"], self.total_mass, MASS_FLOW_BAND)
+                record["times"], record["held"], self.total_mass, MASS_FLOW_BAND,
+                self.s["max_time"])
         if "slide_time" in wants:
             measurements["slide_time"] = measure.slide_time_with_penalty(
                 record["times"], record["remaining"], self.total_mass,
@@ -154,5 +155,5 @@ class CalibrationDevice(LammpsDriver):
 
 
 def run(job: SimulationJob, monitor: RunMonitor) -> RunResult:
-    """Engine entry point (``Scene.drivers['calibration_device']``)."""
+    """Engine entry point (``Scene.drivers['lammps']``)."""
     return CalibrationDevice(job, monitor).run()

@@ -22,12 +22,8 @@ import math
 from demcal.errors import ConfigError
 from demcal.scenes import measure
 from demcal.scenes.psd import diameter_range
-from demcal.scenes.base import ResponseSpec, Scene, SettingSpec
+from demcal.scenes.base import ResponseSpec, Scene, SettingSpec, saturating
 
-
-def _saturating(value: float, scale: float) -> float:
-    """1 - exp(-value / scale): 0 at 0, rising to 1."""
-    return 1.0 - math.exp(-value / scale)
 
 
 def analytic_model(p: dict, settings: dict) -> dict:
@@ -39,11 +35,11 @@ def analytic_model(p: dict, settings: dict) -> dict:
     density scales the bulk density. Not physics: it gives the pipeline and
     the optimizer a known landscape.
     """
-    grip = _saturating(p["sliding_friction_pp"], 0.35)
-    roll = _saturating(p["rolling_friction_pp"], 0.08)
+    grip = saturating(p["sliding_friction_pp"], 0.35)
+    roll = saturating(p["rolling_friction_pp"], 0.08)
     aor = (4.0 + 34.0 * grip * (0.35 + 0.65 * roll)
-           + 4.0 * _saturating(p["sliding_friction_pw"], 0.3)
-           + 3.0 * _saturating(p["rolling_friction_pw"], 0.1)
+           + 4.0 * saturating(p["sliding_friction_pw"], 0.3)
+           + 3.0 * saturating(p["rolling_friction_pw"], 0.1)
            - 2.0 * (p["restitution"] - 0.5))
     solid_fraction = 0.64 - 0.02 * grip - 0.08 * roll - 0.01 * (p["restitution"] - 0.5)
     return {"angle_of_repose": aor, "bulk_density": p["particle_density"] * solid_fraction}

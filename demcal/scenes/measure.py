@@ -165,21 +165,27 @@ def heap_angle_sigmoid_fit(position: np.ndarray, height: np.ndarray) -> float:
 
 
 def discharge_rate(times: np.ndarray, held_mass: np.ndarray, total_mass: float,
-                   band: tuple[float, float]) -> float:
+                   band: tuple[float, float], time_allowed: float) -> float:
     """Mass flow [kg/s] out of a container: slope of its held mass against time.
 
     Samuelsson (2023), sec. 4.1 fits a line to the mass above the hopper
     outlet sampled over time; here only the samples whose discharged fraction
     1 - m/m_total lies in ``band`` count, which leaves out the start-up and
     the emptying of the last layers. With fewer than three samples in the
-    band (a flow that stalled) the mean rate over the whole record is used.
+    band: if the discharge went past the band (sampled too coarsely), the
+    mean rate over the record; if it stalled before the band's end (a
+    clogged outlet), the mass discharged over ``time_allowed`` [s], so that
+    an outlet that clogs sooner reads a lower rate.
     """
     discharged = 1.0 - held_mass / total_mass
     in_band = (discharged >= band[0]) & (discharged <= band[1])
     if in_band.sum() >= 3:
         return float(-np.polyfit(times[in_band], held_mass[in_band], 1)[0])
-    elapsed = float(times[-1] - times[0])
-    return float((held_mass[0] - held_mass[-1]) / elapsed) if elapsed > 0.0 else 0.0
+    discharged_mass = float(held_mass[0] - held_mass[-1])
+    if discharged[-1] >= band[1]:
+        elapsed = float(times[-1] - times[0])
+        return discharged_mass / elapsed if elapsed > 0.0 else 0.0
+    return discharged_mass / time_allowed
 
 
 def slide_time_with_penalty(times: np.ndarray, remaining_mass: np.ndarray, total_mass: float,

@@ -34,7 +34,7 @@ import math
 
 from demcal.errors import ConfigError
 from demcal.scenes import measure
-from demcal.scenes.base import ResponseSpec, Scene, SettingSpec
+from demcal.scenes.base import ResponseSpec, Scene, SettingSpec, saturating
 from demcal.scenes.psd import diameter_range
 
 #: Spheres generated fill the box at the densest random packing, so the
@@ -46,10 +46,6 @@ MIN_SLOPE_COLUMNS = 5
 #: (d_max / d50)^3 (about 5000 at the defaults).
 MAX_PARTICLES = 100_000
 
-
-def _saturating(value: float, scale: float) -> float:
-    """1 - exp(-value / scale): 0 at 0, rising to 1."""
-    return 1.0 - math.exp(-value / scale)
 
 
 def analytic_model(p: dict, settings: dict) -> dict:
@@ -63,12 +59,12 @@ def analytic_model(p: dict, settings: dict) -> dict:
     nor stiffness nor density). Not physics: a known landscape for the
     pipeline and the optimizer.
     """
-    grip = _saturating(p["sliding_friction_pp"], 0.3)
-    roll = _saturating(p["rolling_friction_pp"], 0.1)
+    grip = saturating(p["sliding_friction_pp"], 0.3)
+    roll = saturating(p["rolling_friction_pp"], 0.1)
     spread = settings.get("sigma_ln", 0.0)
     angle = (8.0 + 30.0 * grip * (0.4 + 0.6 * roll)
-             + 3.0 * _saturating(p["sliding_friction_pw"], 0.3)
-             + 2.0 * _saturating(p["rolling_friction_pw"], 0.1)
+             + 3.0 * saturating(p["sliding_friction_pw"], 0.3)
+             + 2.0 * saturating(p["rolling_friction_pw"], 0.1)
              - 2.0 * (p["restitution"] - 0.5) + 4.0 * spread)
     solid_fraction = (0.63 - 0.03 * grip - 0.07 * roll - 0.01 * (p["restitution"] - 0.5)
                       + 0.04 * spread)
