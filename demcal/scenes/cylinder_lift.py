@@ -17,8 +17,6 @@ figure depends on how it is measured as much as on the material.
 
 from __future__ import annotations
 
-import math
-
 from demcal.errors import ConfigError
 from demcal.scenes import measure
 from demcal.scenes.psd import diameter_range
