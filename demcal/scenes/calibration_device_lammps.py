@@ -102,7 +102,6 @@ class CalibrationDevice(LammpsDriver):
         every = max(1, round(s["sample_interval"] / self.dt))
         limit = max(1, math.ceil(s["max_time"] / self.dt))
         empty = s["slide_empty_fraction"] * self.total_mass
-        at_rest_energy = 0.5 * self.total_mass * s["rest_speed"] ** 2
         hopper, on_way = self.held_masses()
         times, held, remaining = [0.0], [hopper], [on_way]
         estimated, done = False, 0
@@ -124,7 +123,7 @@ class CalibrationDevice(LammpsDriver):
                     (MASS_FLOW_BAND[0], EARLY_ESTIMATE_AT), s["max_time"])}
             self.monitor.progress(0.2 + 0.6 * done / limit, "discharge", estimate)
             finished = (on_way if until_slide_empty else hopper) < empty
-            resting = energy < at_rest_energy and done * self.dt >= MIN_FLOW_TIME
+            resting = done * self.dt >= MIN_FLOW_TIME and energy < self.rest_energy()
             if finished or resting:
                 break
         return {"times": np.array(times), "held": np.array(held),

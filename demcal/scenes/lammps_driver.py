@@ -80,8 +80,8 @@ class LammpsDriver:
         """Build, run the stages; a STOP request ends the run as terminated. LAMMPS is closed."""
         measurements: dict[str, float] = {}
         arrays: dict[str, np.ndarray] = {}
-        self.build()
         try:
+            self.build()
             self.stages(measurements, arrays)
             status, reason = OK, ""
         except Stopped:
@@ -170,7 +170,6 @@ class LammpsDriver:
         start at rest before they fall). Returns whether the material came to
         rest; a STOP request raises ``Stopped``.
         """
-        at_rest_energy = 0.5 * self.total_mass * self.s["rest_speed"] ** 2
         limit = max(1, math.ceil(self.s["max_settle_time"] / self.dt))
         done = 0
         while done < limit:
@@ -180,9 +179,15 @@ class LammpsDriver:
             done += step
             self.monitor.progress(progress_from + (progress_to - progress_from) * done / limit,
                                   stage)
-            if energy < at_rest_energy and done * self.dt >= min_time:
+            if done * self.dt >= min_time and energy < self.rest_energy():
                 return True
         return False
+
+    def rest_energy(self) -> float:
+        """Kinetic energy [J] of the material still in the box if it all moved at ``rest_speed``."""
+        n = self.lmp.extract_global("nlocal")
+        mass = float(np.sum(self.lmp.numpy.extract_atom("rmass")[:n]))
+        return 0.5 * mass * self.s["rest_speed"] ** 2
 
     def check_stop(self) -> None:
         if self.monitor.stop_requested():

@@ -126,7 +126,6 @@ class ShearBox(LammpsDriver):
         """
         self.lmp.command("unfix flap")
         min_time = MIN_OUTFLOW_FALL_TIMES * math.sqrt(2.0 * self.height / GRAVITY)
-        mean_mass = self.total_mass / len(self.diameters)
         limit = max(1, math.ceil(self.s["max_settle_time"] / self.dt))
         done = 0
         while done < limit:
@@ -137,8 +136,7 @@ class ShearBox(LammpsDriver):
             late = done * self.dt >= min_time
             self.monitor.progress(progress_from + (1.0 - progress_from) * done / limit, "outflow",
                                   self.slope_estimate() if late else None)
-            at_rest = 0.5 * self.lmp.get_natoms() * mean_mass * self.s["rest_speed"] ** 2
-            if late and energy < at_rest:
+            if late and energy < self.rest_energy():
                 return True
         return False
 
