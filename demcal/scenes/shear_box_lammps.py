@@ -140,6 +140,17 @@ class ShearBox(LammpsDriver):
                 return True
         return False
 
+    def check_overfilled(self) -> None:
+        """The settled fill must stand above the box top, or the strike-off leaves the box short."""
+        x, r, _ = self.particles()
+        _, tops = measure.column_tops(x, r, self.s["d50"])
+        surface = float(np.median(tops))
+        if surface < self.height:
+            raise SimulationFailed(
+                f"the settled fill ({surface:.4g} m) is below the box top ({self.height:.4g} m): "
+                f"the material packs denser than the fill allows for (FILL_SOLID_FRACTION in "
+                f"demcal/scenes/shear_box.py); its bulk density would read too low")
+
     def stages(self, measurements: dict[str, float], arrays: dict[str, np.ndarray]) -> None:
         wants_slope = "shear_angle" in self.job.responses
         fill_share = 0.4 if wants_slope else 1.0
@@ -147,6 +158,7 @@ class ShearBox(LammpsDriver):
         measurements["fill_at_rest"] = float(
             self.settle("fill", 0.0, fill_share, False, min_time=fall_time,
                         container=CONTAINER))
+        self.check_overfilled()
         self.lmp.commands_list([
             f"region above block INF INF INF INF {num(self.height)} INF units box",
             "delete_atoms region above"])
