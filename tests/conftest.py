@@ -30,6 +30,17 @@ ANALYTIC_STUDY = {
 }
 
 
+#: Corners of the parameter box every scene must survive (stable, plausible responses).
+PARAMETER_CORNERS = {
+    "frictionless": dict(sliding_friction_pp=0.0, sliding_friction_pw=0.0,
+                         rolling_friction_pp=0.0, rolling_friction_pw=0.0),
+    "full_friction": dict(sliding_friction_pp=1.0, sliding_friction_pw=1.0,
+                          rolling_friction_pp=1.0, rolling_friction_pw=1.0),
+    "restitution_0.05": dict(restitution=0.05),
+    "restitution_0.95": dict(restitution=0.95),
+    "stiff_5e8_Pa": dict(youngs_modulus=5.0e8),
+}
+
 @pytest.fixture
 def analytic_config():
     """A fresh copy of a valid analytic-engine study config."""

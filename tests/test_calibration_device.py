@@ -13,6 +13,8 @@ from demcal.parameters import CATALOG
 from demcal.scenes import SCENES, measure
 from demcal.scenes.calibration_device import device_geometry
 
+from conftest import PARAMETER_CORNERS
+
 SCENE = SCENES["calibration_device"]
 
 
@@ -170,15 +172,7 @@ def test_tiny_device_oversized_time_step_fails_with_a_reason(tmp_path):
     assert result.status == FAILED and "unstable" in result.reason
 
 
-CORNERS = {
-    "frictionless": dict(sliding_friction_pp=0.0, sliding_friction_pw=0.0,
-                         rolling_friction_pp=0.0, rolling_friction_pw=0.0),
-    "full_friction": dict(sliding_friction_pp=1.0, sliding_friction_pw=1.0,
-                          rolling_friction_pp=1.0, rolling_friction_pw=1.0),
-    "restitution_0.05": dict(restitution=0.05),
-    "restitution_0.95": dict(restitution=0.95),
-    "stiff_5e8_Pa": dict(youngs_modulus=5.0e8),
-}
+CORNERS = PARAMETER_CORNERS
 
 
 @pytest.mark.lammps

@@ -16,6 +16,8 @@ from demcal.files import read_partial
 from demcal.parameters import CATALOG
 from demcal.scenes import SCENES
 
+from conftest import PARAMETER_CORNERS
+
 pytestmark = pytest.mark.lammps
 
 SCENE = SCENES["cylinder_lift"]
@@ -45,16 +47,8 @@ def simulate(job):
     return result, responses
 
 
-CORNERS = {
-    "frictionless": dict(sliding_friction_pp=0.0, sliding_friction_pw=0.0,
-                         rolling_friction_pp=0.0, rolling_friction_pw=0.0),
-    "full_friction": dict(sliding_friction_pp=1.0, sliding_friction_pw=1.0,
-                          rolling_friction_pp=1.0, rolling_friction_pw=1.0),
-    "restitution_0.05": dict(restitution=0.05),
-    "restitution_0.95": dict(restitution=0.95),
-    "stiff_6.5e8_Pa": dict(youngs_modulus=6.5e8),   # top of Rackl & Hanley's range
-    "stiff_5e8_Pa": dict(youngs_modulus=5.0e8),
-}
+CORNERS = {**PARAMETER_CORNERS,
+           "stiff_6.5e8_Pa": dict(youngs_modulus=6.5e8)}  # top of Rackl & Hanley's range
 
 
 @pytest.mark.parametrize("corner", CORNERS)

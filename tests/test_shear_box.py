@@ -20,6 +20,8 @@ from demcal.scenes.psd import sample_diameters
 from demcal.scenes.shear_box import box_dimensions, fill_particle_count, mean_sphere_volume
 from demcal.scenes.shear_box_lammps import random_loose_packing
 
+from conftest import PARAMETER_CORNERS
+
 SCENE = SCENES["shear_box"]
 DEFAULTS = {name: spec.default for name, spec in CATALOG.items()}
 
@@ -236,15 +238,7 @@ def test_oversized_time_step_fails_with_instability_reason(tmp_path):
     assert "unstable" in result.reason
 
 
-CORNERS = {
-    "frictionless": dict(sliding_friction_pp=0.0, sliding_friction_pw=0.0,
-                         rolling_friction_pp=0.0, rolling_friction_pw=0.0),
-    "full_friction": dict(sliding_friction_pp=1.0, sliding_friction_pw=1.0,
-                          rolling_friction_pp=1.0, rolling_friction_pw=1.0),
-    "restitution_0.05": dict(restitution=0.05),
-    "restitution_0.95": dict(restitution=0.95),
-    "stiff_5e8_Pa": dict(youngs_modulus=5.0e8),
-}
+CORNERS = PARAMETER_CORNERS
 
 
 @pytest.mark.lammps

@@ -12,7 +12,9 @@ state (``arrays``).
 from __future__ import annotations
 
 import json
+import os
 import signal
+import subprocess
 import time
 from abc import ABC, abstractmethod
 from dataclasses import asdict, dataclass, field
@@ -68,6 +70,20 @@ def signal_name(returncode: int) -> str:
         return signal.Signals(-returncode).name
     except ValueError:
         return f"signal {-returncode}"
+
+
+#: Seconds a simulator process group gets to end after SIGTERM before SIGKILL.
+GRACE_SECONDS = 10.0
+
+
+def stop_process_group(proc: subprocess.Popen) -> None:
+    """End a simulator started in its own session: SIGTERM, then SIGKILL after the grace time."""
+    os.killpg(proc.pid, signal.SIGTERM)
+    try:
+        proc.wait(GRACE_SECONDS)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
 
 
 class RunMonitor:

@@ -17,19 +17,17 @@ import csv
 import os
 import shlex
 import shutil
-import signal
 import string
 import subprocess
 import time
 from pathlib import Path
 
 from demcal.engines.base import (FAILED, OK, TERMINATED, Engine, RunMonitor, RunResult,
-                                 SimulationJob, signal_name)
+                                 SimulationJob, signal_name, stop_process_group)
 from demcal.errors import ConfigError, SimulationFailed
 from demcal.files import log_tail, read_json
 
 POLL_SECONDS = 0.5
-GRACE_SECONDS = 10.0
 LOG_FILE = "command.log"
 FIXED_PLACEHOLDERS = ("input", "workdir", "seed", "timestep_fraction", "scene")
 
@@ -135,12 +133,7 @@ class CommandEngine(Engine):
         last = None
         while proc.poll() is None:
             if monitor.stop_requested() or time.monotonic() - start > timeout:
-                os.killpg(proc.pid, signal.SIGTERM)
-                try:
-                    proc.wait(GRACE_SECONDS)
-                except subprocess.TimeoutExpired:
-                    os.killpg(proc.pid, signal.SIGKILL)
-                    proc.wait()
+                stop_process_group(proc)
                 if monitor.stop_requested():
                     return TERMINATED, "stop requested"
                 return FAILED, f"simulation exceeded the engine timeout of {timeout:g} s"

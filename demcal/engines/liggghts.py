@@ -29,7 +29,6 @@ import os
 import re
 import resource
 import shutil
-import signal
 import subprocess
 import time
 from pathlib import Path
@@ -38,7 +37,7 @@ from typing import Protocol
 import numpy as np
 
 from demcal.engines.base import (FAILED, OK, TERMINATED, Engine, RunMonitor, RunResult,
-                                 SimulationJob, signal_name)
+                                 SimulationJob, signal_name, stop_process_group)
 from demcal.errors import ConfigError, SimulationFailed
 from demcal.files import log_tail
 from demcal.scenes import SCENES
@@ -48,7 +47,6 @@ BINARY = "liggghts"
 INSTALL_HINT = "install it with: apt-get install liggghts (Debian/Ubuntu, LIGGGHTS 3.8)"
 SCRIPT, LOG, OUTPUT = "in.liggghts", "liggghts.log", "liggghts.out"
 POLL_SECONDS = 0.5
-GRACE_SECONDS = 10.0
 PROGRESS = re.compile(r"^demcal-progress (\w+) (\d+) (\d+)")
 STAGE_END = re.compile(r"^demcal-rest (\w+)")
 DUMP_DONE = re.compile(r"^demcal-dump (\w+)")
@@ -201,12 +199,7 @@ class LiggghtsEngine(Engine):
         while True:
             finished = proc.poll() is not None
             if not finished and monitor.stop_requested():
-                os.killpg(proc.pid, signal.SIGTERM)
-                try:
-                    proc.wait(GRACE_SECONDS)
-                except subprocess.TimeoutExpired:
-                    os.killpg(proc.pid, signal.SIGKILL)
-                    proc.wait()
+                stop_process_group(proc)
                 return True
             try:
                 with open(log, "rb") as handle:
