@@ -30,6 +30,19 @@ ANALYTIC_STUDY = {
 }
 
 
+
+def run_and_extract(engine, job):
+    """Run one simulation on ``engine``; its responses as the workflow's extract job computes them."""
+    from demcal.engines.base import OK, RunMonitor
+    from demcal.evaluation import scene_responses
+
+    result = engine.run(job, RunMonitor(job))
+    responses = {}
+    if result.status == OK:
+        responses = scene_responses(SCENES[job.scene], job.responses, result.measurements,
+                                    lambda: result.arrays, job.settings)
+    return result, responses
+
 #: Corners of the parameter box every scene must survive (stable, plausible responses).
 PARAMETER_CORNERS = {
     "frictionless": dict(sliding_friction_pp=0.0, sliding_friction_pw=0.0,

@@ -10,13 +10,13 @@ import threading
 
 import pytest
 
-from demcal.engines.base import FAILED, OK, TERMINATED, RunMonitor, SimulationJob
+from demcal.engines.base import FAILED, OK, TERMINATED, SimulationJob
 from demcal.engines.lammps import LammpsEngine
 from demcal.files import read_partial
 from demcal.parameters import CATALOG
 from demcal.scenes import SCENES
 
-from conftest import PARAMETER_CORNERS
+from conftest import PARAMETER_CORNERS, run_and_extract
 
 pytestmark = pytest.mark.lammps
 
@@ -39,12 +39,7 @@ def tiny_job(tmp_path, fraction=0.25, responses=("bulk_density", "angle_of_repos
 
 
 def simulate(job):
-    result = LammpsEngine().run(job, RunMonitor(job))
-    responses = {}
-    if result.status == OK:
-        state = {**result.measurements, **result.arrays}
-        responses = {name: SCENE.extractors[name](state, job.settings) for name in job.responses}
-    return result, responses
+    return run_and_extract(LammpsEngine(), job)
 
 
 CORNERS = {**PARAMETER_CORNERS,

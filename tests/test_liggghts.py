@@ -26,6 +26,8 @@ from demcal.scenes.cylinder_lift_liggghts import (CylinderLiftInput, cylinder_tr
                                                   place_spheres, polygon_segments)
 from demcal.timestep import timestep
 
+from conftest import run_and_extract
+
 SCENE = SCENES["cylinder_lift"]
 TINY = {"particle_count": 200, "d50": 3.0e-3, "cylinder_diameter": 24.0e-3, "plate_width": 0.08,
         "lift_speed": 0.05, "max_settle_time": 0.6}
@@ -212,12 +214,7 @@ def test_study_config_selects_the_engine(analytic_config):
 # -- the real binary ------------------------------------------------------------
 
 def simulate(job):
-    result = LiggghtsEngine().run(job, RunMonitor(job))
-    responses = {}
-    if result.status == OK:
-        state = {**result.measurements, **result.arrays}
-        responses = {name: SCENE.extractors[name](state, job.settings) for name in job.responses}
-    return result, responses
+    return run_and_extract(LiggghtsEngine(), job)
 
 
 @needs_liggghts

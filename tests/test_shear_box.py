@@ -20,7 +20,7 @@ from demcal.scenes.psd import sample_diameters
 from demcal.scenes.shear_box import box_dimensions, fill_particle_count, mean_sphere_volume
 from demcal.scenes.shear_box_lammps import random_loose_packing
 
-from conftest import PARAMETER_CORNERS
+from conftest import PARAMETER_CORNERS, run_and_extract
 
 SCENE = SCENES["shear_box"]
 DEFAULTS = {name: spec.default for name, spec in CATALOG.items()}
@@ -191,12 +191,7 @@ def tiny_job(tmp_path, fraction=0.25, responses=("bulk_density", "shear_angle"),
 def simulate(job):
     from demcal.engines.lammps import LammpsEngine
 
-    result = LammpsEngine().run(job, RunMonitor(job))
-    responses = {}
-    if result.status == OK:
-        state = {**result.measurements, **result.arrays}
-        responses = {name: SCENE.extractors[name](state, job.settings) for name in job.responses}
-    return result, responses
+    return run_and_extract(LammpsEngine(), job)
 
 
 #: Solid fraction bounds for any material. Dense random packing is 0.64; the
