@@ -14,13 +14,16 @@ from __future__ import annotations
 
 import argparse
 import fcntl
+import json
 import logging
 import os
 import sys
+import time
 from pathlib import Path
 
 from demcal.config import Study, load_study_file
-from demcal.daemon import Calibration, profile_settings, reopen_failed, request_stop
+from demcal.daemon import (Calibration, alive, profile_settings, reopen_failed,
+                           request_stop)
 from demcal.errors import DemcalError
 from demcal.evaluation import evaluation_dir
 from demcal.files import read_json
@@ -44,22 +47,49 @@ def _child_cores(profile: Path | None, workers: int) -> int | None:
     return max(1, (os.cpu_count() or 1) // workers)
 
 
-def lock_study(study: Study):
-    """Hold the study's daemon lock (released when the process ends, even by kill -9)."""
+#: Seconds to wait for the lock of a daemon whose Snakemake is gone (it ends within a poll).
+ORPHAN_WAIT_SECONDS = 60.0
+
+
+def lock_study(study: Study, watch_pid: int | None = None):
+    """Hold the study's daemon lock (released when the process ends, even by kill -9).
+
+    The lock file names its holder and the Snakemake the holder watches. A
+    holder whose Snakemake is gone is ending (``Calibration.check_parent``),
+    so its lock is waited for; any other holder is a running calibration.
+    """
     study.results_dir.mkdir(parents=True, exist_ok=True)
-    lock = open(study.results_dir / "daemon.lock", "w")
-    try:
-        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-        raise DemcalError(f"another demcal daemon is running study {study.name!r} "
-                          f"(lock {study.results_dir / 'daemon.lock'})") from None
+    path = study.results_dir / "daemon.lock"
+    lock = open(path, "a+")
+    deadline = time.monotonic() + ORPHAN_WAIT_SECONDS
+    while True:
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            break
+        except BlockingIOError:
+            if not _holder_is_orphaned(path) or time.monotonic() > deadline:
+                raise DemcalError(f"another demcal daemon is running study {study.name!r} "
+                                  f"(lock {path}); 'demcal stop' ends it") from None
+            time.sleep(0.5)
+    lock.truncate(0)
+    lock.write(json.dumps({"pid": os.getpid(), "watch_pid": watch_pid}))
+    lock.flush()
     return lock
+
+
+def _holder_is_orphaned(path: Path) -> bool:
+    """True if the lock's holder watches a Snakemake that is no longer alive."""
+    try:
+        holder = json.loads(path.read_text() or "{}")
+    except (OSError, ValueError):
+        return False
+    return holder.get("watch_pid") is not None and not alive(int(holder["watch_pid"]))
 
 
 def run(args) -> int:
     study = load_study_file(args.config)
     profile = Path(args.profile) if args.profile else None
-    lock = lock_study(study)  # noqa: F841  (held until the process ends)
+    lock = lock_study(study, args.watch_pid)  # noqa: F841  (held until the process ends)
     logging.basicConfig(filename=study.results_dir / "daemon.log", level=logging.INFO,
                         format="%(asctime)s %(levelname)s %(message)s")
     for warning in study.warnings:
@@ -68,7 +98,8 @@ def run(args) -> int:
     calibration = Calibration(study, Path(args.config), profile, workers,
                               retries=int(study.calibration["retries"]),
                               poll_seconds=float(study.calibration["poll_seconds"]),
-                              child_cores=_child_cores(profile, workers))
+                              child_cores=_child_cores(profile, workers),
+                              watch_pid=args.watch_pid)
     interactive = sys.stderr.isatty()
 
     def show(line: str) -> None:
@@ -170,6 +201,8 @@ def main(argv: list[str] | None = None) -> int:
                              help="Snakemake profile directory for the evaluations "
                                   "(default: demcal's profiles/local)")
             sub.add_argument("--workers", type=int, help="evaluations in flight")
+            # set by the workflow's calibrate rule: the daemon ends with its Snakemake
+            sub.add_argument("--watch-pid", type=int, help=argparse.SUPPRESS)
         if name == "convergence":
             sub.add_argument("--scene", help="default: the study's first scene")
             sub.add_argument("--fractions", type=float, nargs="+",

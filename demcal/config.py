@@ -257,11 +257,30 @@ def yaml12_numbers(value):
     return value
 
 
+def refuse_non_finite(value, where: str = "") -> None:
+    """Raise ConfigError naming the first NaN or infinite number in a config mapping.
+
+    JSON Schema's range checks compare with NaN as false, so ``.nan`` would
+    pass every ``minimum``; no setting of a study means anything as NaN or
+    infinity.
+    """
+    if isinstance(value, dict):
+        for key, item in value.items():
+            refuse_non_finite(item, f"{where}.{key}" if where else str(key))
+    elif isinstance(value, list):
+        for i, item in enumerate(value):
+            refuse_non_finite(item, f"{where}[{i}]")
+    elif isinstance(value, float) and not math.isfinite(value):
+        raise ConfigError(f"{where or '(top level)'}: {value} is not a finite number; "
+                          f"give a finite value")
+
+
 def load_study(config: dict, check_engine: bool = True) -> Study:
     """Validate a study configuration (mapping from YAML) and resolve it into a ``Study``."""
     if not isinstance(config, dict):
         raise ConfigError("the configuration must be a mapping of fields (YAML object)")
     config = yaml12_numbers(config)
+    refuse_non_finite(config)
     validate_schema(config)
     scenes = _scenes_of(config)
     targets = _targets(config, scenes)

@@ -34,7 +34,7 @@ import yaml
 
 from demcal.config import Study
 from demcal.errors import DemcalError, SimulationFailed
-from demcal.evaluation import evaluation_dir
+from demcal.evaluation import evaluation_dir, objective, response_paths
 from demcal.files import atomic_write_text, log_tail, read_json, read_partial, write_json
 from demcal.objective import objective_value, relative_error
 from demcal.optimizer import Optimizer
@@ -43,6 +43,10 @@ log = logging.getLogger("demcal.daemon")
 ROOT = Path(__file__).resolve().parents[1]
 SNAKEFILE = ROOT / "Snakefile"
 STOP_CALIBRATION = "STOP_CALIBRATION"
+#: Written only when the calibration loop has ended (stop reason recorded); the
+#: workflow's ``calibrate`` rule has it as output, so a daemon that died (killed,
+#: disk error) leaves none and the next run resumes instead of reporting.
+FINISHED = "finished.json"
 
 
 #: Optimizer settings a resumed calibration takes from the current config.
@@ -87,13 +91,13 @@ class Child:
     def finished(self) -> bool:
         if self.process is not None:
             return self.process.poll() is not None
-        return not _alive(self.pid)
+        return not alive(self.pid)
 
     def returncode(self) -> int | None:
         return None if self.process is None else self.process.returncode
 
 
-def _alive(pid: int) -> bool:
+def alive(pid: int) -> bool:
     """True if ``pid`` is a live process that is not a zombie."""
     try:
         status = Path(f"/proc/{pid}/stat").read_text()
@@ -114,10 +118,13 @@ class Calibration:
     """One study's calibration on disk under ``results/<study>/``."""
 
     def __init__(self, study: Study, configfile: Path, profile: Path | None, workers: int,
-                 retries: int, poll_seconds: float = 2.0, child_cores: int | None = None):
+                 retries: int, poll_seconds: float = 2.0, child_cores: int | None = None,
+                 watch_pid: int | None = None):
         self.study, self.configfile, self.profile = study, Path(configfile).resolve(), profile
         self.workers, self.retries, self.poll_seconds = workers, retries, poll_seconds
         self.child_cores = child_cores
+        #: the Snakemake that started this daemon: when it dies, the daemon ends too
+        self.watch_pid = watch_pid
         self.dir = study.results_dir
         self.state_file = self.dir / "optimizer.json"
         self.children: dict[str, Child] = {}
@@ -142,14 +149,23 @@ class Calibration:
                          self.study.optimizer, seed=self.study.seed, workers=self.workers)
 
     def _load_start_time(self) -> float:
-        """Start of the calibration; refuses to resume one made with another study definition."""
+        """Start of the calibration; refuses to resume one made with another study definition.
+
+        Changed target values or weights (same responses) are no reason to
+        simulate again: every finished evaluation is re-scored from its
+        stored responses instead (``rescore``).
+        """
         path = self.dir / "calibration.json"
         definition = study_definition(self.study)
         if path.exists():
             record = read_json(path, "calibration.json")
-            changed = sorted(k for k in definition if record.get("definition", {}).get(k)
-                             != definition[k])
-            if changed:
+            old = record.get("definition", {})
+            changed = sorted(k for k in definition if old.get(k) != definition[k])
+            if changed == ["targets"] and _target_keys(old["targets"]) == _target_keys(
+                    definition["targets"]):
+                self.rescore()
+                write_json(path, {**record, "definition": definition})
+            elif changed:
                 raise DemcalError(
                     f"{self.dir} holds a calibration of a different study definition (changed: "
                     f"{', '.join(changed)}); give the study a new name or move {self.dir} away")
@@ -157,6 +173,30 @@ class Calibration:
         now = time.time()
         write_json(path, {"started_at": now, "study": self.study.name, "definition": definition})
         return now
+
+    def rescore(self) -> None:
+        """Recompute every finished evaluation's objective from its stored responses.
+
+        For new target values or weights: objective.json is rewritten from the
+        replicates' responses.json (no simulation runs) and the optimizer's
+        values are replaced, so evaluations whose objective could not be
+        computed before count now.
+        """
+        outcomes = {}
+        for record in self.optimizer.records:
+            if record["status"] == "pending":
+                continue
+            evaluation = evaluation_id(record["id"])
+            paths = response_paths(self.study, evaluation)
+            if not all(p.exists() for p in paths):
+                continue  # never simulated to the end: nothing to re-score
+            result = objective(self.study, evaluation, paths)
+            outcomes[record["id"]] = (result["status"], result.get("objective"),
+                                      _objective_per_replicate(self.study, result) or None)
+        self.optimizer.rescore(outcomes)
+        self.save_state()
+        log.info("targets changed: re-scored %d evaluations from their stored responses",
+                 len(outcomes))
 
     def save_state(self) -> None:
         atomic_write_text(self.state_file, self.optimizer.to_json())
@@ -218,7 +258,7 @@ class Calibration:
             launch = evaldir / "launch.json"
             if launch.exists():
                 pid_running = int(read_json(launch, "launch.json").get("pid", -1))
-                if _alive(pid_running) and _is_snakemake_for(pid_running, self.target(evaluation)):
+                if alive(pid_running) and _is_snakemake_for(pid_running, self.target(evaluation)):
                     self.children[evaluation] = Child(evaluation, pid_running, None, time.time())
                     log.info("re-attached %s (pid %d)", evaluation, pid_running)
                     continue
@@ -330,11 +370,17 @@ class Calibration:
 
     # -- the loop ------------------------------------------------------------------
     def run(self, show_progress=print) -> str:
-        """Calibrate until a stopping rule holds and nothing is running; return the reason."""
+        """Calibrate until a stopping rule holds and nothing is running; return the reason.
+
+        Only a loop that ends so writes ``finished.json``; a daemon that dies
+        or is orphaned leaves the calibration unfinished, to be resumed.
+        """
         (self.dir / STOP_CALIBRATION).unlink(missing_ok=True)  # a new run overrides an old stop
+        (self.dir / FINISHED).unlink(missing_ok=True)  # running again: not finished any more
         self.resume()
         reason = None
         while True:
+            self.check_parent()
             self.collect()
             self.watch_running()
             if (self.dir / STOP_CALIBRATION).exists():
@@ -350,13 +396,32 @@ class Calibration:
             time.sleep(self.poll_seconds)
         self.write_tables()
         show_progress(self.progress_line())
+        counts = {}
+        for record in self.optimizer.records:
+            counts[record["status"]] = counts.get(record["status"], 0) + 1
+        write_json(self.dir / FINISHED, {"reason": reason, "ended_at": time.time(),
+                                         "evaluations": counts})
         log.info("calibration finished: %s", reason)
         return reason
 
-    def stop_children(self) -> None:
-        """Ask every running evaluation to stop cleanly (STOP file)."""
-        for evaluation in self.children:
-            (evaluation_dir(self.study, evaluation) / "STOP").touch()
+    def check_parent(self) -> None:
+        """End the daemon when the Snakemake that started it is gone (killed, lost terminal).
+
+        Running evaluations are left alone: each is a child Snakemake in its
+        own session, re-attached or read back by the next daemon.
+        """
+        if self.watch_pid is not None and not alive(self.watch_pid):
+            log.info("the Snakemake that started this daemon (pid %d) is gone; ending",
+                     self.watch_pid)
+            raise DemcalError(
+                f"the Snakemake that started this daemon (pid {self.watch_pid}) has ended, so "
+                f"the daemon ends too; {len(self.children)} running evaluations go on and are "
+                f"collected when the same command runs again")
+
+
+def _target_keys(targets: list) -> set[str]:
+    """The responses a study definition targets (its ``targets`` entries are [key, value, weight])."""
+    return {entry[0] for entry in targets}
 
 
 def _clock(seconds: float) -> str:
@@ -458,8 +523,8 @@ def reopen_failed(study: Study) -> list[str]:
 
     The optimizer forgets the failure (the point is pending again), the
     evaluation's outputs are removed and its attempt count goes on, so the
-    rerun uses new seeds; best.json goes too, so Snakemake's default target
-    runs the daemon again.
+    rerun uses new seeds; finished.json goes too, so Snakemake's default
+    target runs the daemon again.
     """
     state_file = study.results_dir / "optimizer.json"
     if not state_file.exists():
@@ -483,7 +548,7 @@ def reopen_failed(study: Study) -> list[str]:
         write_json(evaldir / "params.json", params)
         reopened.append(evaldir.name)
     atomic_write_text(state_file, optimizer.to_json())
-    (study.results_dir / "best.json").unlink(missing_ok=True)
+    (study.results_dir / FINISHED).unlink(missing_ok=True)
     write_evaluations_csv(study, study.results_dir / "evaluations.csv")
     return reopened
 

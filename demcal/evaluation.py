@@ -39,6 +39,12 @@ def replicate_dir(study: Study, evaluation: str, scene: str, replicate: int) -> 
     return evaluation_dir(study, evaluation) / scene / f"rep{replicate}"
 
 
+def response_paths(study: Study, evaluation: str) -> list[Path]:
+    """The responses.json of every scene replicate of an evaluation (the objective's inputs)."""
+    return [replicate_dir(study, evaluation, scene, r) / "responses.json"
+            for scene in study.scenes for r in range(study.replicates)]
+
+
 def read_point(study: Study, evaluation: str) -> tuple[dict[str, float], int]:
     """Free-parameter values and attempt number of an evaluation, from its params.json."""
     record = read_json(evaluation_dir(study, evaluation) / "params.json", "params.json")
@@ -205,9 +211,14 @@ def _objective_of_responses(study: Study, point: dict, values: dict[str, list[fl
         record.update(status=FAILED, reason=f"Rayleigh time-step cost: {exc}")
         return
     means = {key: replicate_mean(v) for key, v in values.items()}
+    try:
+        value = objective_value(study.targets, means) + timestep_cost
+    except ValueError as exc:
+        record.update(status=FAILED, reason=str(exc))
+        return
     record.update(
         status=OK, reason="",
-        objective=objective_value(study.targets, means) + timestep_cost,
+        objective=value,
         timestep_cost=timestep_cost,
         responses=means, replicates=dict(values),
         spread={key: replicate_spread(v) for key, v in values.items()},

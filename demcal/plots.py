@@ -153,7 +153,12 @@ def write_plots(study: Study, outdir: Path) -> list[Path]:
 
 def best_point_table(study: Study) -> pd.DataFrame:
     """Parameters and responses of the best point against the targets."""
-    best = read_json(study.results_dir / "best.json", "best.json")
+    best_file = study.results_dir / "best.json"
+    if not best_file.exists():
+        return pd.DataFrame([{"quantity": "no evaluation succeeded (see evaluations.csv)",
+                              "value": "", "target": "", "relative_error_percent": "",
+                              "unit": ""}])
+    best = read_json(best_file, "best.json")
     rows = [{"quantity": name, "value": value, "target": "", "relative_error_percent": "",
              "unit": next(p.spec.unit for p in study.free if p.name == name)}
             for name, value in best["parameters"].items()]

@@ -1,5 +1,6 @@
 """Study configuration: the shipped configs load; each kind of bad config has its own message."""
 
+import re
 from pathlib import Path
 
 import pytest
@@ -146,3 +147,51 @@ def test_centre_point_with_overrides_names_a_bad_one(analytic_config):
         study.centre_point(["restitution=0.3"])
     with pytest.raises(ConfigError, match="--point rolling_friction_pp=x: 'x' is not a number"):
         study.centre_point(["rolling_friction_pp=x"])
+
+
+NON_FINITE = [
+    (["targets", 0, "value"], ".nan", r"targets\[0\].value: nan is not a finite number"),
+    (["targets", 1, "weight"], ".inf", r"targets\[1\].weight: inf is not a finite number"),
+    (["targets", 1, "spread"], ".nan", r"targets\[1\].spread: nan is not a finite number"),
+    (["parameters", "sliding_friction_pp", "upper"], ".inf",
+     r"parameters.sliding_friction_pp.upper: inf is not a finite number"),
+    (["fixed", "restitution"], "-.inf", r"fixed.restitution: -inf is not a finite number"),
+    (["timestep_fraction"], ".nan", r"timestep_fraction: nan is not a finite number"),
+    (["calibration"], "{poll_seconds: .nan}", r"calibration.poll_seconds: nan is not a finite"),
+    (["optimizer"], "{max_seconds: .inf}", r"optimizer.max_seconds: inf is not a finite"),
+    (["scenes"], "{cylinder_lift: {settings: {lift_speed: .nan}}}",
+     r"scenes.cylinder_lift.settings.lift_speed: nan is not a finite"),
+    (["engine"], "{name: command, command: 'python3 s.py', responses_file: r.json, "
+                 "timeout: .nan}", r"engine.timeout: nan is not a finite number"),
+    (["engine"], "{name: analytic, noise: 1e999}", r"engine.noise: inf is not a finite number"),
+]
+
+
+@pytest.mark.parametrize("where,text,message", NON_FINITE,
+                         ids=[".".join(map(str, b[0])) for b in NON_FINITE])
+def test_non_finite_numbers_are_refused_by_field(analytic_config, where, text, message):
+    """YAML's .nan/.inf pass JSON Schema's range checks; every field refuses them by name."""
+    _set(analytic_config, where, yaml.safe_load(text))
+    with pytest.raises(ConfigError, match=message):
+        load_study(analytic_config)
+
+
+ESCAPING_PATHS = ["/tmp/demcal-victim.json", "../../params.json", "../../../../tmp/x",
+                  "out/../../x.json", "simulation.json", "partial.csv", "", "out/"]
+
+
+@pytest.mark.parametrize("key", ["responses_file", "partial_file"])
+@pytest.mark.parametrize("path", ESCAPING_PATHS)
+def test_simulator_files_must_stay_in_the_run_directory(analytic_config, key, path):
+    """The command engine deletes responses_file before each run: no path may leave the run dir."""
+    analytic_config["engine"] = {"name": "command", "command": "python3 sim.py",
+                                 "responses_file": "out.json", key: path}
+    with pytest.raises(ConfigError, match=rf"engine.{key}: '{re.escape(path)}' "):
+        load_study(analytic_config, check_engine=False)
+
+
+def test_simulator_file_in_a_subfolder_is_fine(analytic_config):
+    analytic_config["engine"] = {"name": "command", "command": "python3 sim.py",
+                                 "responses_file": "out/responses.json",
+                                 "partial_file": "progress.csv"}
+    assert load_study(analytic_config, check_engine=False).engine.name == "command"

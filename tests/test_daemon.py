@@ -1,10 +1,15 @@
 """The calibration daemon end to end on the analytic engine (child Snakemake per evaluation)."""
 
+import errno
 import json
 import os
 import signal
+import subprocess
+import sys
 import time
 
+import numpy as np
+import pytest
 import yaml
 
 from conftest import ROOT, demcal, evaluations, finish, study
@@ -124,12 +129,41 @@ def test_resume_with_a_changed_study_is_refused_but_budget_may_grow(tmp_path):
     out = finish(demcal(tmp_path, "run", config))
     assert len(evaluations(tmp_path, "grow")) == 6 and "(6 of 6)" in out
     changed = yaml.safe_load(config.read_text())
-    changed["targets"][0]["value"] *= 1.1
+    changed["engine"]["noise"] = 0.01
     config.write_text(yaml.safe_dump(changed))
     proc = demcal(tmp_path, "run", config)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 2
-    assert "different study definition (changed: targets)" in err
+    assert "different study definition (changed: engine)" in err
+
+
+def test_new_target_values_rescore_stored_simulations_without_simulating(tmp_path):
+    """Corrected targets on resume: every objective is recomputed from the stored responses."""
+    config = study(tmp_path, "rescore", optimizer={"max_evaluations": 5})
+    finish(demcal(tmp_path, "run", config))
+    evals = tmp_path / "results/rescore/evals"
+    simulations = {p: p.read_text() for p in evals.glob("*/cylinder_lift/rep0/simulation.json")}
+    changed = yaml.safe_load(config.read_text())
+    changed["targets"][0]["value"] *= 1.1
+    changed["targets"][1]["weight"] = 3.0
+    config.write_text(yaml.safe_dump(changed))
+    finish(demcal(tmp_path, "run", config))
+    assert {p: p.read_text() for p in simulations} == simulations  # nothing simulated again
+    table = evaluations(tmp_path, "rescore")
+    assert len(table) == 5
+    first, second = changed["targets"]
+    expected = ((table[f"cylinder_lift.{first['response']}"] - first["value"]) / first["value"]) ** 2 \
+        + 3.0 * ((table[f"cylinder_lift.{second['response']}"] - second["value"])
+                 / second["value"]) ** 2
+    assert np.allclose(table["objective"], expected, rtol=1e-9)
+    state = json.loads((tmp_path / "results/rescore/optimizer.json").read_text())
+    assert state["best_observed"] == pytest.approx(expected.min())
+    changed["targets"][1]["response"] = "angle_of_repose"  # another response: not a re-score
+    changed["targets"] = changed["targets"][1:]
+    config.write_text(yaml.safe_dump(changed))
+    proc = demcal(tmp_path, "run", config)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 2 and "(changed: targets)" in err
 
 
 def test_rerun_failed_reruns_them_with_new_seeds(tmp_path):
@@ -147,3 +181,72 @@ def test_rerun_failed_reruns_them_with_new_seeds(tmp_path):
     table = evaluations(tmp_path, "again")
     assert len(table) == 5 and set(table["status"]) == {"ok"}
     assert set(table[table["attempts"] == 2]["evaluation"]) == failed
+
+
+def snakemake_calibration(tmp_path, config):
+    """The README's command: snakemake with the local profile on a study file."""
+    return subprocess.Popen(
+        [sys.executable, "-m", "snakemake", "-s", ROOT / "Snakefile", "--profile",
+         ROOT / "profiles" / "local", f"--configfile={config}"], cwd=tmp_path,
+        stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def wait_for_objectives(evals, count, proc=None, timeout=120):
+    deadline = time.monotonic() + timeout
+    while len(list(evals.glob("*/objective.json"))) < count:
+        assert time.monotonic() < deadline, "evaluations did not finish"
+        assert proc is None or proc.poll() is None, proc.communicate()
+        time.sleep(0.2)
+
+
+def test_killed_snakemake_leaves_no_orphan_and_no_lock_the_same_command_finishes(tmp_path):
+    """kill -9 of the top Snakemake: its daemon ends, no lock is left, a rerun resumes to the end."""
+    config = study(tmp_path, "orphan")
+    results = tmp_path / "results" / "orphan"
+    top = snakemake_calibration(tmp_path, config)
+    wait_for_objectives(results / "evals", 3, top)
+    os.kill(top.pid, signal.SIGKILL)
+    top.wait()
+    done_before = {p.parent.name: p.read_text() for p in results.glob("evals/*/objective.json")}
+    assert not (results / "finished.json").exists()  # the calibration has not ended
+    rerun = snakemake_calibration(tmp_path, config)  # at once: the old daemon may still be ending
+    out, err = rerun.communicate(timeout=300)
+    assert rerun.returncode == 0, err[-3000:]
+    finished = json.loads((results / "finished.json").read_text())
+    assert finished["reason"] == "evaluation budget reached (14 of 14)"
+    table = evaluations(tmp_path, "orphan")
+    assert sorted(table["evaluation"]) == [f"e{i:04d}" for i in range(14)]
+    assert set(table["status"]) <= {"ok", "terminated"}
+    for name, record in done_before.items():
+        assert (results / "evals" / name / "objective.json").read_text() == record, name
+    assert (results / "report.html").exists()
+
+
+def test_a_daemon_that_dies_on_a_disk_error_leaves_the_calibration_unfinished(tmp_path,
+                                                                              monkeypatch):
+    """Results folder unwritable mid-run (EROFS), then repaired: the same command resumes."""
+    from demcal import daemon
+    from demcal.config import load_study_file
+
+    monkeypatch.chdir(tmp_path)
+    config = study(tmp_path, "rofs")
+    writes = []
+
+    def read_only_after_three(*args):
+        writes.append(args)
+        if len(writes) > 3:
+            raise OSError(errno.EROFS, "Read-only file system")
+        original(*args)
+
+    original = daemon.write_evaluations_csv
+    monkeypatch.setattr(daemon, "write_evaluations_csv", read_only_after_three)
+    calibration = daemon.Calibration(load_study_file(config), config, None, workers=2,
+                                     retries=1, poll_seconds=0.3)
+    with pytest.raises(OSError, match="Read-only"):
+        calibration.run(show_progress=lambda line: None)
+    assert not (tmp_path / "results/rofs/finished.json").exists()
+    monkeypatch.setattr(daemon, "write_evaluations_csv", original)
+    out = finish(demcal(tmp_path, "run", config))
+    assert "evaluation budget reached (14 of 14)" in out
+    assert len(evaluations(tmp_path, "rofs")) == 14
+    assert (tmp_path / "results/rofs/finished.json").exists()

@@ -141,3 +141,15 @@ def test_command_engine_stop_terminates_the_process(tmp_path):
 def test_command_words_are_not_shell_expanded():
     words = command_words("sim -in {input} -mu {mu}", {"input": "a b; rm -rf /", "mu": 0.5})
     assert words == ["sim", "-in", "a b; rm -rf /", "-mu", "0.5"]
+
+
+def test_command_engine_never_deletes_through_a_symlink(tmp_path):
+    """A responses_file that a link points outside the run directory is not deleted or run."""
+    outside = tmp_path / "precious.json"
+    outside.write_text("{}")
+    workdir = tmp_path / "run"
+    workdir.mkdir()
+    (workdir / "out.json").symlink_to(outside)
+    result = run(command_engine(tmp_path, "ok"), make_job(workdir))
+    assert result.status == FAILED and "outside the run directory" in result.reason
+    assert outside.read_text() == "{}"

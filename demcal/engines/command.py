@@ -20,7 +20,7 @@ import shutil
 import string
 import subprocess
 import time
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 
 from demcal.engines.base import (FAILED, OK, TERMINATED, Engine, RunMonitor, RunResult,
                                  SimulationJob, signal_name, stop_process_group)
@@ -30,6 +30,28 @@ from demcal.files import log_tail, read_json
 POLL_SECONDS = 0.5
 LOG_FILE = "command.log"
 FIXED_PLACEHOLDERS = ("input", "workdir", "seed", "timestep_fraction", "scene")
+#: Files demcal itself keeps in a run directory; a simulator's file may not take their names.
+DEMCAL_RUN_FILES = ("simulation.json", "responses.json", "partial.csv", "state.npz", LOG_FILE)
+#: Engine settings naming a file the engine deletes or reads inside the run directory.
+RUN_DIRECTORY_FILES = ("responses_file", "partial_file")
+
+
+def run_directory_file(name: str, where: str) -> PurePosixPath:
+    """A simulator's file name, checked to stay inside the run directory.
+
+    The engine deletes ``responses_file`` before each run, so a path that
+    leaves the run directory (absolute, or with ``..``) could delete any
+    file; such paths are refused when the study is loaded.
+    """
+    path = PurePosixPath(name)
+    if not name.strip() or path.is_absolute() or ".." in path.parts or name.endswith("/"):
+        raise ConfigError(f"{where}: {name!r} must be a file name relative to the simulation's "
+                          f"run directory, without '..' (e.g. responses.json in a subfolder: "
+                          f"out/responses.json)")
+    if len(path.parts) == 1 and name in DEMCAL_RUN_FILES:
+        raise ConfigError(f"{where}: {name!r} is a file demcal keeps in the run directory; "
+                          f"choose another name (taken: {', '.join(DEMCAL_RUN_FILES)})")
+    return path
 
 
 def placeholders(template: str) -> set[str]:
@@ -63,6 +85,19 @@ def _read_simulator_partial(path: Path) -> tuple[float | None, dict[str, float]]
 class CommandEngine(Engine):
     name = "command"
 
+    def __init__(self, settings: dict | None = None):
+        super().__init__(settings)
+        for key in RUN_DIRECTORY_FILES:
+            if key in self.settings:
+                run_directory_file(self.settings[key], f"engine.{key}")
+        if "input" in self.settings:
+            name = Path(self.settings["input"]).name
+            if name in DEMCAL_RUN_FILES or name in (self.settings.get(k) for k in
+                                                    RUN_DIRECTORY_FILES):
+                raise ConfigError(f"engine.input: its name {name!r} is taken in the run "
+                                  f"directory (demcal's files: {', '.join(DEMCAL_RUN_FILES)}; "
+                                  f"and the simulator's responses/partial file); rename it")
+
     def check(self, scenes: list) -> None:
         template = self.settings["command"]
         try:
@@ -93,6 +128,10 @@ class CommandEngine(Engine):
             shutil.copy(source, workdir / source.name)
             fields["input"] = source.name
         responses_path = workdir / self.settings["responses_file"]
+        if not responses_path.resolve().is_relative_to(workdir):
+            return RunResult(FAILED, f"responses_file {self.settings['responses_file']!r} "
+                                     f"resolves outside the run directory (a symbolic link?); "
+                                     f"nothing was run or deleted")
         responses_path.unlink(missing_ok=True)
         partial = workdir / self.settings["partial_file"] if "partial_file" in self.settings else None
         timeout = float(self.settings.get("timeout", float("inf")))

@@ -37,6 +37,28 @@ class Proposal:
     in_initial_design: bool
 
 
+def _outcome(id: int, value: float | None, status: str,
+             replicates: list[float] | None) -> dict:
+    """The record fields of a told outcome (see :meth:`Optimizer.tell`)."""
+    if status not in STATUSES:
+        raise ValueError(f"status: {status!r} is not one of {', '.join(STATUSES)}")
+    variance = None
+    if status == "ok":
+        if replicates:
+            replicates = [float(v) for v in replicates]
+            if value is None:
+                value = float(np.mean(replicates))
+            if len(replicates) > 1:
+                variance = float(np.var(replicates, ddof=1) / len(replicates))
+        if value is None:
+            raise ValueError(f"evaluation {id}: status ok needs a value or replicates")
+        value = float(value)
+        if not math.isfinite(value) or (variance is not None and not math.isfinite(variance)):
+            status, value, variance = "failed", None, None
+    return {"status": status, "value": value if status == "ok" else None,
+            "variance": variance, "replicates": replicates}
+
+
 class Optimizer:
     """Surrogate-based optimizer driven by ask/tell; see the package docstring."""
 
@@ -168,25 +190,10 @@ class Optimizer:
         again); "terminated" (stopped early: kept in the distance set only).
         A non-finite value is recorded as failed.
         """
-        if status not in STATUSES:
-            raise ValueError(f"status: {status!r} is not one of {', '.join(STATUSES)}")
         record = self._record(id)
         if record["status"] != "pending":
             raise ValueError(f"evaluation {id} was already told ({record['status']})")
-        variance = None
-        if status == "ok":
-            if replicates:
-                replicates = [float(v) for v in replicates]
-                if value is None:
-                    value = float(np.mean(replicates))
-                if len(replicates) > 1:
-                    variance = float(np.var(replicates, ddof=1) / len(replicates))
-            if value is None:
-                raise ValueError(f"evaluation {id}: status ok needs a value or replicates")
-            value = float(value)
-            if not math.isfinite(value) or (variance is not None and not math.isfinite(variance)):
-                status, value, variance = "failed", None, None
-        record.update(status=status, value=value if status == "ok" else None, variance=variance, replicates=replicates)
+        record.update(_outcome(id, value, status, replicates))
         self._update_progress(record)
 
     def reopen(self, id: int) -> None:
@@ -198,6 +205,22 @@ class Optimizer:
         if record["status"] == "pending":
             raise ValueError(f"evaluation {id} is still pending")
         record.update(status="pending", value=None, variance=None, replicates=None)
+        self._surrogate_version = -1
+
+    def rescore(self, outcomes: dict[int, tuple[str, float | None, list[float] | None]]) -> None:
+        """Replace told outcomes by re-scored ones: id -> (status, value, replicates).
+
+        For an objective recomputed from stored responses (new targets or
+        weights). The best value follows the new values; the step-size
+        history is kept, the surrogate is refitted.
+        """
+        for id, (status, value, replicates) in outcomes.items():
+            record = self._record(id)
+            if record["status"] == "pending":
+                raise ValueError(f"evaluation {id} is pending, it cannot be re-scored")
+            record.update(_outcome(id, value, status, replicates))
+        values = [r["value"] for r in self.records if r["status"] == "ok"]
+        self.best_observed = min(values) if values else None
         self._surrogate_version = -1
 
     def _update_progress(self, record: dict) -> None:

@@ -1,7 +1,10 @@
 # The whole calibration as one local job: the daemon (demcal run) proposes
 # points and runs one child Snakemake per evaluation with the same profile,
 # so the simulations go where the profile sends them (local cores, SLURM).
-# Killed or interrupted, the same command resumes it.
+# Killed or interrupted, the same command resumes it. The output, finished.json,
+# is written only when the calibration has ended (with its stop reason); the
+# daemon watches this Snakemake's pid and ends when it is gone, so a killed
+# Snakemake leaves no orphan that holds the study.
 
 
 def invocation_profile():
@@ -19,13 +22,15 @@ rule calibrate:
     input:
         config=workflow.configfiles[0],
     output:
-        f"results/{STUDY.name}/best.json",
+        f"results/{STUDY.name}/finished.json",
     log:
         f"results/{STUDY.name}/logs/calibrate.log",
     localrule: True
     params:
         python=sys.executable,
         profile=invocation_profile(),
+        snakemake_pid=os.getpid(),
     shell:
         "{params.python:q} -m demcal.cli run {input.config:q} --profile {params.profile:q}"
+        " --watch-pid {params.snakemake_pid}"
         " 2> >(tee {log:q} >&2)"

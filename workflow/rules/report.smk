@@ -5,7 +5,7 @@ PLOTS = f"results/{STUDY.name}/plots"
 
 rule plots:
     input:
-        f"results/{STUDY.name}/best.json",
+        f"results/{STUDY.name}/finished.json",
     output:
         report(f"{PLOTS}/best_point.csv", caption="../report/best_point.rst",
                category="Best point"),
@@ -27,7 +27,7 @@ rule plots:
 
 rule evaluation_dag:
     input:
-        f"results/{STUDY.name}/best.json",
+        f"results/{STUDY.name}/finished.json",
     output:
         report(f"{PLOTS}/evaluation_dag.svg", caption="../report/evaluation_dag.rst",
                category="Workflow"),
