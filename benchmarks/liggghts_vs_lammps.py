@@ -25,8 +25,8 @@ from pathlib import Path
 import yaml
 
 from demcal.config import load_study
-from demcal.evaluation import evaluation_dir, extract, replicate_dir, simulate
-from demcal.files import write_json
+from demcal.evaluation import extract, simulate
+from demcal.layout import PointRecord, write_point
 
 ROOT = Path(__file__).resolve().parents[1]
 POINT = {"sliding_friction_pp": 0.5, "rolling_friction_pp": 0.16}
@@ -76,12 +76,12 @@ def main() -> None:
         for case in args.cases:
             for engine in ENGINES:
                 study = study_for(config, engine, case)
-                write_json(evaluation_dir(study, "point") / "params.json", {"parameters": POINT})
+                write_point(study.files.evaluation("point"), PointRecord(POINT))
                 for rep in range(args.seeds):
                     load_before = os.getloadavg()[0]
                     sim = simulate(study, "point", "cylinder_lift", rep)
-                    out = extract(study, replicate_dir(study, "point", "cylinder_lift", rep)
-                                  / "simulation.json")
+                    out = extract(study, study.files.evaluation("point")
+                                  .replicate("cylinder_lift", rep).simulation)
                     run = {"case": case, "engine": engine, "version": study.engine.version(),
                            "replicate": rep, "seed": sim["seed"], "status": sim["status"],
                            "reason": sim["reason"], "load_before": load_before,

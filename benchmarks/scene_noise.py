@@ -24,8 +24,8 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 from demcal.config import load_study_file
-from demcal.evaluation import evaluation_dir, extract, replicate_dir, simulate
-from demcal.files import write_json
+from demcal.evaluation import extract, simulate
+from demcal.layout import PointRecord, write_point
 
 ROOT = Path(__file__).resolve().parents[1]
 EVALUATION = "noise"
@@ -36,8 +36,8 @@ def run_seed(config: str, scene: str, replicate: int) -> dict:
     study = load_study_file(config)
     start = time.monotonic()
     sim = simulate(study, EVALUATION, scene, replicate)
-    responses = extract(study, replicate_dir(study, EVALUATION, scene, replicate)
-                        / "simulation.json")
+    responses = extract(study, study.files.evaluation(EVALUATION)
+                        .replicate(scene, replicate).simulation)
     return {"replicate": replicate, "seed": sim["seed"], "status": sim["status"],
             "reason": sim["reason"], "wall_s": time.monotonic() - start, **sim["cost"],
             **responses["responses"]}
@@ -73,7 +73,7 @@ def main() -> None:
     point = study.centre_point(args.point)
     with tempfile.TemporaryDirectory() as scratch:
         os.chdir(scratch)
-        write_json(evaluation_dir(study, EVALUATION) / "params.json", {"parameters": point})
+        write_point(study.files.evaluation(EVALUATION), PointRecord(point))
         with ProcessPoolExecutor(args.jobs) as pool:
             rows = list(pool.map(run_seed, [config] * args.seeds, [scene] * args.seeds,
                                  range(args.seeds)))

@@ -21,30 +21,28 @@ import sys
 import time
 from pathlib import Path
 
-from demcal.config import Study, load_study_file
-from demcal.daemon import (Calibration, alive, profile_settings, reopen_failed,
-                           request_stop)
+from demcal.config import load_study_file
+from demcal.daemon.children import alive, child_cores, profile_settings
+from demcal.daemon.control import reopen_failed, request_stop
+from demcal.daemon.loop import Calibration
 from demcal.errors import DemcalError
-from demcal.evaluation import evaluation_dir
 from demcal.files import read_json
+from demcal.layout import read_objective
 from demcal.optimizer import Optimizer
+from demcal.resources import PROFILES_DIR
+from demcal.study import Study, freeze
 from demcal.summary import evaluation_summary
 
 DEFAULT_CONFIG = "config/config.yaml"
-DEFAULT_PROFILE = Path(__file__).resolve().parents[1] / "profiles" / "local"
+DEFAULT_PROFILE = PROFILES_DIR / "local"
+#: Evaluations in flight when neither the study, the command line nor the profile says.
+DEFAULT_WORKERS = 2
 
 
 def _workers(study: Study, profile: Path | None, given: int | None) -> int:
     """Evaluations in flight: --workers, else calibration.workers, else the profile's jobs, else 2."""
     return int(given or study.calibration.get("workers")
-               or profile_settings(profile).get("jobs", 2))
-
-
-def _child_cores(profile: Path | None, workers: int) -> int | None:
-    """Cores each child Snakemake may use: none set on a cluster executor, else a fair share."""
-    if profile_settings(profile).get("executor", "local") != "local":
-        return None
-    return max(1, (os.cpu_count() or 1) // workers)
+               or profile_settings(profile).get("jobs", DEFAULT_WORKERS))
 
 
 #: Seconds to wait for the lock of a daemon whose Snakemake is gone (it ends within a poll).
@@ -58,8 +56,8 @@ def lock_study(study: Study, watch_pid: int | None = None):
     holder whose Snakemake is gone is ending (``Calibration.check_parent``),
     so its lock is waited for; any other holder is a running calibration.
     """
-    study.results_dir.mkdir(parents=True, exist_ok=True)
-    path = study.results_dir / "daemon.lock"
+    study.files.dir.mkdir(parents=True, exist_ok=True)
+    path = study.files.daemon_lock
     lock = open(path, "a+")
     deadline = time.monotonic() + ORPHAN_WAIT_SECONDS
     while True:
@@ -90,15 +88,14 @@ def run(args) -> int:
     study = load_study_file(args.config)
     profile = Path(args.profile) if args.profile else None
     lock = lock_study(study, args.watch_pid)  # noqa: F841  (held until the process ends)
-    logging.basicConfig(filename=study.results_dir / "daemon.log", level=logging.INFO,
+    study = freeze(study)  # from here on: the study as the jobs read it
+    logging.basicConfig(filename=study.files.daemon_log, level=logging.INFO,
                         format="%(asctime)s %(levelname)s %(message)s")
     for warning in study.warnings:
         print(f"demcal: warning: {warning}", file=sys.stderr)
     workers = _workers(study, profile, args.workers)
-    calibration = Calibration(study, Path(args.config), profile, workers,
-                              retries=int(study.calibration["retries"]),
-                              poll_seconds=float(study.calibration["poll_seconds"]),
-                              child_cores=_child_cores(profile, workers),
+    calibration = Calibration(study, profile, workers,
+                              child_cores=child_cores(profile, workers),
                               watch_pid=args.watch_pid)
     interactive = sys.stderr.isatty()
 
@@ -124,22 +121,20 @@ def run(args) -> int:
 
 
 def print_best(study: Study) -> None:
-    best_file = study.results_dir / "best.json"
-    if not best_file.exists():
-        print("demcal: no evaluation succeeded; see "
-              f"{study.results_dir / 'evaluations.csv'} for the reasons")
+    files = study.files
+    if not files.best.exists():
+        print(f"demcal: no evaluation succeeded; see {files.evaluations_csv} for the reasons")
         return
-    best = read_json(best_file, "best.json")
-    evaldir = evaluation_dir(study, best["evaluation"])
-    record = read_json(evaldir / "objective.json", "objective.json")
+    best = read_json(files.best, "best.json")
+    evaluation = files.evaluation(best["evaluation"])
     print("best point (lowest surrogate prediction among the evaluated points):")
-    print(evaluation_summary(study, record, evaldir))
-    print(f"all evaluations: {study.results_dir / 'evaluations.csv'}")
+    print(evaluation_summary(study, read_objective(evaluation), evaluation.dir))
+    print(f"all evaluations: {files.evaluations_csv}")
 
 
 def status(args) -> int:
     study = load_study_file(args.config, check_engine=False)
-    state = study.results_dir / "optimizer.json"
+    state = study.files.optimizer
     if not state.exists():
         print(f"demcal: study {study.name!r} has not started ({state} missing)")
         return 0
@@ -149,7 +144,7 @@ def status(args) -> int:
         counts[record["status"]] = counts.get(record["status"], 0) + 1
     print(f"study {study.name!r}: " + ", ".join(f"{n} {s}" for s, n in sorted(counts.items()))
           + f" of a budget of {optimizer.settings.max_evaluations}")
-    if (study.results_dir / "best.json").exists():
+    if study.files.best.exists():
         print_best(study)
     return 0
 

@@ -7,119 +7,23 @@ allowed, before any simulation starts.
 
 from __future__ import annotations
 
+import functools
 import math
 import re
-import zlib
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import jsonschema
-import numpy as np
 import yaml
 
 from demcal.engines import make_engine
-from demcal.engines.base import Engine
 from demcal.errors import ConfigError
 from demcal.objective import Target
 from demcal.optimizer import OptimizerSettings
-from demcal.parameters import CATALOG, ParameterSpec
+from demcal.parameters import CATALOG
+from demcal.resources import SCHEMA_PATH
 from demcal.scenes import SCENES, Scene
-from demcal.timestep import RAYLEIGH_PARAMETERS, check_fraction, rayleigh_cost, rayleigh_time_range
-
-SCHEMA_PATH = Path(__file__).resolve().parents[1] / "workflow" / "schemas" / "config.schema.yaml"
-
-
-@dataclass(frozen=True)
-class FreeParameter:
-    """A parameter the optimizer varies between ``lower`` and ``upper`` (SI units)."""
-
-    spec: ParameterSpec
-    lower: float
-    upper: float
-
-    @property
-    def name(self) -> str:
-        return self.spec.name
-
-
-@dataclass
-class Study:
-    name: str
-    engine: Engine
-    scenes: dict[str, Scene]
-    settings: dict[str, dict]
-    free: list[FreeParameter]
-    fixed: dict[str, float]
-    targets: list[Target]
-    replicates: int
-    seed: int
-    timestep_fraction: float
-    optimizer: OptimizerSettings
-    #: W_RL of the Rayleigh time-step cost term (Rackl & Hanley 2017, eq. 10); 0 = off.
-    rayleigh_cost_weight: float = 0.0
-    calibration: dict = field(default_factory=dict)
-    warnings: list[str] = field(default_factory=list)
-
-    @property
-    def results_dir(self) -> Path:
-        return Path("results") / self.name
-
-    def responses_needed(self, scene: str) -> list[str]:
-        """Responses of ``scene`` that some target asks for, in declaration order."""
-        wanted = {t.response for t in self.targets if t.scene == scene}
-        return [r for r in self.scenes[scene].responses if r in wanted]
-
-    def centre_point(self, overrides: list[str] = ()) -> dict[str, float]:
-        """Free values at the centre of the bounds, changed by ``NAME=VALUE`` overrides."""
-        point = {p.name: 0.5 * (p.lower + p.upper) for p in self.free}
-        for item in overrides:
-            name, _, value = item.partition("=")
-            if name not in point:
-                raise ConfigError(f"--point {item}: {name!r} is not a free parameter "
-                                  f"({', '.join(point)})")
-            try:
-                point[name] = float(value)
-            except ValueError:
-                raise ConfigError(f"--point {item}: {value!r} is not a number") from None
-        return point
-
-    def timestep_cost(self, free_values: dict[str, float]) -> float:
-        """Squared Rayleigh time-step cost of a point, added to its objective (0 when off)."""
-        if self.rayleigh_cost_weight == 0.0:
-            return 0.0
-        bounds = {name: (self.fixed[name], self.fixed[name]) for name in RAYLEIGH_PARAMETERS
-                  if name in self.fixed}
-        bounds.update({p.name: (p.lower, p.upper) for p in self.free})
-        term = rayleigh_cost(self.parameters_for(free_values), rayleigh_time_range(bounds),
-                             self.rayleigh_cost_weight)
-        return term * term
-
-    def parameters_for(self, free_values: dict[str, float]) -> dict[str, float]:
-        """All parameters of a point: the fixed ones overlaid with the free values (checked)."""
-        missing = [p.name for p in self.free if p.name not in free_values]
-        unknown = sorted(set(free_values) - {p.name for p in self.free})
-        if missing or unknown:
-            raise ConfigError(f"params.json: missing free parameters {missing}, "
-                              f"unknown {unknown}; free parameters are "
-                              f"{[p.name for p in self.free]}")
-        for p in self.free:
-            value = free_values[p.name]
-            if not isinstance(value, (int, float)) or not math.isfinite(value) or not (
-                    p.spec.lower <= value <= p.spec.upper):
-                raise ConfigError(f"params.json: {p.name} = {value!r} is outside the allowed "
-                                  f"range {p.spec.allowed()}")
-        return {**self.fixed, **{k: float(v) for k, v in free_values.items()}}
-
-    def simulation_seed(self, evaluation: str, scene: str, replicate: int, attempt: int = 0) -> int:
-        """Seed of one simulation, from the study seed, evaluation, scene, replicate and attempt.
-
-        Different replicates, evaluations and retries get independent streams;
-        the same simulation always gets the same seed (reproducible reruns).
-        """
-        key = [self.seed, zlib.crc32(evaluation.encode()), zlib.crc32(scene.encode()), replicate]
-        if attempt:
-            key.append(attempt)
-        return int(np.random.SeedSequence(key).generate_state(1)[0] % 2_147_483_646) + 1
+from demcal.study import FreeParameter, Study
+from demcal.timestep import RAYLEIGH_PARAMETERS, check_fraction
 
 
 def _field_path(error: jsonschema.ValidationError) -> str:
@@ -154,8 +58,20 @@ def _schema_message(error: jsonschema.ValidationError, schema: dict) -> str:
     return f"{where}: {error.message}"
 
 
+@functools.cache
 def load_schema() -> dict:
     return yaml.safe_load(SCHEMA_PATH.read_text())
+
+
+def default(*path: str):
+    """The schema's ``default`` of a study field, e.g. ``default("calibration", "retries")``.
+
+    The schema is the one place for the defaults of the study file.
+    """
+    node = load_schema()
+    for name in path:
+        node = node.get("items", node)["properties"][name]  # arrays: the items' fields
+    return node["default"]
 
 
 def validate_schema(config: dict) -> None:
@@ -196,7 +112,8 @@ def _targets(config: dict, scenes: dict[str, Scene]) -> list[Target]:
             raise ConfigError(f"targets[{i}]: {t['scene']}.{t['response']} is targeted twice")
         seen.add(key)
         targets.append(Target(t["scene"], t["response"], float(t["value"]),
-                              float(t.get("weight", 1.0)), t.get("spread")))
+                              float(t.get("weight", default("targets", "weight"))),
+                              t.get("spread")))
     return targets
 
 
@@ -288,9 +205,9 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
     settings = {name: scene.resolve_settings(config.get("scenes", {}).get(name, {}).get("settings"),
                                              f"scenes.{name}.settings")
                 for name, scene in scenes.items()}
-    fraction = float(config.get("timestep_fraction", 0.25))
-    warning = check_fraction(fraction)
-    cost_weight = float(config.get("rayleigh_cost_weight", 0.0))
+    fraction = float(config.get("timestep_fraction", default("timestep_fraction")))
+    warning = check_fraction(fraction, default("timestep_fraction"))
+    cost_weight = float(config.get("rayleigh_cost_weight", default("rayleigh_cost_weight")))
     if cost_weight > 0.0 and not {p.name for p in free} & set(RAYLEIGH_PARAMETERS):
         raise ConfigError(
             f"rayleigh_cost_weight: {cost_weight:g} needs one of "
@@ -306,10 +223,12 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
         engine.check(list(scenes.values()))
     return Study(name=config["study"], engine=engine, scenes=scenes, settings=settings,
                  free=free, fixed=fixed, targets=targets,
-                 replicates=int(config.get("replicates", 1)), seed=int(config.get("seed", 1)),
+                 replicates=int(config.get("replicates", default("replicates"))),
+                 seed=int(config.get("seed", default("seed"))),
                  timestep_fraction=fraction, optimizer=optimizer,
                  rayleigh_cost_weight=cost_weight,
-                 calibration={"retries": 1, "poll_seconds": 2.0,
+                 calibration={"retries": default("calibration", "retries"),
+                              "poll_seconds": default("calibration", "poll_seconds"),
                               **config.get("calibration", {})},
                  warnings=[warning] if warning else [])
 

@@ -25,11 +25,12 @@ from pathlib import Path
 
 import pandas as pd
 
-from demcal.config import Study, load_study_file
+from demcal.config import default, load_study_file
 from demcal.engines.base import OK, SimulationJob
 from demcal.errors import ConfigError, DemcalError
 from demcal.evaluation import run_engine, scene_responses
 from demcal.files import atomic_write_text
+from demcal.study import Study
 from demcal.timestep import check_fraction
 
 DEFAULT_FRACTIONS = (0.5, 0.35, 0.25, 0.125)
@@ -68,7 +69,7 @@ def plan(study: Study, scene: str, fractions: list[float],
                        *(Variant(base.fraction, s) for s in sizes)},
                       key=lambda v: (v.size, -v.fraction))
     for v in variants:
-        check_fraction(v.fraction, "--fractions")
+        check_fraction(v.fraction, default("timestep_fraction"), "--fractions")
         variant_settings(study, scene, v, f"--sizes ({size_setting})")
     return variants, base
 
@@ -191,7 +192,7 @@ def run(config: str, scene: str | None, fractions: list[float] | None,
             sizes = [float(round(s)) for s in sizes]
     variants, base = plan(study, scene, list(fractions or DEFAULT_FRACTIONS), sizes)
     point = study.centre_point(point_overrides)
-    out = study.results_dir / "convergence"
+    out = study.files.convergence
     out.mkdir(parents=True, exist_ok=True)
     tasks = [(v, k) for v in variants for k in range(seeds)]
     print(f"demcal convergence: {scene}, {len(variants)} variants x {seeds} seeds = "

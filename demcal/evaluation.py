@@ -1,12 +1,13 @@
 """The three jobs of one evaluation's DAG: simulate -> extract -> objective.
 
-Files of evaluation ``<id>`` under ``results/<study>/evals/<id>/`` (DESIGN.md):
-``params.json`` (written by whoever proposes the point), per scene and
-replicate ``<scene>/rep<r>/simulation.json`` (+ ``state.npz`` when responses
-are computed from particle positions), ``partial.csv`` while running,
-``responses.json``, and ``objective.json``. Every record carries ``status``
-(ok | terminated | failed) and, unless ok, a ``reason``. A job never fails
-the DAG for a simulation's fault: it records the failure and exits 0.
+Files of evaluation ``<id>`` under ``results/<study>/evals/<id>/``
+(``demcal.layout``): ``params.json`` (written by whoever proposes the point),
+per scene and replicate ``<scene>/rep<r>/simulation.json`` (+ ``state.npz``
+when responses are computed from particle positions), ``partial.csv`` while
+running, ``responses.json``, and ``objective.json``. Every record carries
+``status`` (ok | terminated | failed) and, unless ok, a ``reason``. A job
+never fails the DAG for a simulation's fault: it records the failure and
+exits 0. Jobs work from the frozen study (``demcal.study.load_frozen``).
 """
 
 from __future__ import annotations
@@ -15,59 +16,44 @@ import logging
 import time
 import traceback
 from collections import defaultdict
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
-from demcal.config import Study, load_study
 from demcal.engines.base import FAILED, OK, TERMINATED, RunMonitor, RunResult, SimulationJob
 from demcal.errors import ConfigError, DemcalError, SimulationFailed
 from demcal.files import read_json, write_json
+from demcal.layout import EvaluationFiles, PointRecord, ReplicateFiles, read_point, write_point
 from demcal.objective import objective_value, relative_error, replicate_mean, replicate_spread
 from demcal.scenes.base import Scene
+from demcal.study import Study, load_frozen
 
 log = logging.getLogger("demcal")
-STATE_FILE = "state.npz"
-
-
-def evaluation_dir(study: Study, evaluation: str) -> Path:
-    return study.results_dir / "evals" / evaluation
-
-
-def replicate_dir(study: Study, evaluation: str, scene: str, replicate: int) -> Path:
-    return evaluation_dir(study, evaluation) / scene / f"rep{replicate}"
 
 
 def response_paths(study: Study, evaluation: str) -> list[Path]:
     """The responses.json of every scene replicate of an evaluation (the objective's inputs)."""
-    return [replicate_dir(study, evaluation, scene, r) / "responses.json"
+    files = study.files.evaluation(evaluation)
+    return [files.replicate(scene, r).responses
             for scene in study.scenes for r in range(study.replicates)]
-
-
-def read_point(study: Study, evaluation: str) -> tuple[dict[str, float], int]:
-    """Free-parameter values and attempt number of an evaluation, from its params.json."""
-    record = read_json(evaluation_dir(study, evaluation) / "params.json", "params.json")
-    if not isinstance(record.get("parameters"), dict):
-        raise SimulationFailed("params.json has no 'parameters' object")
-    attempt = record.get("attempt", 0)
-    if not isinstance(attempt, int) or attempt < 0:
-        raise SimulationFailed(f"params.json: attempt {attempt!r} is not a count")
-    return record["parameters"], attempt
 
 
 def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> dict:
     """Run one scene replicate; write and return its simulation.json record."""
-    workdir = replicate_dir(study, evaluation, scene, replicate)
+    files = study.files.evaluation(evaluation)
+    replicate_files = files.replicate(scene, replicate)
+    workdir = replicate_files.dir
     workdir.mkdir(parents=True, exist_ok=True)
-    (workdir / STATE_FILE).unlink(missing_ok=True)
+    replicate_files.state.unlink(missing_ok=True)
     record = {"evaluation": evaluation, "scene": scene, "replicate": replicate,
               "engine": study.engine.name, "engine_version": study.engine.version(),
               "settings": study.settings[scene], "timestep_fraction": study.timestep_fraction,
               "responses_needed": study.responses_needed(scene), "started_at": time.time()}
     try:
-        point, attempt = read_point(study, evaluation)
-        parameters = study.parameters_for(point)
+        point = read_point(files)
+        attempt = point.attempt
+        parameters = study.parameters_for(point.parameters)
     except (ConfigError, SimulationFailed) as exc:
         result = RunResult(FAILED, f"bad parameters: {exc}")
         parameters, seed, attempt = {}, None, None
@@ -77,16 +63,16 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> dict:
                             seed=seed, responses=record["responses_needed"],
                             timestep_fraction=study.timestep_fraction,
                             workdir=str(workdir.resolve()),
-                            stop_file=str((evaluation_dir(study, evaluation) / "STOP").resolve()),
+                            stop_file=str(files.stop.resolve()),
                             attempt=attempt)
         result = run_engine(study, job)
     if result.status == OK and result.arrays:
-        np.savez(workdir / STATE_FILE, **result.arrays)
-        record["state_file"] = STATE_FILE
+        np.savez(replicate_files.state, **result.arrays)
+        record["state_file"] = replicate_files.state.name
     record.update(seed=seed, attempt=attempt, parameters=parameters, status=result.status,
                   reason=result.reason,
                   measurements=result.measurements, cost=result.cost, ended_at=time.time())
-    write_json(workdir / "simulation.json", record)
+    write_json(replicate_files.simulation, record)
     log.info("simulation %s %s rep%d: %s %s", evaluation, scene, replicate, result.status,
              result.reason)
     return record
@@ -95,7 +81,8 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> dict:
 def run_engine(study: Study, job: SimulationJob) -> RunResult:
     """The engine's run; any error it raises becomes a failed result with the reason."""
     try:
-        return study.engine.run(job, RunMonitor(job))
+        driver = study.scenes[job.scene].driver(study.engine.name)
+        return study.engine.run(job, RunMonitor(job), driver)
     except SimulationFailed as exc:
         return RunResult(FAILED, str(exc))
     except Exception as exc:  # an engine bug must not lose the evaluation
@@ -118,7 +105,7 @@ def extract(study: Study, simulation_path: Path) -> dict:
         record = {"status": FAILED, "reason": f"simulation.json malformed or response not "
                                               f"measurable: {type(exc).__name__}: {exc}",
                   "responses": {}}
-    write_json(simulation_path.parent / "responses.json", record)
+    write_json(ReplicateFiles(simulation_path.parent).responses, record)
     return record
 
 
@@ -184,8 +171,9 @@ def objective(study: Study, evaluation: str, response_paths: list[Path]) -> dict
         else:
             for name, value in (rec.get("responses") or {}).items():
                 values[f"{rec.get('scene')}.{name}"].append(value)
+    files = study.files.evaluation(evaluation)
     try:
-        point, _ = read_point(study, evaluation)
+        point = read_point(files).parameters
     except SimulationFailed:
         point = {}
     record = {"evaluation": evaluation, "parameters": point,
@@ -198,7 +186,7 @@ def objective(study: Study, evaluation: str, response_paths: list[Path]) -> dict
         record.update(status=FAILED, reason=f"no value for targeted responses {missing}")
     else:
         _objective_of_responses(study, point, values, record)
-    write_json(evaluation_dir(study, evaluation) / "objective.json", record)
+    write_json(files.objective, record)
     return record
 
 
@@ -223,7 +211,8 @@ def _objective_of_responses(study: Study, point: dict, values: dict[str, list[fl
         responses=means, replicates=dict(values),
         spread={key: replicate_spread(v) for key, v in values.items()},
         relative_errors={t.key: relative_error(means[t.key], t.value) for t in study.targets},
-        targets={t.key: t.value for t in study.targets})
+        targets={t.key: t.value for t in study.targets},
+        weights={t.key: t.weight for t in study.targets})
 
 
 def run_snakemake_job(smk, stage: str) -> None:
@@ -231,7 +220,7 @@ def run_snakemake_job(smk, stage: str) -> None:
     logging.basicConfig(filename=smk.log[0], level=logging.INFO, force=True,
                         format="%(asctime)s %(levelname)s %(message)s")
     try:
-        study = load_study(smk.config, check_engine=False)
+        study = load_frozen(smk.params.study_file)
         w = smk.wildcards
         if stage == "simulate":
             simulate(study, w.evaluation, w.scene, int(w.replicate))
@@ -246,6 +235,6 @@ def run_snakemake_job(smk, stage: str) -> None:
 
 def write_centre_point(smk) -> None:
     """params.json at the centre of the free parameters' bounds (the default evaluation)."""
-    study = load_study(smk.config, check_engine=False)
-    write_json(Path(smk.output[0]), {"parameters": study.centre_point(),
-                                     "proposed_by": "centre of the bounds"})
+    study = load_frozen(smk.params.study_file)
+    write_point(EvaluationFiles(Path(smk.output[0]).parent),
+                PointRecord(study.centre_point(), proposed_by="centre of the bounds"))

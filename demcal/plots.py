@@ -24,8 +24,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from demcal.config import Study  # noqa: E402
 from demcal.files import read_json  # noqa: E402
+from demcal.resources import SNAKEFILE  # noqa: E402
+from demcal.study import Study, load_frozen  # noqa: E402
 
 FIGURES = ("objective_vs_evaluation", "objective_vs_time", "parameter_traces",
            "responses_vs_targets")
@@ -33,9 +34,9 @@ FIGURES = ("objective_vs_evaluation", "objective_vs_time", "parameter_traces",
 
 def load_table(study: Study) -> pd.DataFrame:
     """evaluations.csv with evaluation number, wall time since start and cumulative CPU time."""
-    table = pd.read_csv(study.results_dir / "evaluations.csv")
+    table = pd.read_csv(study.files.evaluations_csv)
     table["number"] = np.arange(1, len(table) + 1)
-    start = read_json(study.results_dir / "calibration.json", "calibration.json")["started_at"]
+    start = read_json(study.files.calibration, "calibration.json")["started_at"]
     table["ended_at"] = pd.to_numeric(table["ended_at"], errors="coerce")
     table["cpu_s"] = pd.to_numeric(table["cpu_s"], errors="coerce").fillna(0.0)
     table["wall_h"] = (table["ended_at"] - start) / 3600.0
@@ -141,7 +142,7 @@ def write_plots(study: Study, outdir: Path) -> list[Path]:
     """All figures of the calibration as PNG files in ``outdir``."""
     outdir.mkdir(parents=True, exist_ok=True)
     table = load_table(study)
-    best_file = study.results_dir / "best.json"
+    best_file = study.files.best
     best = read_json(best_file, "best.json") if best_file.exists() else None
     paths = {name: outdir / f"{name}.png" for name in FIGURES}
     plot_objective_vs_evaluation(study, table, paths["objective_vs_evaluation"])
@@ -153,7 +154,7 @@ def write_plots(study: Study, outdir: Path) -> list[Path]:
 
 def best_point_table(study: Study) -> pd.DataFrame:
     """Parameters and responses of the best point against the targets."""
-    best_file = study.results_dir / "best.json"
+    best_file = study.files.best
     if not best_file.exists():
         return pd.DataFrame([{"quantity": "no evaluation succeeded (see evaluations.csv)",
                               "value": "", "target": "", "relative_error_percent": "",
@@ -175,10 +176,8 @@ def write_report_files(smk) -> None:
     """Entry point of the workflow's plots job."""
     import logging
 
-    from demcal.config import load_study
-
     logging.basicConfig(filename=smk.log[0], level=logging.INFO, force=True)
-    study = load_study(smk.config, check_engine=False)
+    study = load_frozen(smk.params.study_file)
     best_csv = Path(smk.output[0])
     write_plots(study, best_csv.parent)
     best_point_table(study).to_csv(best_csv, index=False)
@@ -202,8 +201,8 @@ def dag_svg(dot_source: str) -> str:
 def write_evaluation_dag(smk) -> None:
     """Entry point of the workflow's evaluation_dag job."""
     proc = subprocess.run(
-        [sys.executable, "-m", "snakemake", "-s", smk.params.snakefile, "--configfile",
-         smk.params.config, "--nolock", "--dag", "dot", smk.params.target],
+        [sys.executable, "-m", "snakemake", "-s", str(SNAKEFILE), "--config",
+         f"study_file={smk.params.study_file}", "--nolock", "--dag", "dot", smk.params.target],
         capture_output=True, text=True, check=False, stdin=subprocess.DEVNULL, timeout=300)
     Path(smk.log[0]).write_text(proc.stderr)
     if proc.returncode != 0 or "digraph" not in proc.stdout:

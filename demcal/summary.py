@@ -6,9 +6,10 @@ import subprocess
 import sys
 from pathlib import Path
 
-from demcal.config import Study
-from demcal.files import read_json
 from demcal.errors import SimulationFailed
+from demcal.layout import read_objective
+from demcal.resources import SNAKEFILE
+from demcal.study import Study
 
 
 def evaluation_summary(study: Study, record: dict, where: Path) -> str:
@@ -40,20 +41,22 @@ def evaluation_summary(study: Study, record: dict, where: Path) -> str:
 def recent_summaries(study: Study, since: float) -> list[str]:
     """Summaries of the evaluations whose objective.json was written after ``since``."""
     out = []
-    for path in sorted((study.results_dir / "evals").glob("*/objective.json")):
-        if path.stat().st_mtime >= since:
+    for evaluation in sorted(study.files.evals.glob("*"), key=lambda path: path.name):
+        files = study.files.evaluation(evaluation.name)
+        if files.objective.exists() and files.objective.stat().st_mtime >= since:
             try:
-                out.append(evaluation_summary(study, read_json(path, "objective.json"), path.parent))
+                out.append(evaluation_summary(study, read_objective(files), files.dir))
             except SimulationFailed as exc:
                 out.append(f"demcal: {exc}")
     return out
 
 
-def write_report(snakefile: str, configfile: str, study: Study) -> str:
-    """Run ``snakemake --report`` for the study; return a line saying where it is."""
-    report = study.results_dir / "report.html"
+def write_report(study: Study) -> str:
+    """Run ``snakemake --report`` for the frozen study; return a line saying where it is."""
+    report = study.files.report
     proc = subprocess.run(
-        [sys.executable, "-m", "snakemake", "-s", str(snakefile), "--configfile", str(configfile),
+        [sys.executable, "-m", "snakemake", "-s", str(SNAKEFILE), "--config",
+         f"study_file={study.files.study}", f"study={study.name}",
          "--nolock", "--report", str(report)],
         stdin=subprocess.DEVNULL, capture_output=True, text=True, check=False)
     if proc.returncode != 0:

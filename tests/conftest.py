@@ -36,10 +36,11 @@ def run_and_extract(engine, job):
     from demcal.engines.base import OK, RunMonitor
     from demcal.evaluation import scene_responses
 
-    result = engine.run(job, RunMonitor(job))
+    scene = SCENES[job.scene]
+    result = engine.run(job, RunMonitor(job), scene.driver(engine.name))
     responses = {}
     if result.status == OK:
-        responses = scene_responses(SCENES[job.scene], job.responses, result.measurements,
+        responses = scene_responses(scene, job.responses, result.measurements,
                                     lambda: result.arrays, job.settings)
     return result, responses
 

@@ -4,16 +4,16 @@ import math
 
 import numpy as np
 import pytest
+from conftest import PARAMETER_CORNERS
 
 from demcal.engines.base import FAILED, OK, RunMonitor, SimulationJob
 from demcal.engines.lammps import LammpsEngine
 from demcal.errors import ConfigError
 from demcal.files import read_partial
+from demcal.granular import measure
 from demcal.parameters import CATALOG
-from demcal.scenes import SCENES, measure
+from demcal.scenes import SCENES
 from demcal.scenes.calibration_device import device_geometry
-
-from conftest import PARAMETER_CORNERS
 
 SCENE = SCENES["calibration_device"]
 
@@ -135,10 +135,14 @@ def tiny_job(tmp_path, responses, fraction=0.25, **params):
                          stop_file=str(tmp_path / "STOP"))
 
 
+def run_lammps(job):
+    return LammpsEngine().run(job, RunMonitor(job), SCENE.driver("lammps"))
+
+
 @pytest.mark.lammps
 def test_tiny_device_gives_plausible_responses_and_an_early_estimate(tmp_path):
     job = tiny_job(tmp_path, ("mass_flow", "slide_time", "angle_of_repose"))
-    result = LammpsEngine().run(job, RunMonitor(job))
+    result = run_lammps(job)
     assert result.status == OK, result.reason
     aor = SCENE.extractors["angle_of_repose"](result.arrays, job.settings)
     total = 300 * job.parameters["particle_density"] * math.pi / 6 * 2.0e-3**3
@@ -155,8 +159,8 @@ def test_tiny_device_gives_plausible_responses_and_an_early_estimate(tmp_path):
 def test_mass_flow_alone_ends_when_the_hopper_is_empty(tmp_path):
     full = tiny_job(tmp_path / "full", ("mass_flow", "slide_time", "angle_of_repose"))
     short = tiny_job(tmp_path / "short", ("mass_flow",))
-    full_result = LammpsEngine().run(full, RunMonitor(full))
-    short_result = LammpsEngine().run(short, RunMonitor(short))
+    full_result = run_lammps(full)
+    short_result = run_lammps(short)
     assert short_result.status == OK and set(short_result.measurements) >= {"mass_flow"}
     assert "slide_time" not in short_result.measurements and "heap_x" not in short_result.arrays
     assert short_result.cost["steps"] < full_result.cost["steps"]
@@ -168,7 +172,7 @@ def test_mass_flow_alone_ends_when_the_hopper_is_empty(tmp_path):
 @pytest.mark.lammps
 def test_tiny_device_oversized_time_step_fails_with_a_reason(tmp_path):
     job = tiny_job(tmp_path, ("mass_flow",), fraction=1.5)
-    result = LammpsEngine().run(job, RunMonitor(job))
+    result = run_lammps(job)
     assert result.status == FAILED and "unstable" in result.reason
 
 
@@ -184,7 +188,7 @@ def test_tiny_device_extreme_corners_are_stable(tmp_path, corner):
     slide): that is a valid outcome, reported through the slide-time penalty.
     """
     job = tiny_job(tmp_path, ("mass_flow", "slide_time", "angle_of_repose"), **CORNERS[corner])
-    result = LammpsEngine().run(job, RunMonitor(job))
+    result = run_lammps(job)
     assert result.status == OK, result.reason
     assert result.measurements["mass_flow"] >= 0.0
     assert 0.0 < result.measurements["slide_time"] <= job.settings["max_time"] + 10.0

@@ -11,8 +11,8 @@ import time
 import numpy as np
 import pytest
 import yaml
-
 from conftest import ROOT, demcal, evaluations, finish, study
+
 
 def test_local_calibration_reaches_the_known_optimum(tmp_path):
     """20 evaluations get the responses within about 3 % of the targets (objective 0 at TRUTH).
@@ -134,7 +134,7 @@ def test_resume_with_a_changed_study_is_refused_but_budget_may_grow(tmp_path):
     proc = demcal(tmp_path, "run", config)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 2
-    assert "different study definition (changed: engine)" in err
+    assert "holds a calibration of a different study (engine.noise: 0.0 -> 0.01)" in err
 
 
 def test_new_target_values_rescore_stored_simulations_without_simulating(tmp_path):
@@ -163,7 +163,7 @@ def test_new_target_values_rescore_stored_simulations_without_simulating(tmp_pat
     config.write_text(yaml.safe_dump(changed))
     proc = demcal(tmp_path, "run", config)
     _, err = proc.communicate(timeout=60)
-    assert proc.returncode == 2 and "(changed: targets)" in err
+    assert proc.returncode == 2 and "holds a calibration of a different study (targets: [" in err
 
 
 def test_rerun_failed_reruns_them_with_new_seeds(tmp_path):
@@ -225,8 +225,9 @@ def test_killed_snakemake_leaves_no_orphan_and_no_lock_the_same_command_finishes
 def test_a_daemon_that_dies_on_a_disk_error_leaves_the_calibration_unfinished(tmp_path,
                                                                               monkeypatch):
     """Results folder unwritable mid-run (EROFS), then repaired: the same command resumes."""
-    from demcal import daemon
     from demcal.config import load_study_file
+    from demcal.daemon import loop as daemon
+    from demcal.study import freeze
 
     monkeypatch.chdir(tmp_path)
     config = study(tmp_path, "rofs")
@@ -240,8 +241,7 @@ def test_a_daemon_that_dies_on_a_disk_error_leaves_the_calibration_unfinished(tm
 
     original = daemon.write_evaluations_csv
     monkeypatch.setattr(daemon, "write_evaluations_csv", read_only_after_three)
-    calibration = daemon.Calibration(load_study_file(config), config, None, workers=2,
-                                     retries=1, poll_seconds=0.3)
+    calibration = daemon.Calibration(freeze(load_study_file(config)), None, workers=2)
     with pytest.raises(OSError, match="Read-only"):
         calibration.run(show_progress=lambda line: None)
     assert not (tmp_path / "results/rofs/finished.json").exists()
@@ -250,3 +250,25 @@ def test_a_daemon_that_dies_on_a_disk_error_leaves_the_calibration_unfinished(tm
     assert "evaluation budget reached (14 of 14)" in out
     assert len(evaluations(tmp_path, "rofs")) == 14
     assert (tmp_path / "results/rofs/finished.json").exists()
+
+
+def test_editing_the_study_file_during_a_run_does_not_reach_the_running_calibration(tmp_path):
+    """Jobs read the frozen results/<study>/study.json, never the YAML."""
+    config = study(tmp_path, "frozen", optimizer={"max_evaluations": 8,
+                                                  "early_termination": {"enabled": False}})
+    original = yaml.safe_load(config.read_text())
+    proc = demcal(tmp_path, "run", config)
+    results = tmp_path / "results" / "frozen"
+    wait_for_objectives(results / "evals", 2, proc)
+    frozen = (results / "study.json").read_text()
+    edited = yaml.safe_load(config.read_text())
+    edited["targets"][0]["value"] *= 2.0
+    edited["engine"]["noise"] = 0.2
+    config.write_text(yaml.safe_dump(edited))
+    finish(proc)
+    assert (results / "study.json").read_text() == frozen
+    wanted = {f"{t['scene']}.{t['response']}": t["value"] for t in original["targets"]}
+    objectives = sorted(results.glob("evals/*/objective.json"))
+    assert len(objectives) == 8
+    for path in objectives:
+        assert json.loads(path.read_text())["targets"] == wanted, path

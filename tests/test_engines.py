@@ -1,16 +1,21 @@
 """Engines behave alike on disk: progress in partial.csv, STOP honoured, failures with reasons."""
 
+import ast
+import importlib.util
 import re
+import subprocess
 import sys
 import textwrap
 import threading
 import time
+from pathlib import Path
 
 import pytest
 
 from demcal.engines.analytic import AnalyticEngine
 from demcal.engines.base import FAILED, OK, TERMINATED, RunMonitor, SimulationJob
 from demcal.engines.command import CommandEngine, command_words
+from demcal.engines.lammps import LammpsEngine
 from demcal.files import read_partial
 from demcal.parameters import CATALOG
 from demcal.scenes import SCENES
@@ -28,7 +33,7 @@ def make_job(tmp_path, **parameters):
 
 
 def run(engine, job):
-    return engine.run(job, RunMonitor(job))
+    return engine.run(job, RunMonitor(job), SCENES[job.scene].driver(engine.name))
 
 
 def stop_after(path, seconds):
@@ -153,3 +158,45 @@ def test_command_engine_never_deletes_through_a_symlink(tmp_path):
     result = run(command_engine(tmp_path, "ok"), make_job(workdir))
     assert result.status == FAILED and "outside the run directory" in result.reason
     assert outside.read_text() == "{}"
+
+
+# -- engines and scenes ---------------------------------------------------------
+
+ENGINES_DIR = Path(__file__).resolve().parents[1] / "demcal" / "engines"
+
+
+def test_engines_never_import_scenes():
+    """Not at load time, not lazily inside a function: engines receive drivers instead."""
+    for path in ENGINES_DIR.glob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom):
+                module = importlib.util.resolve_name("." * node.level + (node.module or ""),
+                                                     "demcal.engines")
+                names = [module] + [f"{module}.{a.name}" for a in node.names]
+            elif isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            else:
+                continue
+            assert not any(n.startswith("demcal.scenes") for n in names), (path.name, names)
+    loaded = subprocess.run(
+        [sys.executable, "-c", "import sys, demcal.engines, demcal.engines.lammps_worker, "
+                               "demcal.engines.lammps_driver; print(sorted(sys.modules))"],
+        capture_output=True, text=True, check=True).stdout
+    assert "demcal.scenes" not in loaded
+
+
+def test_scenes_name_their_drivers_per_engine():
+    from demcal.scenes.cylinder_lift import analytic, lammps, liggghts
+
+    assert SCENE.driver("analytic") is SCENE.analytic_model is analytic.analytic_model
+    assert SCENE.driver("lammps") is lammps.run
+    assert SCENE.driver("liggghts") is liggghts.case
+    assert SCENES["shear_box"].driver("liggghts") is None
+    assert SCENE.driver("command") is None
+
+
+def test_lammps_engine_without_a_driver_fails_with_a_reason(tmp_path):
+    job = make_job(tmp_path)
+    result = LammpsEngine().run(job, RunMonitor(job), None)
+    assert (result.status, result.reason) == (FAILED, "LAMMPS engine has no driver for scene "
+                                                      "'cylinder_lift'")

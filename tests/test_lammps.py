@@ -9,14 +9,13 @@ import math
 import threading
 
 import pytest
+from conftest import PARAMETER_CORNERS, run_and_extract
 
 from demcal.engines.base import FAILED, OK, TERMINATED, SimulationJob
 from demcal.engines.lammps import LammpsEngine
 from demcal.files import read_partial
 from demcal.parameters import CATALOG
 from demcal.scenes import SCENES
-
-from conftest import PARAMETER_CORNERS, run_and_extract
 
 pytestmark = pytest.mark.lammps
 

@@ -7,12 +7,12 @@ reason, and STOP honoured.
 
 import math
 import shutil
-import sys
 import threading
-from types import ModuleType, SimpleNamespace
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from conftest import run_and_extract
 
 from demcal.config import load_study
 from demcal.engines import liggghts
@@ -22,11 +22,8 @@ from demcal.errors import ConfigError, SimulationFailed
 from demcal.files import read_partial
 from demcal.parameters import CATALOG
 from demcal.scenes import SCENES
-from demcal.scenes.cylinder_lift_liggghts import (CylinderLiftInput, cylinder_triangles,
-                                                  place_spheres, polygon_segments)
-from demcal.timestep import timestep
-
-from conftest import run_and_extract
+from demcal.scenes.cylinder_lift.liggghts import CylinderLiftInput, cylinder_triangles, place_spheres, polygon_segments
+from demcal.timestep import rayleigh_time
 
 SCENE = SCENES["cylinder_lift"]
 TINY = {"particle_count": 200, "d50": 3.0e-3, "cylinder_diameter": 24.0e-3, "plate_width": 0.08,
@@ -93,8 +90,8 @@ def test_script_time_step_walls_and_contact_model(tmp_path):
     case = CylinderLiftInput(job)
     lines = case.script().splitlines()
     p = job.parameters
-    dt = timestep(0.2, TINY["d50"] / 2, p["particle_density"], p["youngs_modulus"],
-                  p["poisson_ratio"])
+    dt = 0.2 * rayleigh_time(TINY["d50"] / 2, p["particle_density"], p["youngs_modulus"],
+                             p["poisson_ratio"])
     assert f"timestep {dt:.10g}" in lines
     model = "model hertz tangential history rolling_friction epsd"
     assert f"pair_style gran {model}" in lines
@@ -158,22 +155,19 @@ def test_check_names_the_install_and_refuses_settings_and_other_scenes(monkeypat
     LiggghtsEngine().check([SCENE])
 
 
-def test_run_imports_the_driver_the_scene_names(tmp_path, monkeypatch):
+def test_run_uses_the_driver_it_is_given(tmp_path, monkeypatch):
     monkeypatch.setattr(liggghts.shutil, "which", lambda name: "/usr/bin/" + name)
     job = tiny_job(tmp_path)
-    scene = SimpleNamespace(drivers={})
-    monkeypatch.setitem(SCENES, "cylinder_lift", scene)
-    result = LiggghtsEngine().run(job, RunMonitor(job))
+    result = LiggghtsEngine().run(job, RunMonitor(job), None)
     assert result.status == FAILED and "no driver for scene 'cylinder_lift'" in result.reason
 
     def refuse(workdir):
         raise SimulationFailed(f"fake driver asked to write into {workdir.name}")
 
-    fake = ModuleType("fake_liggghts_driver")
-    fake.case = lambda job: SimpleNamespace(dumps={}, write=refuse)
-    monkeypatch.setitem(sys.modules, fake.__name__, fake)
-    scene.drivers["liggghts"] = fake.__name__
-    result = LiggghtsEngine().run(job, RunMonitor(job))
+    def fake_driver(job):
+        return SimpleNamespace(dumps={}, write=refuse)
+
+    result = LiggghtsEngine().run(job, RunMonitor(job), fake_driver)
     assert result.status == FAILED
     assert result.reason == f"fake driver asked to write into {tmp_path.name}"
 
@@ -196,7 +190,7 @@ def test_failures_of_the_child_are_failed_results_with_reasons(tmp_path, monkeyp
     work = tmp_path / "run"
     work.mkdir()
     job = tiny_job(work)
-    result = LiggghtsEngine().run(job, RunMonitor(job))
+    result = LiggghtsEngine().run(job, RunMonitor(job), SCENE.driver("liggghts"))
     assert result.status == FAILED
     assert expected in result.reason
     assert result.arrays == {}

@@ -4,11 +4,10 @@ import math
 
 import numpy as np
 import pytest
+from conftest import cone_of_spheres
 
 from demcal.errors import SimulationFailed
-from demcal.scenes import measure
-
-from conftest import cone_of_spheres
+from demcal.granular import measure
 
 D = 2.0e-3
 

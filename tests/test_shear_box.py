@@ -9,18 +9,18 @@ import threading
 
 import numpy as np
 import pytest
+from conftest import PARAMETER_CORNERS, run_and_extract
 
 from demcal.engines.analytic import AnalyticEngine
 from demcal.engines.base import FAILED, OK, TERMINATED, RunMonitor, SimulationJob
 from demcal.errors import ConfigError, SimulationFailed
 from demcal.files import read_partial
+from demcal.granular import measure
+from demcal.granular.psd import sample_diameters
 from demcal.parameters import CATALOG
-from demcal.scenes import SCENES, measure
-from demcal.scenes.psd import sample_diameters
+from demcal.scenes import SCENES
 from demcal.scenes.shear_box import box_dimensions, fill_particle_count, mean_sphere_volume
-from demcal.scenes.shear_box_lammps import random_loose_packing
-
-from conftest import PARAMETER_CORNERS, run_and_extract
+from demcal.scenes.shear_box.lammps import random_loose_packing
 
 SCENE = SCENES["shear_box"]
 DEFAULTS = {name: spec.default for name, spec in CATALOG.items()}
@@ -102,7 +102,8 @@ def test_analytic_engine_runs_the_scene_with_early_estimates(tmp_path):
     job = SimulationJob(scene="shear_box", parameters=DEFAULTS, settings=settings(), seed=3,
                         responses=["bulk_density", "shear_angle"], timestep_fraction=0.25,
                         workdir=str(tmp_path), stop_file=str(tmp_path / "STOP"))
-    result = AnalyticEngine({"noise": 0.0, "chunks": 4}).run(job, RunMonitor(job))
+    result = AnalyticEngine({"noise": 0.0, "chunks": 4}).run(job, RunMonitor(job),
+                                                             SCENE.driver("analytic"))
     assert result.status == OK
     assert result.measurements == pytest.approx(SCENE.analytic_model(DEFAULTS, job.settings))
     assert {r["response"] for r in read_partial(job.partial_file)} >= {"bulk_density",

@@ -13,7 +13,6 @@ import sys
 from pathlib import Path
 
 import pytest
-
 from conftest import ROOT, demcal, evaluations, study
 
 pytestmark = [
@@ -60,8 +59,8 @@ def test_calibration_runs_its_simulations_as_slurm_jobs(tmp_path):
                               "early_termination": {"enabled": False}},
                    calibration={"workers": 2, "poll_seconds": 0.5})
     command = ["timeout", "-k", "30", str(TIME_LIMIT_S), sys.executable, "-m", "snakemake",
-               "-s", ROOT / "Snakefile", "--configfile", config,
-               "--profile", ROOT / "profiles" / "slurm", "results/slurm/best.json"]
+               "-s", ROOT / "Snakefile", f"--configfile={config}",
+               "--profile", ROOT / "profiles" / "slurm", "results/slurm/finished.json"]
     proc = subprocess.run(list(map(str, command)), cwd=tmp_path, capture_output=True, text=True,
                           stdin=subprocess.DEVNULL, timeout=TIME_LIMIT_S + 60)
     if proc.returncode != 0:  # stop evaluations a killed daemon left running

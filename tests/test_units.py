@@ -7,16 +7,15 @@ import pytest
 
 from demcal.contact import effective_modulus, hertz_secant_stiffness, sds_rolling_coefficients
 from demcal.errors import ConfigError
+from demcal.granular.psd import diameter_range, sample_diameters
 from demcal.objective import Target, objective_value, relative_error, replicate_mean
-from demcal.scenes.psd import diameter_range, sample_diameters
-from demcal.timestep import check_fraction, rayleigh_time, timestep
+from demcal.timestep import check_fraction, rayleigh_time
 
 
 def test_rayleigh_time_hand_value():
     # r = 1 mm, rho = 2500, E = 5e6, nu = 0.3: G = 5e6 / 2.6 = 1.923e6 Pa
     # T_R = pi * 1e-3 * sqrt(2500 / 1.923e6) / (0.1631 * 0.3 + 0.8766) = 1.2239e-4 s
     assert rayleigh_time(1e-3, 2500.0, 5e6, 0.3) == pytest.approx(1.22386e-4, rel=1e-4)
-    assert timestep(0.25, 1e-3, 2500.0, 5e6, 0.3) == pytest.approx(3.05965e-5, rel=1e-4)
 
 
 def test_rayleigh_time_scales_with_stiffness():
@@ -25,12 +24,12 @@ def test_rayleigh_time_scales_with_stiffness():
 
 
 def test_timestep_fraction_limits():
-    assert check_fraction(0.25) is None
-    assert "above 0.3" in check_fraction(0.4)
-    with pytest.raises(ConfigError, match="above 0.5 of the Rayleigh time.*wrong results"):
-        check_fraction(0.6)
+    assert check_fraction(0.25, 0.25) is None
+    assert "above 0.3" in check_fraction(0.4, 0.25)
+    with pytest.raises(ConfigError, match="above 0.5 of the Rayleigh time.*use 0.25 .default"):
+        check_fraction(0.6, 0.25)
     with pytest.raises(ConfigError, match="must be > 0"):
-        check_fraction(0.0)
+        check_fraction(0.0, 0.25)
 
 
 def test_objective_eq_3_3_hand_value():
@@ -91,3 +90,17 @@ def test_rayleigh_cost_is_zero_at_the_largest_time_step_and_the_weight_at_the_sm
     assert rayleigh_cost(stiff, (low, high), 0.5) == pytest.approx(0.5)
     assert rayleigh_cost(middle, (low, high), 1.0) == pytest.approx(
         (1 - 10 ** -0.5) / (1 - 0.1))
+
+
+def test_objective_forms_agree_with_eq_3_3():
+    """Per replicate and from early estimates, the objective is eq. 3.3 of those values."""
+    from demcal.objective import estimated_objective, replicate_objectives
+
+    targets = [Target("s", "a", 20.0), Target("s", "b", 1000.0, weight=2.0)]
+    replicates = {"s.a": [22.0, 18.0], "s.b": [900.0, 1100.0]}
+    assert replicate_objectives(targets, replicates, cost=0.5) == pytest.approx(
+        [0.01 + 0.02 + 0.5, 0.01 + 0.02 + 0.5])
+    assert replicate_objectives(targets, {"s.a": [22.0], "s.b": [900.0]}) == []
+    # only 'a' estimated so far: a lower bound from the mean of its replicates
+    assert estimated_objective(targets, {"s.a": [21.0, 23.0]}) == pytest.approx(0.01)
+    assert estimated_objective(targets, {}) is None

@@ -5,10 +5,16 @@
 - ``command``: any other simulator through a command template;
 - ``liggghts``: Debian's LIGGGHTS 3.8 binary, cylinder lift only.
 
+An engine runs what the scene gives it (its driver for that engine, looked
+up by the caller) and never imports scenes. ``lammps_driver`` is the base
+class of the scenes' LAMMPS drivers.
+
 Adding a simulator: subclass ``Engine`` (``check``, ``version``, ``run``),
-register it in ``ENGINES`` and describe its settings in
-workflow/schemas/config.schema.yaml; or use the ``command`` engine without
-writing code (README, "Other simulators").
+register it in ``ENGINES``, describe its settings in
+workflow/schemas/config.schema.yaml and give the scenes a driver for it (a
+module ``demcal/scenes/<scene>/<engine>.py`` named in the scene's
+``drivers``); or use the ``command`` engine without writing code (README,
+"Other simulators").
 """
 
 from __future__ import annotations

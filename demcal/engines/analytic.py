@@ -1,8 +1,10 @@
 """Analytic test engine: closed-form responses with seeded noise and a fake duration.
 
-It behaves like a real engine on disk (progress and early estimates in
-partial.csv, STOP honoured between chunks, failures with reasons) so the
-whole pipeline and the optimizer can be tested in seconds. Engine settings:
+Its driver is the scene's closed-form model, ``model(parameters, settings)
+-> {response: value}``. It behaves like a real engine on disk (progress and
+early estimates in partial.csv, STOP honoured between chunks, failures with
+reasons) so the whole pipeline and the optimizer can be tested in seconds.
+Engine settings:
 
 - ``noise``: relative standard deviation of every response (default 0.01),
   or a mapping response -> relative standard deviation;
@@ -16,12 +18,13 @@ whole pipeline and the optimizer can be tested in seconds. Engine settings:
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 
 import numpy as np
 
 from demcal.engines.base import FAILED, OK, TERMINATED, Engine, RunMonitor, RunResult, SimulationJob
 from demcal.errors import ConfigError
-from demcal.scenes import SCENES
+
 
 def _injected_failure(failures: list[dict], parameters: dict) -> dict | None:
     """The first failure rule whose intervals all contain the parameters, or None."""
@@ -31,9 +34,10 @@ def _injected_failure(failures: list[dict], parameters: dict) -> dict | None:
     return None
 
 
-def noisy_responses(scene_name: str, parameters: dict, settings: dict, noise, seed: int) -> dict:
-    """Closed-form responses of the scene, each times (1 + N(0, noise^2)), seeded."""
-    exact = SCENES[scene_name].analytic_model(parameters, settings)
+def noisy_responses(model: Callable[[dict, dict], dict], parameters: dict, settings: dict,
+                    noise, seed: int) -> dict:
+    """The closed-form model's responses, each times (1 + N(0, noise^2)), seeded."""
+    exact = model(parameters, settings)
     rng = np.random.default_rng(seed)
     out = {}
     for name in sorted(exact):
@@ -55,12 +59,13 @@ class AnalyticEngine(Engine):
     def version(self) -> str:
         return "analytic-1"
 
-    def run(self, job: SimulationJob, monitor: RunMonitor) -> RunResult:
+    def run(self, job: SimulationJob, monitor: RunMonitor,
+            driver: Callable[[dict, dict], dict]) -> RunResult:
         start_wall, start_cpu = time.monotonic(), time.process_time()
         chunks = int(self.settings.get("chunks", 10))
         duration = float(self.settings.get("duration", 0.0))
         failure = _injected_failure(self.settings.get("failures", []), job.parameters)
-        responses = noisy_responses(job.scene, job.parameters, job.settings,
+        responses = noisy_responses(driver, job.parameters, job.settings,
                                     self.settings.get("noise", 0.01), job.seed)
 
         def cost(steps: int) -> dict:

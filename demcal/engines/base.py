@@ -1,23 +1,26 @@
 """The small interface every simulator sits behind.
 
 An engine runs one scene replicate: given the parameters, scene settings and
-a seed, it streams progress and early response estimates to ``partial.csv``,
-polls the STOP file between chunks of work and ends with a ``RunResult``
-whose status is ``ok``, ``terminated`` (stopped on request) or ``failed``
-(with the reason). Responses are either measured by the engine directly
+a seed, and the scene's driver for this engine (what the engine runs: an
+analytic model, the function that issues a scene's LAMMPS commands, ...), it
+streams progress and early response estimates to ``partial.csv``, polls the
+STOP file between chunks of work and ends with a ``RunResult`` whose status
+is ``ok``, ``terminated`` (stopped on request) or ``failed`` (with the
+reason). Responses are either measured by the engine directly
 (``measurements``) or computed later by the scene from the saved particle
-state (``arrays``).
+state (``arrays``). Engines never import scenes: the caller looks the driver
+up (``Scene.driver(engine.name)``) and hands it over.
 """
 
 from __future__ import annotations
 
-import json
 import os
 import signal
 import subprocess
 import time
 from abc import ABC, abstractmethod
-from dataclasses import asdict, dataclass, field
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -44,13 +47,6 @@ class SimulationJob:
     @property
     def partial_file(self) -> Path:
         return Path(self.workdir) / "partial.csv"
-
-    def to_json(self) -> str:
-        return json.dumps(asdict(self), indent=2, sort_keys=True)
-
-    @classmethod
-    def from_json(cls, text: str) -> "SimulationJob":
-        return cls(**json.loads(text))
 
 
 @dataclass
@@ -101,19 +97,28 @@ class RunMonitor:
 
 
 class Engine(ABC):
-    """A simulator. Subclasses set ``name`` and implement ``run``."""
+    """A simulator. Subclasses set ``name`` and implement ``run``.
+
+    ``check`` receives the study's scenes as objects: an engine reads what
+    they declare (``parameters``, ``driver(name)``) and never imports them.
+    """
 
     name: str = ""
 
     def __init__(self, settings: dict | None = None):
         self.settings = dict(settings or {})
 
-    def check(self, scenes: list) -> None:
+    def check(self, scenes: list) -> None:  # noqa: B027  (optional: most engines need no check)
         """Raise ConfigError if this engine cannot run these scenes here (binary missing, ...)."""
 
     def version(self) -> str:
         return "unknown"
 
     @abstractmethod
-    def run(self, job: SimulationJob, monitor: RunMonitor) -> RunResult:
-        """Run one simulation to its end, a stop request, or a failure with reason."""
+    def run(self, job: SimulationJob, monitor: RunMonitor,
+            driver: Callable | None) -> RunResult:
+        """Run one simulation to its end, a stop request, or a failure with reason.
+
+        ``driver`` is the scene's driver for this engine (``Scene.driver``),
+        None if the scene has none.
+        """

@@ -20,10 +20,20 @@ import shutil
 import string
 import subprocess
 import time
+from collections.abc import Callable
 from pathlib import Path, PurePosixPath
 
-from demcal.engines.base import (FAILED, OK, TERMINATED, Engine, RunMonitor, RunResult,
-                                 SimulationJob, signal_name, stop_process_group)
+from demcal.engines.base import (
+    FAILED,
+    OK,
+    TERMINATED,
+    Engine,
+    RunMonitor,
+    RunResult,
+    SimulationJob,
+    signal_name,
+    stop_process_group,
+)
 from demcal.errors import ConfigError, SimulationFailed
 from demcal.files import log_tail, read_json
 
@@ -119,7 +129,8 @@ class CommandEngine(Engine):
     def version(self) -> str:
         return f"command: {shlex.split(self.settings['command'])[0]}"
 
-    def run(self, job: SimulationJob, monitor: RunMonitor) -> RunResult:
+    def run(self, job: SimulationJob, monitor: RunMonitor, driver: Callable | None) -> RunResult:
+        """Run the command template; ``driver`` is unused (scenes name none for this engine)."""
         workdir = Path(job.workdir).resolve()
         fields = {**job.parameters, "workdir": str(workdir), "seed": job.seed,
                   "timestep_fraction": job.timestep_fraction, "scene": job.scene, "input": ""}

@@ -4,8 +4,11 @@ Each simulation runs in its own child process (``python -m
 demcal.engines.lammps_worker``): a failed ``pair_coeff`` can make the next
 ``run`` segfault the whole process and "Lost atoms" poisons the LAMMPS
 object, so a signal death of the child becomes a failed simulation with its
-reason instead of taking the job down. The scene's driver module (named in
-``Scene.drivers["lammps"]``) issues the LAMMPS commands.
+reason instead of taking the job down. The driver the engine receives, a
+module-level function ``run(job, monitor) -> RunResult`` of a scene (e.g.
+``demcal.scenes.cylinder_lift.lammps.run``), issues the LAMMPS commands; the
+child imports it by the import path ("module:name") written beside the job
+into the job file.
 """
 
 from __future__ import annotations
@@ -16,6 +19,8 @@ import resource
 import subprocess
 import sys
 import time
+from collections.abc import Callable
+from dataclasses import asdict
 from importlib import metadata
 from pathlib import Path
 
@@ -23,7 +28,7 @@ import numpy as np
 
 from demcal.engines.base import FAILED, Engine, RunMonitor, RunResult, SimulationJob, signal_name
 from demcal.errors import ConfigError
-from demcal.files import log_tail, read_json
+from demcal.files import log_tail, read_json, write_json
 
 JOB_FILE, RESULT_FILE, STATE_FILE, WORKER_LOG = (
     "lammps-job.json", "lammps-result.json", "lammps-state.npz", "lammps-worker.log")
@@ -64,15 +69,19 @@ class LammpsEngine(Engine):
                               "pip install -r environment.lock")
         preload_mpi()
         for scene in scenes:
-            if self.name not in scene.drivers:
+            if scene.driver(self.name) is None:
                 raise ConfigError(f"engine lammps: no LAMMPS driver for scene {scene.name!r}")
 
     def version(self) -> str:
         return f"lammps {lammps_version()}"
 
-    def run(self, job: SimulationJob, monitor: RunMonitor) -> RunResult:
+    def run(self, job: SimulationJob, monitor: RunMonitor,
+            driver: Callable[[SimulationJob, RunMonitor], RunResult] | None) -> RunResult:
+        if driver is None:
+            return RunResult(FAILED, f"LAMMPS engine has no driver for scene {job.scene!r}")
         workdir = Path(job.workdir).resolve()
-        (workdir / JOB_FILE).write_text(job.to_json())
+        write_json(workdir / JOB_FILE, {"driver": f"{driver.__module__}:{driver.__qualname__}",
+                                        "job": asdict(job)})
         for stale in (RESULT_FILE, STATE_FILE):
             (workdir / stale).unlink(missing_ok=True)
         env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")

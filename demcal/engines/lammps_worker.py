@@ -1,6 +1,8 @@
 """Child process of the LAMMPS engine: runs one scene driver, writes its result files.
 
-Usage: ``python -m demcal.engines.lammps_worker JOB.json``. Writes
+Usage: ``python -m demcal.engines.lammps_worker JOB.json``, the job file
+holding ``{"driver": "module:name", "job": {SimulationJob fields}}``: the
+worker imports the driver from that path and runs it on the job. Writes
 ``lammps-result.json`` (status, reason, measurements, cost) and, if the driver
 returned particle arrays, ``lammps-state.npz`` beside the job file. A driver
 error becomes a failed result with the error text; a crash of LAMMPS itself
@@ -9,7 +11,7 @@ kills this process, which the parent records.
 
 from __future__ import annotations
 
-import importlib
+import pkgutil
 import sys
 import time
 import traceback
@@ -20,8 +22,7 @@ import numpy as np
 from demcal.engines.base import FAILED, RunMonitor, SimulationJob
 from demcal.engines.lammps import RESULT_FILE, STATE_FILE, preload_mpi
 from demcal.errors import SimulationFailed
-from demcal.files import write_json
-from demcal.scenes import SCENES
+from demcal.files import read_json, write_json
 
 
 def _lammps_message(exc: Exception) -> str:
@@ -32,13 +33,14 @@ def _lammps_message(exc: Exception) -> str:
 
 def main(job_path: str) -> int:
     job_file = Path(job_path)
-    job = SimulationJob.from_json(job_file.read_text())
+    record = read_json(job_file, "LAMMPS job file")
+    job = SimulationJob(**record["job"])
     monitor = RunMonitor(job)
     start = time.process_time()
-    driver = importlib.import_module(SCENES[job.scene].drivers["lammps"])
+    driver = pkgutil.resolve_name(record["driver"])
     preload_mpi()
     try:
-        result = driver.run(job, monitor)
+        result = driver(job, monitor)
     except SimulationFailed as exc:
         result_record = {"status": FAILED, "reason": str(exc)}
     except Exception as exc:  # LAMMPS raises plain Exception("ERROR: ...")

@@ -1,8 +1,8 @@
 """LIGGGHTS engine: Debian's ``liggghts`` binary (LIGGGHTS-PUBLIC 3.8), a child process per run.
 
-What to simulate comes from the scene's driver module, named in
-``Scene.drivers["liggghts"]`` (e.g. ``demcal.scenes.cylinder_lift_liggghts``):
-its ``case(job)`` returns a ``LiggghtsCase`` that writes the input files
+What to simulate comes from the driver the engine receives, a scene's
+function ``driver(job)`` (e.g. ``demcal.scenes.cylinder_lift.liggghts.case``)
+that returns a ``LiggghtsCase``, which writes the input files
 (``in.liggghts`` and whatever it reads) into the run directory and turns the
 particle dumps its script writes into measurements and the arrays the
 scene's extractors read. The engine runs the binary on them (stdin closed,
@@ -24,24 +24,32 @@ The script reports to the engine by ``print`` lines in its log:
 from __future__ import annotations
 
 import functools
-import importlib
 import os
 import re
 import resource
 import shutil
 import subprocess
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Protocol
 
 import numpy as np
 
-from demcal.engines.base import (FAILED, OK, TERMINATED, Engine, RunMonitor, RunResult,
-                                 SimulationJob, signal_name, stop_process_group)
+from demcal.engines.base import (
+    FAILED,
+    OK,
+    TERMINATED,
+    Engine,
+    RunMonitor,
+    RunResult,
+    SimulationJob,
+    signal_name,
+    stop_process_group,
+)
 from demcal.errors import ConfigError, SimulationFailed
 from demcal.files import log_tail
-from demcal.scenes import SCENES
-from demcal.scenes.particles import BLOWUP_FACTOR
+from demcal.granular.particles import BLOWUP_FACTOR
 
 BINARY = "liggghts"
 INSTALL_HINT = "install it with: apt-get install liggghts (Debian/Ubuntu, LIGGGHTS 3.8)"
@@ -53,7 +61,7 @@ DUMP_DONE = re.compile(r"^demcal-dump (\w+)")
 
 
 class LiggghtsCase(Protocol):
-    """One simulation as a scene's LIGGGHTS driver describes it (``driver.case(job)``)."""
+    """One simulation as a scene's LIGGGHTS driver describes it (``driver(job)``)."""
 
     dt: float  #: time step [s]
     rayleigh: float  #: Rayleigh time [s] of the smallest sphere
@@ -72,7 +80,7 @@ class LiggghtsCase(Protocol):
         """Measurements and arrays from a stage's final dump; may raise SimulationFailed."""
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def liggghts_version(binary: str) -> str:
     """The version banner of ``binary`` (e.g. 'LIGGGHTS-PUBLIC 3.8.0'), or 'not installed'."""
     path = shutil.which(binary)
@@ -141,20 +149,20 @@ class LiggghtsEngine(Engine):
             raise ConfigError(f"engine liggghts: the {BINARY!r} binary is not on PATH; "
                               f"{INSTALL_HINT}")
         for scene in scenes:
-            if self.name not in scene.drivers:
+            if scene.driver(self.name) is None:
                 raise ConfigError(f"engine liggghts: no LIGGGHTS driver for scene {scene.name!r}")
 
     def version(self) -> str:
         return f"liggghts {liggghts_version(BINARY)}"
 
-    def run(self, job: SimulationJob, monitor: RunMonitor) -> RunResult:
+    def run(self, job: SimulationJob, monitor: RunMonitor,
+            driver: Callable[[SimulationJob], LiggghtsCase] | None) -> RunResult:
         binary = shutil.which(BINARY)
         if binary is None:
             return RunResult(FAILED, f"the {BINARY!r} binary is not on PATH; {INSTALL_HINT}")
-        scene = SCENES.get(job.scene)
-        if scene is None or self.name not in scene.drivers:
+        if driver is None:
             return RunResult(FAILED, f"LIGGGHTS engine has no driver for scene {job.scene!r}")
-        case: LiggghtsCase = importlib.import_module(scene.drivers[self.name]).case(job)
+        case: LiggghtsCase = driver(job)
         workdir = Path(job.workdir).resolve()
         for stale in (*case.dumps.values(), LOG):
             (workdir / stale).unlink(missing_ok=True)

@@ -12,8 +12,8 @@ The rule assumes a non-negative objective (a sum of squared errors).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 
 @dataclass(frozen=True)

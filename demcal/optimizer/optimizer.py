@@ -1,11 +1,14 @@
 """Asynchronous ask/tell optimizer with JSON state (Samuelsson 2023, Algorithm 5).
 
 The optimizer hands out the initial design first, then one adaptive point
-per request. Every point handed out, finished, given up or stopped early
-joins the distance set A, so running points repel new ones and parallel
-workers never get the same point; only finished values enter the surrogate
-data B (section 3.6.2: a terminated run updates A but not B). Failed points
-additionally exclude a small ball around them.
+per request, chosen by the strategy named in the settings (:mod:`.registry`,
+:mod:`.search`) from a :class:`~.search.History` of the evaluations. It
+keeps the bookkeeping, the step size, the surrogate cache and the state;
+the strategy only chooses. Every point handed out, finished, given up or
+stopped early joins the distance set A, so running points repel new ones
+and parallel workers never get the same point; only finished values enter
+the surrogate data B (section 3.6.2: a terminated run updates A but not B).
+Failed points additionally exclude a small ball around them.
 """
 
 from __future__ import annotations
@@ -20,6 +23,8 @@ from . import strategies as st
 from .bounds import Bounds
 from .designs import default_initial_size, initial_design
 from .early_termination import EarlyTerminationDecision, early_termination_decision
+from .registry import strategy_class
+from .search import History, WeightCycle
 from .settings import OptimizerSettings
 from .stopping import stop_reason
 from .surrogates import Surrogate, make_surrogate
@@ -98,7 +103,7 @@ class Optimizer:
     # ------------------------------------------------------------------ ask
     def ask(self, n: int = 1) -> list[Proposal]:
         """Up to ``n`` new points; fewer once the evaluation budget is handed out."""
-        room = self.settings.max_evaluations - self.completed_evaluations() - len(self._points("pending"))
+        room = self.settings.max_evaluations - self.completed_evaluations() - len(self.pending())
         proposals = []
         for _ in range(max(min(n, room), 0)):
             if self.design_queue:
@@ -125,54 +130,29 @@ class Optimizer:
         return Proposal(record["id"], self.bounds.from_unit(unit)[0].tolist(), in_design)
 
     def _adaptive_point(self) -> np.ndarray:
-        s = self.settings
-        distance_set = self._points("pending", "ok", "terminated", "failed")
-        failed = self._points("failed")
-        surrogate = self._fitted_surrogate()
-        if surrogate is None:
-            return self._space_filling_point(distance_set, failed)
-        center = self._best_unit_point(surrogate)
-        probability = st.perturbation_probability(
-            self.bounds.dimension, self.completed_evaluations(), self.initial_size, s.max_evaluations
-        )
-        candidates = st.perturbation_candidates(center, self.step.sigma, s.candidates, probability, self.rng)
-        if s.strategy == "kriging_ei":
-            candidates = np.vstack([candidates, st.uniform_candidates(s.candidates, self.bounds.dimension, self.rng)])
-        if s.polish_candidate:
-            candidates = np.vstack([candidates, st.surrogate_minimum(surrogate, center, 2 * self.step.sigma)])
-        keep = st.admissible(candidates, distance_set, s.min_distance, failed, s.failed_exclusion_radius)
-        if not keep.any():
-            return self._space_filling_point(distance_set, failed)
-        candidates = candidates[keep]
-        weight = s.weights[self.weight_index % len(s.weights)]
-        self.weight_index += 1
-        if s.strategy == "kriging_ei":
-            observed_best = float(np.min(surrogate.predict(self._points("ok"))))
-            improvement = st.expected_improvement(
-                surrogate.predict(candidates), surrogate.predict_std(candidates), observed_best
-            )
-            damping = st.pending_damping(candidates, self._points("pending"), self.step.sigma)
-            return candidates[int(np.argmax(improvement * damping))]
-        if s.polish_candidate and (weight == max(s.weights) or self._in_final_exploitation()) and keep[-1]:
-            return candidates[-1]  # exploitative steps take the surrogate minimum itself
-        scores = st.weighted_scores(
-            surrogate.predict(candidates), st.nearest_distances(candidates, distance_set), weight
-        )
-        return candidates[int(np.argmin(scores))]
+        """The point the configured strategy chooses from the current history."""
+        weights = WeightCycle(self.settings.weights, self.weight_index)
+        point = strategy_class(self.settings.strategy)().propose(self._history(weights))
+        self.weight_index = weights.index
+        return point
 
-    def _in_final_exploitation(self) -> bool:
-        """True once the points handed out reach the last ``final_exploitation`` share of the budget."""
-        s = self.settings
-        handed_out = self.completed_evaluations() + len(self._points("pending"))
-        return handed_out >= s.max_evaluations * (1.0 - s.final_exploitation)
-
-    def _space_filling_point(self, distance_set: np.ndarray, failed: np.ndarray) -> np.ndarray:
-        s = self.settings
-        candidates = st.uniform_candidates(s.candidates, self.bounds.dimension, self.rng)
-        keep = st.admissible(candidates, np.empty((0, self.bounds.dimension)), 0.0, failed, s.failed_exclusion_radius)
-        if keep.any():
-            candidates = candidates[keep]
-        return st.most_distant(candidates, distance_set)
+    def _history(self, weights: WeightCycle) -> History:
+        """The frozen view of the evaluations that a strategy receives."""
+        records, dimension = self.records, self.bounds.dimension
+        return History(
+            ids=tuple(r["id"] for r in records),
+            points=np.array([r["x"] for r in records], float).reshape(len(records), dimension),
+            statuses=tuple(r["status"] for r in records),
+            values=np.array([r["value"] if r["status"] == "ok" else np.nan for r in records], float),
+            variances=np.array([(r["variance"] or 0.0) if r["status"] == "ok" else np.nan for r in records], float),
+            in_initial_design=np.array([r["in_initial_design"] for r in records], bool),
+            surrogate=self._fitted_surrogate(),
+            sigma=self.step.sigma,
+            rng=self.rng,
+            weights=weights,
+            settings=self.settings,
+            initial_size=self.initial_size,
+        )
 
     # ----------------------------------------------------------------- tell
     def tell(
@@ -315,10 +295,6 @@ class Optimizer:
                 return record
         raise ValueError(f"unknown evaluation id {id!r}")
 
-    def _points(self, *statuses: str) -> np.ndarray:
-        rows = [r["x"] for r in self.records if r["status"] in statuses]
-        return np.array(rows, float).reshape(len(rows), self.bounds.dimension)
-
     def _fitted_surrogate(self) -> Surrogate | None:
         """The surrogate on all finished values, refitted only when they changed."""
         finished = [r for r in self.records if r["status"] == "ok"]
@@ -333,10 +309,6 @@ class Optimizer:
             self._surrogate = surrogate.fit(x, y, variance)
             self._surrogate_version = len(finished)
         return self._surrogate
-
-    def _best_unit_point(self, surrogate: Surrogate) -> np.ndarray:
-        finished = self._points("ok")
-        return finished[int(np.argmin(surrogate.predict(finished)))]
 
     # -------------------------------------------------------------- state
     def to_json(self) -> str:

@@ -13,7 +13,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-STRATEGIES = ("dycors", "kriging_ei")
+from .registry import STRATEGIES
+
 SURROGATES = ("cubic_rbf", "kriging", "smt_rbf")
 INITIAL_DESIGNS = ("symmetric_latin_hypercube", "latin_hypercube", "sobol")
 
@@ -38,9 +39,11 @@ class OptimizerSettings:
     """Everything that tunes the optimizer; build it with :meth:`from_dict`.
 
     Step sizes and distances are in the unit box (each parameter scaled to
-    [0, 1]). ``initial_size`` None means 2d+1 plus one point per worker
+    [0, 1]). ``strategy``: a name in :data:`.registry.STRATEGIES`.
+    ``initial_size`` None means 2d+1 plus one point per worker
     (Samuelsson 2023, section 3.7: q + P). ``surrogate`` None means the
-    strategy's own: cubic_rbf for dycors, kriging for kriging_ei.
+    strategy's own (registered with it): cubic_rbf for dycors, kriging for
+    kriging_ei.
     ``polish_candidate``: at the most exploitative weight, propose the
     local minimum of the surrogate within 2 sigma of the best point, and
     always so in the last ``final_exploitation`` share of the budget (both
@@ -98,7 +101,7 @@ class OptimizerSettings:
         """The surrogate in use (resolves the None default per strategy)."""
         if self.surrogate is not None:
             return self.surrogate
-        return "kriging" if self.strategy == "kriging_ei" else "cubic_rbf"
+        return STRATEGIES[self.strategy].surrogate
 
     def failures_to_halve(self, dimension: int) -> int:
         """Consecutive failures that halve the step size."""
@@ -117,13 +120,14 @@ class OptimizerSettings:
 
     def validate(self) -> None:
         """Raise ValueError naming the key, the value and what is allowed."""
-        _choice("strategy", self.strategy, STRATEGIES)
+        _choice("strategy", self.strategy, tuple(STRATEGIES))
         if self.surrogate is not None:
             _choice("surrogate", self.surrogate, SURROGATES)
-            if self.strategy == "kriging_ei" and self.surrogate != "kriging":
+            usable = STRATEGIES[self.strategy].surrogates
+            if usable is not None and self.surrogate not in usable:
                 raise ValueError(
-                    f"optimizer.surrogate: {self.surrogate!r} cannot serve strategy kriging_ei; "
-                    "it needs kriging (or leave surrogate unset)"
+                    f"optimizer.surrogate: {self.surrogate!r} cannot serve strategy {self.strategy}; "
+                    f"it needs {' or '.join(usable)} (or leave surrogate unset)"
                 )
         _choice("initial_design", self.initial_design, INITIAL_DESIGNS)
         if self.initial_size is not None:

@@ -11,6 +11,8 @@ improvements and halves after C_fail consecutive non-improvements.
 
 The Kriging strategy scores the same kind of candidates by expected
 improvement (Samuelsson 2023, section 2.2.2.3), damped near running points.
+
+The strategy classes that put these together are in :mod:`.search`.
 """
 
 from __future__ import annotations
@@ -129,6 +131,18 @@ def most_distant(candidates: np.ndarray, distance_set: np.ndarray) -> np.ndarray
     return candidates[int(np.argmax(nearest_distances(candidates, distance_set)))]
 
 
+def space_filling_point(
+    distance_set: np.ndarray, failed: np.ndarray, failed_radius: float, count: int, rng: np.random.Generator
+) -> np.ndarray:
+    """The farthest from the distance set of ``count`` uniform candidates, preferring those clear of failed points."""
+    candidates = uniform_candidates(count, distance_set.shape[1], rng)
+    if len(failed):
+        keep = nearest_distances(candidates, failed) > failed_radius
+        if keep.any():
+            candidates = candidates[keep]
+    return most_distant(candidates, distance_set)
+
+
 def expected_improvement(mean: np.ndarray, std: np.ndarray, best: float) -> np.ndarray:
     """EI(x) = E[max(f* - Y(x), 0)] for Y ~ N(mean, std^2) (Samuelsson 2023, sec. 2.2.2.3)."""
     std = np.maximum(std, 1e-12)
@@ -160,7 +174,9 @@ class StepSize:
     failures: int = 0
     collapsed: bool = False
 
-    def record(self, improved: bool, sigma_min: float, sigma_max: float, success_tolerance: int, failure_tolerance: int) -> None:
+    def record(
+        self, improved: bool, sigma_min: float, sigma_max: float, success_tolerance: int, failure_tolerance: int
+    ) -> None:
         if improved:
             self.successes += 1
             self.failures = 0

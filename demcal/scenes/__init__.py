@@ -1,4 +1,11 @@
-"""Registry of the scenes (lab tests) demcal can simulate."""
+"""Registry of the scenes (lab tests) demcal can simulate.
+
+A scene is a package ``demcal/scenes/<scene>/``: its ``__init__.py``
+declares it (``SCENE``: parameters, settings, responses, extractors and, per
+engine, the driver that runs it), ``analytic.py`` holds its closed-form
+stand-in and one module per engine (``lammps.py``, ``liggghts.py``) runs it
+on that engine.
+"""
 
 from __future__ import annotations
 

@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import math
+import pkgutil
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 from demcal.errors import ConfigError
 
@@ -55,8 +56,6 @@ class ResponseSpec:
 
     unit: str
     description: str
-    #: Settings that change how this response is measured (recorded with it).
-    method_settings: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -64,9 +63,10 @@ class Scene:
     """Declaration of a lab test.
 
     ``analytic_model(parameters, settings) -> {response: value}`` is a
-    closed-form stand-in used by the analytic test engine; ``drivers`` maps an
-    engine name to the module that runs this scene on that engine; ``extractors``
-    compute a response from the saved particle state (``extract(state, settings)``).
+    closed-form stand-in, the analytic test engine's driver; ``drivers`` maps
+    another engine's name to the import path ("module:attribute") of what runs
+    this scene on that engine (``driver``); ``extractors`` compute a response
+    from the saved particle state (``extract(state, settings)``).
     """
 
     name: str
@@ -82,6 +82,17 @@ class Scene:
     #: The setting that sets the simulated amount of material (particle count or a scale
     #: factor), varied by the convergence study.
     size_setting: str = "particle_count"
+
+    def driver(self, engine: str) -> Callable | None:
+        """What the engine named ``engine`` runs for this scene; None if the scene has none.
+
+        The analytic engine gets ``analytic_model``; any other engine the
+        object its ``drivers`` entry names, imported now.
+        """
+        if engine == "analytic":
+            return self.analytic_model
+        path = self.drivers.get(engine)
+        return None if path is None else pkgutil.resolve_name(path)
 
     def resolve_settings(self, given: dict | None, field_prefix: str) -> dict:
         """Defaults overlaid with the given settings, each checked against its spec."""

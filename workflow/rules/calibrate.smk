@@ -6,6 +6,8 @@
 # daemon watches this Snakemake's pid and ends when it is gone, so a killed
 # Snakemake leaves no orphan that holds the study.
 
+from demcal.resources import PROFILES_DIR
+
 
 def invocation_profile():
     """The --profile this Snakemake was started with (or $SNAKEMAKE_PROFILE), else local."""
@@ -15,16 +17,17 @@ def invocation_profile():
             return os.path.abspath(args[i + 1])
         if arg.startswith("--profile="):
             return os.path.abspath(arg.split("=", 1)[1])
-    return os.path.abspath(os.environ.get("SNAKEMAKE_PROFILE", f"{workflow.basedir}/profiles/local"))
+    return os.path.abspath(os.environ.get("SNAKEMAKE_PROFILE", PROFILES_DIR / "local"))
 
 
 rule calibrate:
     input:
-        config=workflow.configfiles[0],
+        # the study file as given (YAML); the daemon validates and freezes it
+        config=workflow.configfiles[0] if workflow.configfiles else STUDY_FILE,
     output:
-        f"results/{STUDY.name}/finished.json",
+        str(FILES.finished),
     log:
-        f"results/{STUDY.name}/logs/calibrate.log",
+        str(FILES.logs / "calibrate.log"),
     localrule: True
     params:
         python=sys.executable,

@@ -1,8 +1,10 @@
 # Jobs of one evaluation. simulate is the expensive job (one SLURM job under
-# the slurm profile); extract and objective are cheap and run locally.
+# the slurm profile); extract and objective are cheap and run locally. Every
+# job reads the frozen study (params.study_file), never the YAML.
 
-EVAL = f"results/{STUDY.name}/evals/{{evaluation}}"
-CENTRE = f"results/{STUDY.name}/evals/centre"
+EVAL = FILES.evaluation("{evaluation}")
+REPLICATE = EVAL.replicate("{scene}", "{replicate}")
+CENTRE = FILES.evaluation("centre")
 
 
 wildcard_constraints:
@@ -19,50 +21,56 @@ localrules:
 
 rule centre_point:
     output:
-        CENTRE + "/params.json",
+        str(CENTRE.params),
     log:
-        CENTRE + "/logs/centre_point.log",
+        str(CENTRE.job_log("centre_point")),
+    params:
+        study_file=STUDY_FILE,
     script:
         "../../scripts/centre_point.py"
 
 
 def replicate_responses(wildcards):
-    return [
-        f"results/{STUDY.name}/evals/{wildcards.evaluation}/{scene}/rep{r}/responses.json"
-        for scene in STUDY.scenes
-        for r in range(STUDY.replicates)
-    ]
+    evaluation = FILES.evaluation(wildcards.evaluation)
+    return [str(evaluation.replicate(scene, r).responses)
+            for scene in STUDY.scenes for r in range(STUDY.replicates)]
 
 
 rule objective:
     input:
         replicate_responses,
     output:
-        EVAL + "/objective.json",
+        str(EVAL.objective),
     log:
-        EVAL + "/logs/objective.log",
+        str(EVAL.job_log("objective")),
+    params:
+        study_file=STUDY_FILE,
     script:
         "../../scripts/objective.py"
 
 
 rule extract:
     input:
-        EVAL + "/{scene}/rep{replicate}/simulation.json",
+        str(REPLICATE.simulation),
     output:
-        EVAL + "/{scene}/rep{replicate}/responses.json",
+        str(REPLICATE.responses),
     log:
-        EVAL + "/logs/extract_{scene}_rep{replicate}.log",
+        str(EVAL.job_log("extract", "{scene}", "{replicate}")),
+    params:
+        study_file=STUDY_FILE,
     script:
         "../../scripts/extract.py"
 
 
 rule simulate:
     input:
-        EVAL + "/params.json",
+        str(EVAL.params),
     output:
-        EVAL + "/{scene}/rep{replicate}/simulation.json",
+        str(REPLICATE.simulation),
     log:
-        EVAL + "/logs/simulate_{scene}_rep{replicate}.log",
+        str(EVAL.job_log("simulate", "{scene}", "{replicate}")),
+    params:
+        study_file=STUDY_FILE,
     threads: 1
     resources:
         mem_mb=500,

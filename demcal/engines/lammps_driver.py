@@ -1,12 +1,12 @@
-"""What every LAMMPS scene driver shares: particles, time step, stepping, settling, STOP.
+"""Base of the scenes' LAMMPS drivers: particles, time step, contact, stepping, settling, STOP.
 
-A scene driver subclasses ``LammpsDriver``: its ``build`` issues the
-geometry commands (regions and granular walls) and its ``run`` drives the
-stages with ``advance`` and ``settle``, which check stability after every
-chunk of steps and raise ``Stopped`` when the evaluation's STOP file
-appears. Contact: Hertz with restitution damping, Mindlin tangential
-friction, SDS rolling resistance converted from mu_r (``demcal.contact``),
-Marshall twisting.
+A scene's LAMMPS driver (``demcal/scenes/<scene>/lammps.py``) subclasses
+``LammpsDriver``: its ``build`` issues the geometry commands (regions and
+granular walls) and its ``stages`` drive the test with ``advance`` and
+``settle``, which check stability after every chunk of steps and raise
+``Stopped`` when the evaluation's STOP file appears. Contact: Hertz with
+restitution damping, Mindlin tangential friction, SDS rolling resistance
+converted from mu_r (``demcal.contact``), Marshall twisting.
 """
 
 from __future__ import annotations
@@ -19,7 +19,8 @@ import numpy as np
 from demcal.contact import GRAVITY, sds_rolling_coefficients
 from demcal.engines.base import OK, TERMINATED, RunMonitor, RunResult, SimulationJob
 from demcal.errors import SimulationFailed
-from demcal.scenes.particles import BLOWUP_FACTOR, simulation_particles
+from demcal.granular.particles import BLOWUP_FACTOR, simulation_particles
+
 
 def num(value: float) -> str:
     """A number as LAMMPS input text."""

@@ -19,9 +19,9 @@ import numpy as np
 
 from demcal.contact import GRAVITY
 from demcal.engines.base import RunMonitor, RunResult, SimulationJob
+from demcal.engines.lammps_driver import LammpsDriver, num
 from demcal.errors import SimulationFailed
-from demcal.scenes import measure
-from demcal.scenes.lammps_driver import LammpsDriver, num
+from demcal.granular import measure
 from demcal.scenes.shear_box import box_dimensions, fill_particle_count
 
 CONTAINER = "the closed box"
@@ -149,7 +149,7 @@ class ShearBox(LammpsDriver):
             raise SimulationFailed(
                 f"the settled fill ({surface:.4g} m) is below the box top ({self.height:.4g} m): "
                 f"the material packs denser than the fill allows for (FILL_SOLID_FRACTION in "
-                f"demcal/scenes/shear_box.py); its bulk density would read too low")
+                f"demcal/scenes/shear_box/__init__.py); its bulk density would read too low")
 
     def stages(self, measurements: dict[str, float], arrays: dict[str, np.ndarray]) -> None:
         wants_slope = "shear_angle" in self.job.responses
@@ -175,5 +175,5 @@ class ShearBox(LammpsDriver):
 
 
 def run(job: SimulationJob, monitor: RunMonitor) -> RunResult:
-    """Engine entry point (``Scene.drivers['lammps']``)."""
+    """The scene's LAMMPS driver: run one simulation (in the LAMMPS engine's child process)."""
     return ShearBox(job, monitor).run()

@@ -22,7 +22,7 @@ once; spheres that leave over the floor's edge fall away and are deleted.
 
 Defaults: Richter & Will's gravel 8/16 (Table 3: d50 11.16 mm, sigma_ln
 0.26); a cut at 1.5 sigma gives 7.6-16.5 mm, the sieve range. The PSD is
-sampled by number (``demcal.scenes.psd``); Richter & Will fit the lognormal
+sampled by number (``demcal.granular.psd``); Richter & Will fit the lognormal
 to the mass distribution Q3, whose median is exp(3 sigma_ln^2) times the
 number median: convert d50 before entering a sieve analysis here. About
 5000 spheres are generated at the defaults, 4600 stay in the struck-off box.
@@ -33,9 +33,10 @@ from __future__ import annotations
 import math
 
 from demcal.errors import ConfigError
-from demcal.scenes import measure
-from demcal.scenes.base import ResponseSpec, Scene, SettingSpec, saturating
-from demcal.scenes.psd import diameter_range
+from demcal.granular import measure
+from demcal.granular.psd import diameter_range
+from demcal.scenes.base import ResponseSpec, Scene, SettingSpec
+from demcal.scenes.shear_box.analytic import analytic_model
 
 #: Spheres generated fill the box at the densest random packing, so the
 #: settled fill always reaches above the box top before it is struck off.
@@ -45,30 +46,6 @@ MIN_SLOPE_COLUMNS = 5
 #: Most spheres a box may need: the count grows with the PSD's width, as
 #: (d_max / d50)^3 (about 5000 at the defaults).
 MAX_PARTICLES = 100_000
-
-
-
-def analytic_model(p: dict, settings: dict) -> dict:
-    """Closed-form stand-in for the test engine: smooth, monotone, plausible trends.
-
-    The shear angle rises with sliding and rolling friction (particle-particle
-    more than particle-wall) and saturates, falls slightly with restitution
-    and rises with the width of the PSD; the packing loosens with friction,
-    mostly rolling friction, and packs denser with a wider PSD, after Richter
-    & Will's sensitivity findings (sec. 4.1: the angle depends on neither d50
-    nor stiffness nor density). Not physics: a known landscape for the
-    pipeline and the optimizer.
-    """
-    grip = saturating(p["sliding_friction_pp"], 0.3)
-    roll = saturating(p["rolling_friction_pp"], 0.1)
-    spread = settings.get("sigma_ln", 0.0)
-    angle = (8.0 + 30.0 * grip * (0.4 + 0.6 * roll)
-             + 3.0 * saturating(p["sliding_friction_pw"], 0.3)
-             + 2.0 * saturating(p["rolling_friction_pw"], 0.1)
-             - 2.0 * (p["restitution"] - 0.5) + 4.0 * spread)
-    solid_fraction = (0.63 - 0.03 * grip - 0.07 * roll - 0.01 * (p["restitution"] - 0.5)
-                      + 0.04 * spread)
-    return {"shear_angle": angle, "bulk_density": p["particle_density"] * solid_fraction}
 
 
 def box_dimensions(settings: dict) -> tuple[float, float, float]:
@@ -143,8 +120,7 @@ SCENE = Scene(
                                                "filled, struck-off box / box volume"),
         "shear_angle": ResponseSpec("deg", "slope of the material left in the box after the "
                                            "flap opened: line fit of the surface against the "
-                                           "distance along the box",
-                                    ("angle_band_lower", "angle_band_upper")),
+                                           "distance along the box"),
     },
     settings={
         "d50": SettingSpec(11.16e-3, "m", "median particle diameter (by number)", 1.0e-5, 0.1),
@@ -173,7 +149,7 @@ SCENE = Scene(
     },
     analytic_model=analytic_model,
     extractors={"bulk_density": _bulk_density, "shear_angle": _shear_angle},
-    drivers={"lammps": "demcal.scenes.shear_box_lammps"},
+    drivers={"lammps": f"{__name__}.lammps:run"},
     check_settings=check_settings,
     size_setting="box_size_dmax",
 )

@@ -17,11 +17,10 @@ import numpy as np
 
 from demcal.contact import GRAVITY
 from demcal.engines.base import RunMonitor, RunResult, SimulationJob
-from demcal.scenes import measure
-from demcal.scenes.calibration_device import (EARLY_ESTIMATE_AT, MASS_FLOW_BAND,
-                                              device_geometry)
-from demcal.scenes.lammps_driver import LammpsDriver, num
-from demcal.scenes.particles import INSERTION_SOLID_FRACTION
+from demcal.engines.lammps_driver import LammpsDriver, num
+from demcal.granular import measure
+from demcal.granular.particles import INSERTION_SOLID_FRACTION
+from demcal.scenes.calibration_device import EARLY_ESTIMATE_AT, MASS_FLOW_BAND, device_geometry
 
 CONTAINER = "the device"
 #: Material counts as at rest after the opening only after this simulated time [s].
@@ -154,5 +153,5 @@ class CalibrationDevice(LammpsDriver):
 
 
 def run(job: SimulationJob, monitor: RunMonitor) -> RunResult:
-    """Engine entry point (``Scene.drivers['lammps']``)."""
+    """The scene's LAMMPS driver: run one simulation (in the LAMMPS engine's child process)."""
     return CalibrationDevice(job, monitor).run()

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from demcal.engines.base import SimulationJob
-from demcal.scenes.psd import diameter_range, sample_diameters
+from demcal.granular.psd import diameter_range, sample_diameters
 from demcal.timestep import rayleigh_time
 
 #: Random insertion fills at most this solid fraction of the insertion zone.

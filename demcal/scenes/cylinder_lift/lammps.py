@@ -17,9 +17,9 @@ import numpy as np
 
 from demcal.contact import GRAVITY
 from demcal.engines.base import RunMonitor, RunResult, SimulationJob
-from demcal.scenes import measure
-from demcal.scenes.lammps_driver import LammpsDriver, num
-from demcal.scenes.particles import INSERTION_SOLID_FRACTION
+from demcal.engines.lammps_driver import LammpsDriver, num
+from demcal.granular import measure
+from demcal.granular.particles import INSERTION_SOLID_FRACTION
 
 CONTAINER = "the closed cylinder"
 
@@ -103,5 +103,5 @@ class CylinderLift(LammpsDriver):
 
 
 def run(job: SimulationJob, monitor: RunMonitor) -> RunResult:
-    """Engine entry point (``Scene.drivers['lammps']``)."""
+    """The scene's LAMMPS driver: run one simulation (in the LAMMPS engine's child process)."""
     return CylinderLift(job, monitor).run()

@@ -1,4 +1,4 @@
-"""Cylinder lift on LIGGGHTS: the input files of one simulation (``Scene.drivers['liggghts']``).
+"""Cylinder lift on LIGGGHTS: the input files of one simulation (the scene's LIGGGHTS driver).
 
 The LIGGGHTS engine (``demcal.engines.liggghts``) calls ``case(job)``, has
 the case write its files into the run directory, runs the binary on them and
@@ -7,13 +7,14 @@ hands the case the dumps its script wrote (interface: ``LiggghtsCase`` there).
 The case writes a data file with the spheres (same diameters as the LAMMPS
 driver for the same seed, placed at random without overlap), ASCII STL meshes
 of the cylinder and the rim ring, and an input script that runs the stages
-fill/settle, lift and heap/settle in loops of ``particles.CHUNK_TIME`` with
-the same rest and blow-up tests as the LAMMPS driver. Dumps: ``fill.dump`` after the
+fill/settle, lift and heap/settle in loops of
+``demcal.granular.particles.CHUNK_TIME`` with the same rest and blow-up tests
+as the LAMMPS driver. Dumps: ``fill.dump`` after the
 fill has settled (fill_x, fill_r, fill_mass; early estimate of the bulk
 density) and, when the angle of repose is asked for, ``heap.dump`` after the
 heap has settled (heap_x, heap_r).
 
-Contact model, against the LAMMPS driver (``demcal.scenes.lammps_driver``):
+Contact model, against the LAMMPS driver (``demcal.engines.lammps_driver``):
 
 - normal: Hertz with restitution damping (LIGGGHTS ``hertz``, LAMMPS
   ``hertz/material ... damping coeff_restitution``), same E* = E / (2 (1 - nu^2));
@@ -44,11 +45,11 @@ import numpy as np
 
 from demcal.contact import GRAVITY, ROLLING_DAMPING_RATIO
 from demcal.engines.base import SimulationJob
+from demcal.engines.lammps_driver import num
 from demcal.engines.liggghts import SCRIPT, positions, write_ascii_stl
 from demcal.errors import SimulationFailed
-from demcal.scenes import measure
-from demcal.scenes.lammps_driver import num
-from demcal.scenes.particles import BLOWUP_FACTOR, INSERTION_SOLID_FRACTION, simulation_particles
+from demcal.granular import measure
+from demcal.granular.particles import BLOWUP_FACTOR, INSERTION_SOLID_FRACTION, simulation_particles
 
 DATA, TUBE_STL, RING_STL, FILL_DUMP, HEAP_DUMP = (
     "particles.data", "tube.stl", "ring.stl", "fill.dump", "heap.dump")
@@ -320,5 +321,5 @@ class CylinderLiftInput:
 
 
 def case(job: SimulationJob) -> CylinderLiftInput:
-    """Engine entry point (``Scene.drivers['liggghts']``): the input of one simulation."""
+    """The scene's LIGGGHTS driver: the input of one simulation."""
     return CylinderLiftInput(job)

@@ -18,29 +18,10 @@ figure depends on how it is measured as much as on the material.
 from __future__ import annotations
 
 from demcal.errors import ConfigError
-from demcal.scenes import measure
-from demcal.scenes.psd import diameter_range
-from demcal.scenes.base import ResponseSpec, Scene, SettingSpec, saturating
-
-
-
-def analytic_model(p: dict, settings: dict) -> dict:
-    """Closed-form stand-in for the test engine: smooth, monotone, plausible trends.
-
-    The angle rises with sliding and rolling friction and saturates; the
-    packing loosens with friction, mostly with rolling friction, so that the
-    two responses pin the two friction coefficients (a single best point);
-    density scales the bulk density. Not physics: it gives the pipeline and
-    the optimizer a known landscape.
-    """
-    grip = saturating(p["sliding_friction_pp"], 0.35)
-    roll = saturating(p["rolling_friction_pp"], 0.08)
-    aor = (4.0 + 34.0 * grip * (0.35 + 0.65 * roll)
-           + 4.0 * saturating(p["sliding_friction_pw"], 0.3)
-           + 3.0 * saturating(p["rolling_friction_pw"], 0.1)
-           - 2.0 * (p["restitution"] - 0.5))
-    solid_fraction = 0.64 - 0.02 * grip - 0.08 * roll - 0.01 * (p["restitution"] - 0.5)
-    return {"angle_of_repose": aor, "bulk_density": p["particle_density"] * solid_fraction}
+from demcal.granular import measure
+from demcal.granular.psd import diameter_range
+from demcal.scenes.base import ResponseSpec, Scene, SettingSpec
+from demcal.scenes.cylinder_lift.analytic import analytic_model
 
 
 def _bulk_density(state: dict, settings: dict) -> float:
@@ -84,8 +65,7 @@ SCENE = Scene(
                 "particle_density"),
     responses={
         "bulk_density": ResponseSpec("kg/m^3", "mass of the settled fill / (pi R^2 fill height)"),
-        "angle_of_repose": ResponseSpec("deg", "angle of the heap flank after the lift",
-                                        ("aor_method", "aor_band_lower", "aor_band_upper")),
+        "angle_of_repose": ResponseSpec("deg", "angle of the heap flank after the lift"),
     },
     settings={
         "particle_count": SettingSpec(2000, "-", "number of spheres", 10, 1_000_000, integer=True),
@@ -114,6 +94,6 @@ SCENE = Scene(
     },
     analytic_model=analytic_model,
     extractors={"bulk_density": _bulk_density, "angle_of_repose": _angle_of_repose},
-    drivers={"lammps": "demcal.scenes.cylinder_lift_lammps", "liggghts": "demcal.scenes.cylinder_lift_liggghts"},
+    drivers={"lammps": f"{__name__}.lammps:run", "liggghts": f"{__name__}.liggghts:case"},
     check_settings=check_geometry,
 )

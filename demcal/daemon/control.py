@@ -1,0 +1,58 @@
+"""Acting on a calibration from outside its loop: stop it, send failed evaluations back."""
+
+from __future__ import annotations
+
+import shutil
+
+from demcal.daemon.tables import write_evaluations_csv
+from demcal.errors import DemcalError, SimulationFailed
+from demcal.files import atomic_write_text
+from demcal.layout import proposal_id, read_objective, read_point, write_point
+from demcal.optimizer import Optimizer
+from demcal.study import Study
+
+
+def reopen_failed(study: Study) -> list[str]:
+    """Mark every failed evaluation for a rerun with new seeds by the next daemon run.
+
+    The optimizer forgets the failure (the point is pending again), the
+    evaluation's outputs are removed and its attempt count goes on, so the
+    rerun uses new seeds; finished.json goes too, so Snakemake's default
+    target runs the daemon again.
+    """
+    files = study.files
+    if not files.optimizer.exists():
+        raise DemcalError(f"study {study.name!r} has not started ({files.optimizer} missing)")
+    optimizer = Optimizer.from_json(files.optimizer.read_text())
+    reopened = []
+    for evaluation in files.evaluations():
+        try:
+            status = read_objective(evaluation).get("status")
+        except SimulationFailed:
+            continue
+        if status != "failed":
+            continue
+        point = read_point(evaluation)
+        optimizer.reopen(proposal_id(evaluation.id))
+        for scene in study.scenes:
+            shutil.rmtree(evaluation.scene_dir(scene), ignore_errors=True)
+        for stale in (evaluation.objective, evaluation.stop, evaluation.launch):
+            stale.unlink(missing_ok=True)
+        point.attempt += 1
+        write_point(evaluation, point)
+        reopened.append(evaluation.id)
+    atomic_write_text(files.optimizer, optimizer.to_json())
+    files.finished.unlink(missing_ok=True)
+    write_evaluations_csv(study)
+    return reopened
+
+
+def request_stop(study: Study) -> None:
+    """Make a running daemon stop proposing and stop running evaluations cleanly."""
+    files = study.files
+    files.dir.mkdir(parents=True, exist_ok=True)
+    files.stop_calibration.touch()
+    for evaluation in files.evals.glob("*"):
+        evaluation_files = study.files.evaluation(evaluation.name)
+        if evaluation_files.launch.exists() and not evaluation_files.objective.exists():
+            evaluation_files.stop.touch()

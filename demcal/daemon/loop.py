@@ -1,0 +1,343 @@
+"""The calibration loop: owns the optimizer, keeps up to P evaluations in flight.
+
+Asynchronous master-worker loop after Samuelsson (2023), Algorithm 5: keep up
+to P evaluations in flight, tell the optimizer each result as it arrives,
+watch running simulations' partial outputs and stop hopeless ones (section
+2.6), stop on the optimizer's stopping rules.
+
+Crash safety: everything needed to resume is on disk, written before it is
+acted on. For a new point the order is ask -> write ``params.json`` -> save
+the optimizer state -> launch (``launch.json`` holds the child's pid). A
+daemon killed at any moment and started again reloads the optimizer state;
+the optimizer is deterministic, so a point asked but not yet saved is asked
+again with the same id and values; pending evaluations are re-attached
+(child still alive), read back (objective written) or launched again. A
+completed evaluation is never redone.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import shutil
+import time
+from pathlib import Path
+
+from demcal.daemon.children import Child, alive, child_command, is_snakemake_for, start_child
+from demcal.daemon.tables import write_best, write_evaluations_csv
+from demcal.daemon.watch import evaluations_to_stop, latest_estimates
+from demcal.errors import DemcalError, SimulationFailed
+from demcal.evaluation import objective, response_paths
+from demcal.files import atomic_write_text, log_tail, read_json, write_json
+from demcal.layout import (
+    PointRecord,
+    evaluation_id,
+    proposal_id,
+    read_launch,
+    read_objective,
+    read_point,
+    write_point,
+)
+from demcal.objective import estimated_objective, replicate_objectives
+from demcal.optimizer import Optimizer
+from demcal.study import RESUMABLE_OPTIMIZER_SETTINGS, Study
+
+log = logging.getLogger("demcal.daemon")
+
+
+class Calibration:
+    """One study's calibration on disk under ``results/<study>/``.
+
+    ``study`` is the frozen study (``demcal.study.freeze``): its
+    ``study.json`` is what the children read.
+    """
+
+    def __init__(self, study: Study, profile: Path | None, workers: int,
+                 child_cores: int | None = None, watch_pid: int | None = None):
+        self.study, self.profile, self.workers = study, profile, workers
+        self.files = study.files
+        self.retries = int(study.calibration["retries"])
+        self.poll_seconds = float(study.calibration["poll_seconds"])
+        self.child_cores = child_cores
+        #: the Snakemake that started this daemon: when it dies, the daemon ends too
+        self.watch_pid = watch_pid
+        self.children: dict[str, Child] = {}
+        self.names = [p.name for p in study.free]
+        self.optimizer = self._load_or_create_optimizer()
+        self.started_at = self._load_start_time()
+        self.stop_requested: set[str] = set()
+        self.rescore()
+
+    # -- state ------------------------------------------------------------------
+    def _load_or_create_optimizer(self) -> Optimizer:
+        """The saved optimizer (with the study's current budget and stopping rules), or a new one."""
+        if self.files.optimizer.exists():
+            try:
+                optimizer = Optimizer.from_json(self.files.optimizer.read_text())
+            except (ValueError, KeyError) as exc:
+                raise DemcalError(f"{self.files.optimizer}: optimizer state unreadable ({exc}); "
+                                  f"move it away to start the calibration afresh") from None
+            optimizer.settings = dataclasses.replace(optimizer.settings, **{
+                name: getattr(self.study.optimizer, name)
+                for name in RESUMABLE_OPTIMIZER_SETTINGS})
+            return optimizer
+        return Optimizer([p.lower for p in self.study.free], [p.upper for p in self.study.free],
+                         self.study.optimizer, seed=self.study.seed, workers=self.workers)
+
+    def _load_start_time(self) -> float:
+        """Start of the calibration (calibration.json), written on the first run."""
+        if self.files.calibration.exists():
+            return float(read_json(self.files.calibration, "calibration.json")["started_at"])
+        now = time.time()
+        write_json(self.files.calibration, {"started_at": now, "study": self.study.name})
+        return now
+
+    def rescore(self) -> None:
+        """Recompute the objective of evaluations scored against other target values or weights.
+
+        After corrected targets (``demcal.study.freeze`` allows them): each
+        such objective.json is rewritten from its replicates' responses.json
+        (no simulation runs) and the optimizer's value is replaced.
+        """
+        targets = {t.key: t.value for t in self.study.targets}
+        weights = {t.key: t.weight for t in self.study.targets}
+        outcomes = {}
+        for record in self.optimizer.records:
+            if record["status"] == "pending":
+                continue
+            evaluation = evaluation_id(record["id"])
+            try:
+                scored = read_objective(self.files.evaluation(evaluation))
+            except SimulationFailed:
+                continue
+            if "targets" not in scored or (scored["targets"], scored.get("weights", weights)) == (
+                    targets, weights):
+                continue  # never scored (a failed simulation), or scored as now
+            result = objective(self.study, evaluation, response_paths(self.study, evaluation))
+            outcomes[record["id"]] = (result["status"], result.get("objective"),
+                                      self._replicate_values(result))
+        if outcomes:
+            self.optimizer.rescore(outcomes)
+            self.save_state()
+            log.info("targets changed: re-scored %d evaluations from their stored responses",
+                     len(outcomes))
+
+    def save_state(self) -> None:
+        atomic_write_text(self.files.optimizer, self.optimizer.to_json())
+
+    def elapsed(self) -> float:
+        return time.time() - self.started_at
+
+    # -- launching ---------------------------------------------------------------
+    def target(self, evaluation: str) -> str:
+        return str(self.files.evaluation(evaluation).objective)
+
+    def launch(self, evaluation: str) -> None:
+        """Start the child Snakemake of an evaluation."""
+        command = child_command(self.files.study, Path(self.target(evaluation)), self.profile,
+                                self.child_cores)
+        child = start_child(self.files.evaluation(evaluation), command)
+        self.children[evaluation] = child
+        log.info("launched %s (pid %d)", evaluation, child.pid)
+
+    def propose(self) -> None:
+        """Fill free worker slots with new points from the optimizer."""
+        while len(self.children) < self.workers:
+            proposals = self.optimizer.ask(1)
+            if not proposals:
+                return
+            proposal = proposals[0]
+            evaluation = evaluation_id(proposal.id)
+            write_point(self.files.evaluation(evaluation),
+                        PointRecord(dict(zip(self.names, proposal.x)),
+                                    in_initial_design=proposal.in_initial_design))
+            self.save_state()
+            self.launch(evaluation)
+
+    # -- resuming ----------------------------------------------------------------
+    def resume(self) -> None:
+        """Re-attach, read back or relaunch the evaluations pending in the saved state."""
+        for pid in self.optimizer.pending():
+            evaluation = evaluation_id(pid)
+            files = self.files.evaluation(evaluation)
+            if not files.params.exists():
+                raise DemcalError(f"{files.params} is missing for a pending evaluation; "
+                                  f"the results directory was changed by hand")
+            running = int(read_launch(files).get("pid", -1))
+            if running > 0 and alive(running) and is_snakemake_for(running,
+                                                                    self.target(evaluation)):
+                self.children[evaluation] = Child(evaluation, running, None, time.time())
+                log.info("re-attached %s (pid %d)", evaluation, running)
+                continue
+            if files.objective.exists():
+                self.children[evaluation] = Child(evaluation, -1, None, time.time())
+                continue  # finished while no daemon ran: collected in the next poll
+            self.launch(evaluation)
+
+    # -- collecting ----------------------------------------------------------------
+    def collect(self) -> None:
+        """Tell the optimizer about every finished child; retry failures up to the cap."""
+        for evaluation, child in list(self.children.items()):
+            if not child.finished():
+                continue
+            del self.children[evaluation]
+            files = self.files.evaluation(evaluation)
+            try:
+                record = read_objective(files)
+            except SimulationFailed as exc:
+                tail = log_tail(files.snakemake_log, lines=3)
+                record = {"status": "failed",
+                          "reason": f"workflow ended with code {child.returncode()} and no "
+                                    f"objective ({exc}): {tail}"}
+            self.finish(evaluation, record)
+
+    def finish(self, evaluation: str, record: dict) -> None:
+        point = read_point(self.files.evaluation(evaluation))
+        status = record.get("status")
+        if status == "failed" and point.attempt < self.retries:
+            self.retry(evaluation, point, record.get("reason", ""))
+            return
+        pid = proposal_id(evaluation)
+        if status == "ok":
+            self.optimizer.tell(pid, value=record["objective"],
+                                replicates=self._replicate_values(record))
+        elif status == "terminated":
+            self.optimizer.tell(pid, status="terminated")
+        else:
+            self.optimizer.tell(pid, status="failed")
+        self.save_state()
+        self.stop_requested.discard(evaluation)
+        log.info("%s: %s %s", evaluation, status,
+                 record.get("objective", "") if status == "ok" else record.get("reason", ""))
+        self.write_tables()
+
+    def _replicate_values(self, record: dict) -> list[float] | None:
+        """Eq. 3.3 per replicate of an objective record, for the optimizer's noise estimate."""
+        if record.get("status") != "ok":
+            return None
+        cost = self.study.timestep_cost(record["parameters"])
+        return replicate_objectives(self.study.targets, record.get("replicates", {}),
+                                    cost) or None
+
+    def retry(self, evaluation: str, point: PointRecord, reason: str) -> None:
+        """Run a failed evaluation again with new seeds (attempt + 1)."""
+        files = self.files.evaluation(evaluation)
+        for scene in self.study.scenes:
+            shutil.rmtree(files.scene_dir(scene), ignore_errors=True)
+        for stale in (files.objective, files.stop):
+            stale.unlink(missing_ok=True)
+        self.stop_requested.discard(evaluation)
+        point.attempt += 1
+        point.previous_failures.append(reason)
+        write_point(files, point)
+        log.info("%s failed (%s); retry %d of %d", evaluation, reason, point.attempt,
+                 self.retries)
+        self.launch(evaluation)
+
+    # -- early termination ---------------------------------------------------------
+    def watch_running(self) -> None:
+        """Stop running evaluations whose partial objective is hopeless (thesis sec. 2.6)."""
+        if self.optimizer.best_observed is None:
+            return
+        watched = {evaluation: self._estimate(evaluation) for evaluation in self.children
+                   if evaluation not in self.stop_requested}
+        decide = lambda evaluation, estimate: self.optimizer.early_termination(  # noqa: E731
+            proposal_id(evaluation), estimate)
+        for evaluation, reason in evaluations_to_stop(watched, decide).items():
+            self.files.evaluation(evaluation).stop.touch()
+            self.stop_requested.add(evaluation)
+            log.info("%s: early stop: %s", evaluation, reason)
+
+    def _estimate(self, evaluation: str) -> float | None:
+        """Objective estimate of a running evaluation from its replicates' early estimates."""
+        files = self.files.evaluation(evaluation)
+        cost = 0.0
+        if self.study.rayleigh_cost_weight:
+            try:
+                cost = self.study.timestep_cost(read_point(files).parameters)
+            except DemcalError:
+                return None  # the evaluation will record why
+        return estimated_objective(self.study.targets,
+                                   latest_estimates(files, list(self.study.scenes),
+                                                    self.study.replicates), cost)
+
+    # -- outputs ---------------------------------------------------------------------
+    def write_tables(self) -> None:
+        write_evaluations_csv(self.study)
+        best = self.optimizer.best()
+        if best is not None:
+            write_best(self.study, best)
+
+    def progress_line(self) -> str:
+        records = [r["status"] for r in self.optimizer.records]
+        done = sum(s == "ok" for s in records)
+        failed = sum(s == "failed" for s in records)
+        stopped = sum(s == "terminated" for s in records)
+        budget = self.optimizer.settings.max_evaluations
+        best = self.optimizer.best()
+        best_text = "no result yet" if best is None else (
+            f"best {best['value']:.4g} at " + ", ".join(
+                f"{n}={v:.3g}" for n, v in zip(self.names, best["x"])))
+        elapsed = self.elapsed()
+        finished = done + failed + stopped
+        eta = ""
+        if finished:
+            eta = f", ~{_clock((budget - finished) * elapsed / finished)} to budget"
+        return (f"[demcal {self.study.name}] {finished}/{budget} done ({failed} failed, "
+                f"{stopped} stopped early), {len(self.children)} running | {best_text} | "
+                f"{_clock(elapsed)} elapsed{eta}")
+
+    # -- the loop ------------------------------------------------------------------
+    def run(self, show_progress=print) -> str:
+        """Calibrate until a stopping rule holds and nothing is running; return the reason.
+
+        Only a loop that ends so writes ``finished.json``; a daemon that dies
+        or is orphaned leaves the calibration unfinished, to be resumed.
+        """
+        self.files.stop_calibration.unlink(missing_ok=True)  # a new run overrides an old stop
+        self.files.finished.unlink(missing_ok=True)  # running again: not finished any more
+        self.resume()
+        reason = None
+        while True:
+            self.check_parent()
+            self.collect()
+            self.watch_running()
+            if self.files.stop_calibration.exists():
+                reason = reason or "stopped on request (demcal stop)"
+            reason = reason or self.optimizer.stop_reason(self.elapsed())
+            if reason is None:
+                self.propose()
+                if not self.children:
+                    reason = "no more points to evaluate"
+            if reason is not None and not self.children:
+                break
+            show_progress(self.progress_line())
+            time.sleep(self.poll_seconds)
+        self.write_tables()
+        show_progress(self.progress_line())
+        counts = {}
+        for record in self.optimizer.records:
+            counts[record["status"]] = counts.get(record["status"], 0) + 1
+        write_json(self.files.finished, {"reason": reason, "ended_at": time.time(),
+                                         "evaluations": counts})
+        log.info("calibration finished: %s", reason)
+        return reason
+
+    def check_parent(self) -> None:
+        """End the daemon when the Snakemake that started it is gone (killed, lost terminal).
+
+        Running evaluations are left alone: each is a child Snakemake in its
+        own session, re-attached or read back by the next daemon.
+        """
+        if self.watch_pid is not None and not alive(self.watch_pid):
+            log.info("the Snakemake that started this daemon (pid %d) is gone; ending",
+                     self.watch_pid)
+            raise DemcalError(
+                f"the Snakemake that started this daemon (pid {self.watch_pid}) has ended, so "
+                f"the daemon ends too; {len(self.children)} running evaluations go on and are "
+                f"collected when the same command runs again")
+
+
+def _clock(seconds: float) -> str:
+    seconds = int(max(seconds, 0))
+    return f"{seconds // 3600}:{seconds // 60 % 60:02d}:{seconds % 60:02d}"

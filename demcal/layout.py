@@ -1,0 +1,238 @@
+"""The results layout: every path and file name under ``results/<study>/``.
+
+One study, its evaluations and their scene replicates each get a small
+frozen object that knows its files; nobody else spells a file name. Paths
+are relative to the working directory (Snakemake's targets are), and the
+objects accept wildcard strings (``"{evaluation}"``, ``"{replicate}"``) so the
+workflow's rules build their patterns from the same place::
+
+    results/<study>/
+        study.json          the resolved study, frozen at the start (demcal.study)
+        calibration.json    start time of the calibration
+        optimizer.json      the optimizer's whole state, rewritten after every event
+        evaluations.csv     one row per evaluation (demcal.tables)
+        best.json           the best point so far
+        finished.json       written only when the calibration has ended, with its reason
+        daemon.log, daemon.lock, STOP_CALIBRATION, logs/, plots/, report.html
+        evals/<id>/
+            params.json     the point (parameters, attempt, previous failures)
+            launch.json     pid of the child Snakemake running it
+            objective.json  status, objective, responses per replicate
+            STOP            asks the running simulations to stop
+            logs/
+            <scene>/rep<r>/ simulation.json, responses.json, partial.csv, state.npz
+
+Readers and writers of the records whose shape several modules share live
+here too; a missing or damaged file is a ``SimulationFailed`` with the reason.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from demcal.errors import SimulationFailed
+from demcal.files import read_json, write_json
+
+RESULTS = Path("results")
+
+
+@dataclass(frozen=True)
+class ReplicateFiles:
+    """One simulation of one scene at one point: ``evals/<id>/<scene>/rep<r>/``."""
+
+    dir: Path
+
+    @property
+    def simulation(self) -> Path:
+        return self.dir / "simulation.json"
+
+    @property
+    def responses(self) -> Path:
+        return self.dir / "responses.json"
+
+    @property
+    def partial(self) -> Path:
+        return self.dir / "partial.csv"
+
+    @property
+    def state(self) -> Path:
+        return self.dir / "state.npz"
+
+
+@dataclass(frozen=True)
+class EvaluationFiles:
+    """One evaluated point: ``evals/<id>/``."""
+
+    dir: Path
+
+    @property
+    def id(self) -> str:
+        return self.dir.name
+
+    @property
+    def params(self) -> Path:
+        return self.dir / "params.json"
+
+    @property
+    def objective(self) -> Path:
+        return self.dir / "objective.json"
+
+    @property
+    def launch(self) -> Path:
+        return self.dir / "launch.json"
+
+    @property
+    def stop(self) -> Path:
+        return self.dir / "STOP"
+
+    @property
+    def logs(self) -> Path:
+        return self.dir / "logs"
+
+    @property
+    def snakemake_log(self) -> Path:
+        return self.logs / "snakemake.log"
+
+    def job_log(self, stage: str, scene: str | None = None, replicate: int | str | None = None
+                ) -> Path:
+        """Log of one workflow job (simulate/extract per scene replicate, or objective)."""
+        suffix = "" if scene is None else f"_{scene}_rep{replicate}"
+        return self.logs / f"{stage}{suffix}.log"
+
+    def scene_dir(self, scene: str) -> Path:
+        return self.dir / scene
+
+    def replicate(self, scene: str, replicate: int | str) -> ReplicateFiles:
+        return ReplicateFiles(self.dir / scene / f"rep{replicate}")
+
+
+@dataclass(frozen=True)
+class StudyFiles:
+    """The results folder of one study: ``results/<study>/``."""
+
+    dir: Path
+    evals: Path = field(init=False)
+
+    def __post_init__(self):
+        object.__setattr__(self, "evals", self.dir / "evals")
+
+    @classmethod
+    def of(cls, study_name: str) -> StudyFiles:
+        return cls(RESULTS / study_name)
+
+    @property
+    def study(self) -> Path:
+        return self.dir / "study.json"
+
+    @property
+    def calibration(self) -> Path:
+        return self.dir / "calibration.json"
+
+    @property
+    def optimizer(self) -> Path:
+        return self.dir / "optimizer.json"
+
+    @property
+    def evaluations_csv(self) -> Path:
+        return self.dir / "evaluations.csv"
+
+    @property
+    def best(self) -> Path:
+        return self.dir / "best.json"
+
+    @property
+    def finished(self) -> Path:
+        return self.dir / "finished.json"
+
+    @property
+    def daemon_log(self) -> Path:
+        return self.dir / "daemon.log"
+
+    @property
+    def daemon_lock(self) -> Path:
+        return self.dir / "daemon.lock"
+
+    @property
+    def stop_calibration(self) -> Path:
+        return self.dir / "STOP_CALIBRATION"
+
+    @property
+    def logs(self) -> Path:
+        return self.dir / "logs"
+
+    @property
+    def plots(self) -> Path:
+        return self.dir / "plots"
+
+    @property
+    def report(self) -> Path:
+        return self.dir / "report.html"
+
+    @property
+    def convergence(self) -> Path:
+        return self.dir / "convergence"
+
+    def evaluation(self, evaluation: str) -> EvaluationFiles:
+        return EvaluationFiles(self.evals / evaluation)
+
+    def evaluations(self) -> list[EvaluationFiles]:
+        """The optimizer's evaluations on disk (``e0000``, ``e0001``, ...), in order."""
+        return [EvaluationFiles(path) for path in sorted(self.evals.glob("e[0-9]*"))]
+
+
+def evaluation_id(proposal_id: int) -> str:
+    """Directory name of the optimizer's proposal ``proposal_id``."""
+    return f"e{proposal_id:04d}"
+
+
+def proposal_id(evaluation: str) -> int:
+    return int(evaluation[1:])
+
+
+# -- records --------------------------------------------------------------------------
+
+
+@dataclass
+class PointRecord:
+    """``params.json``: the free-parameter values of a point and how often it was run."""
+
+    parameters: dict
+    attempt: int = 0
+    previous_failures: list[str] = field(default_factory=list)
+    in_initial_design: bool = False
+    proposed_by: str | None = None
+
+
+def read_point(files: EvaluationFiles) -> PointRecord:
+    """The point of an evaluation; a malformed params.json is a SimulationFailed."""
+    record = read_json(files.params, "params.json")
+    if not isinstance(record.get("parameters"), dict):
+        raise SimulationFailed("params.json has no 'parameters' object")
+    attempt = record.get("attempt", 0)
+    if not isinstance(attempt, int) or isinstance(attempt, bool) or attempt < 0:
+        raise SimulationFailed(f"params.json: attempt {attempt!r} is not a count")
+    return PointRecord(record["parameters"], attempt, list(record.get("previous_failures", [])),
+                       bool(record.get("in_initial_design", False)), record.get("proposed_by"))
+
+
+def write_point(files: EvaluationFiles, point: PointRecord) -> None:
+    record = {"parameters": point.parameters, "attempt": point.attempt,
+              "previous_failures": point.previous_failures,
+              "in_initial_design": point.in_initial_design}
+    if point.proposed_by is not None:
+        record["proposed_by"] = point.proposed_by
+    write_json(files.params, record)
+
+
+def read_objective(files: EvaluationFiles) -> dict:
+    """``objective.json``: status (ok | terminated | failed), reason, objective, responses."""
+    return read_json(files.objective, "objective.json")
+
+
+def read_launch(files: EvaluationFiles) -> dict:
+    """``launch.json``: pid and start time of the child Snakemake, or {} if never launched."""
+    try:
+        return read_json(files.launch, "launch.json")
+    except SimulationFailed:
+        return {}

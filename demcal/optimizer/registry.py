@@ -1,0 +1,51 @@
+"""The strategies by name: the one list that the settings validate and the optimizer dispatches on.
+
+Light on purpose (no NumPy, SciPy or SMT): :class:`~.settings.OptimizerSettings`
+imports it to check ``optimizer.strategy``, and the classes are imported
+only when the optimizer first needs one. Each entry also says which
+surrogate a strategy uses when the settings leave ``surrogate`` unset, and
+which surrogates it can work with at all.
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class StrategyEntry:
+    """A registered strategy.
+
+    ``strategy``: the :class:`~.search.Strategy` subclass, or ``"module:Class"``
+    to import on first use; ``surrogate``: the default surrogate;
+    ``surrogates``: the surrogates it can work with (None: any).
+    """
+
+    strategy: type | str
+    surrogate: str = "cubic_rbf"
+    surrogates: tuple[str, ...] | None = None
+
+
+STRATEGIES: dict[str, StrategyEntry] = {
+    "dycors": StrategyEntry("demcal.optimizer.search:Dycors", "cubic_rbf"),
+    "kriging_ei": StrategyEntry("demcal.optimizer.search:KrigingEI", "kriging", ("kriging",)),
+}
+
+
+def register_strategy(
+    name: str, strategy: type | str, surrogate: str = "cubic_rbf", surrogates: tuple[str, ...] | None = None
+) -> None:
+    """Make ``strategy`` available as ``optimizer.strategy: name`` (see :class:`StrategyEntry`)."""
+    if name in STRATEGIES:
+        raise ValueError(f"strategy {name!r} is already registered")
+    STRATEGIES[name] = StrategyEntry(strategy, surrogate, surrogates)
+
+
+def strategy_class(name: str) -> type:
+    """The class registered as ``name``, imported on first use."""
+    strategy = STRATEGIES[name].strategy
+    if isinstance(strategy, str):
+        module, _, attribute = strategy.partition(":")
+        strategy = getattr(importlib.import_module(module), attribute)
+    return strategy

@@ -1,0 +1,185 @@
+"""Search strategies: the protocol, the data each one receives, and the built-in two.
+
+A strategy chooses the next adaptive point (after the initial design) from a
+:class:`History`, a frozen view of everything the optimizer knows, built
+afresh for each proposal. Strategies keep no state of their own: what must
+persist (random stream, weight cycle, step size) belongs to the optimizer
+and is saved in its JSON state. The math is in :mod:`.strategies`.
+
+* :class:`Dycors` — MSRS/DYCORS (Samuelsson 2023, Algorithm 4): perturbation
+  candidates scored by weighted surrogate value and distance.
+* :class:`KrigingEI` — perturbation and uniform candidates scored by expected
+  improvement, damped near running points (Samuelsson 2023, sec. 2.2.2.3).
+
+Both run the same candidate search (:class:`CandidateSearch`) and differ in
+the candidates they add and in how they pick one. Adding a strategy: subclass
+:class:`Strategy` (or :class:`CandidateSearch`), then register it by name in
+:mod:`.registry`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import strategies as st
+from .settings import OptimizerSettings
+from .surrogates import Surrogate
+
+
+class WeightCycle:
+    """The merit weights used in turn (Algorithm 4); ``index`` counts the weights drawn so far."""
+
+    def __init__(self, weights: tuple[float, ...], index: int = 0):
+        self.weights = weights
+        self.index = index
+
+    def next(self) -> float:
+        weight = self.weights[self.index % len(self.weights)]
+        self.index += 1
+        return weight
+
+
+@dataclass(frozen=True, eq=False)
+class History:
+    """What a strategy knows when it chooses a point; all points in the unit box.
+
+    Per evaluation handed out, in id order: ``ids``, ``points`` (n x d),
+    ``statuses`` ("pending", "ok", "failed", "terminated"), ``values`` (NaN
+    unless ok), ``variances`` (of each value, from replicates; 0 without,
+    NaN unless ok) and ``in_initial_design``.
+
+    ``surrogate``: fitted on the ok values, None while there are fewer than
+    d + 2. ``sigma``: the current step size. ``rng`` and ``weights`` are the
+    optimizer's own streams: drawing from them advances its saved state.
+    ``initial_size`` and ``settings.max_evaluations`` with :attr:`evaluated`
+    and :attr:`handed_out` place the proposal in the budget.
+
+    ``responses``: reserved for per-response observations (replicate means,
+    spreads and counts, partial observations of stopped runs, per-response
+    models); None until the optimizer records them.
+    """
+
+    ids: tuple[int, ...]
+    points: np.ndarray
+    statuses: tuple[str, ...]
+    values: np.ndarray
+    variances: np.ndarray
+    in_initial_design: np.ndarray
+    surrogate: Surrogate | None
+    sigma: float
+    rng: np.random.Generator
+    weights: WeightCycle
+    settings: OptimizerSettings
+    initial_size: int
+    responses: dict | None = None
+
+    @property
+    def dimension(self) -> int:
+        return self.points.shape[1]
+
+    @property
+    def evaluated(self) -> int:
+        """Evaluations told (ok, failed and terminated)."""
+        return sum(1 for status in self.statuses if status != "pending")
+
+    @property
+    def handed_out(self) -> int:
+        """Evaluations proposed so far, told or running."""
+        return len(self.statuses)
+
+    def select(self, *statuses: str) -> np.ndarray:
+        """The points with one of ``statuses``."""
+        return self.points[np.array([status in statuses for status in self.statuses], dtype=bool)]
+
+    def space_filling_point(self) -> np.ndarray:
+        """The point farthest from all others, clear of failed points (no surrogate needed)."""
+        s = self.settings
+        return st.space_filling_point(
+            self.points, self.select("failed"), s.failed_exclusion_radius, s.candidates, self.rng
+        )
+
+
+class Strategy:
+    """The protocol: :meth:`propose` returns the next point in the unit box."""
+
+    def propose(self, history: History) -> np.ndarray:
+        raise NotImplementedError
+
+
+class CandidateSearch(Strategy):
+    """Candidates around the best point, filtered, then one chosen (Algorithm 4).
+
+    Candidates must keep ``min_distance`` from all points handed out (the
+    distance set A: running, finished, failed and terminated) and
+    ``failed_exclusion_radius`` from failed points. Without a surrogate, or
+    when no candidate is admissible, the point is space filling.
+    Subclasses may add :meth:`candidates` and must implement :meth:`choose`.
+    """
+
+    def propose(self, history: History) -> np.ndarray:
+        s, surrogate = history.settings, history.surrogate
+        if surrogate is None:
+            return history.space_filling_point()
+        finished = history.select("ok")
+        center = finished[int(np.argmin(surrogate.predict(finished)))]
+        candidates = self.candidates(history, center)
+        if s.polish_candidate:
+            candidates = np.vstack([candidates, st.surrogate_minimum(surrogate, center, 2 * history.sigma)])
+        keep = st.admissible(
+            candidates, history.points, s.min_distance, history.select("failed"), s.failed_exclusion_radius
+        )
+        if not keep.any():
+            return history.space_filling_point()
+        weight = history.weights.next()  # drawn by every strategy here, used or not: same saved states
+        return self.choose(history, candidates[keep], weight, polished=s.polish_candidate and bool(keep[-1]))
+
+    def candidates(self, history: History, center: np.ndarray) -> np.ndarray:
+        """DYCORS perturbations of ``center`` (Samuelsson 2023, sec. 3.5.1.2)."""
+        s = history.settings
+        probability = st.perturbation_probability(
+            history.dimension, history.evaluated, history.initial_size, s.max_evaluations
+        )
+        return st.perturbation_candidates(center, history.sigma, s.candidates, probability, history.rng)
+
+    def choose(self, history: History, candidates: np.ndarray, weight: float, polished: bool) -> np.ndarray:
+        """One of the admissible ``candidates``; the last is the surrogate minimum when ``polished``."""
+        raise NotImplementedError
+
+
+class Dycors(CandidateSearch):
+    """MSRS/DYCORS: lowest weighted score of surrogate value and distance (Algorithm 4, steps c–e).
+
+    With ``polish_candidate``, the surrogate minimum is taken as it is at
+    the most exploitative weight and in the last ``final_exploitation``
+    share of the budget.
+    """
+
+    def choose(self, history: History, candidates: np.ndarray, weight: float, polished: bool) -> np.ndarray:
+        s = history.settings
+        final = history.handed_out >= s.max_evaluations * (1.0 - s.final_exploitation)
+        if polished and (weight == max(s.weights) or final):
+            return candidates[-1]
+        scores = st.weighted_scores(
+            history.surrogate.predict(candidates), st.nearest_distances(candidates, history.points), weight
+        )
+        return candidates[int(np.argmin(scores))]
+
+
+class KrigingEI(CandidateSearch):
+    """Highest expected improvement over the best prediction, damped within sigma of running points."""
+
+    def candidates(self, history: History, center: np.ndarray) -> np.ndarray:
+        perturbed = super().candidates(history, center)
+        uniform = st.uniform_candidates(history.settings.candidates, history.dimension, history.rng)
+        return np.vstack([perturbed, uniform])
+
+    def choose(self, history: History, candidates: np.ndarray, weight: float, polished: bool) -> np.ndarray:
+        surrogate = history.surrogate
+        observed_best = float(np.min(surrogate.predict(history.select("ok"))))
+        improvement = st.expected_improvement(
+            surrogate.predict(candidates), surrogate.predict_std(candidates), observed_best
+        )
+        damping = st.pending_damping(candidates, history.select("pending"), history.sigma)
+        return candidates[int(np.argmax(improvement * damping))]

@@ -1,0 +1,273 @@
+"""The resolved study, and its frozen copy ``results/<study>/study.json``.
+
+A study file is validated once (``demcal.config``) by whoever starts a
+calibration; the resolved ``Study`` (every setting and default filled in) is
+written to ``study.json``, and the daemon, its child Snakemakes and every job
+read that file back (``load_frozen``) instead of the YAML, so an edit of the
+YAML during a run cannot reach the running calibration. A YAML that differs
+from an existing ``study.json`` is compared field by field (``freeze``):
+budget, stopping rules, daemon settings and target values or weights may
+change on resume; anything that would make stored simulations incomparable
+is refused with the fields named.
+"""
+
+from __future__ import annotations
+
+import math
+import zlib
+from dataclasses import dataclass, field
+from importlib import metadata
+
+import numpy as np
+
+from demcal.engines import make_engine
+from demcal.engines.base import Engine
+from demcal.errors import ConfigError, SimulationFailed
+from demcal.files import read_json, write_json
+from demcal.layout import StudyFiles
+from demcal.objective import Target
+from demcal.optimizer import OptimizerSettings
+from demcal.parameters import CATALOG, ParameterSpec
+from demcal.scenes import SCENES, Scene
+from demcal.timestep import RAYLEIGH_PARAMETERS, rayleigh_cost, rayleigh_time_range
+
+#: Optimizer settings a resumed calibration takes from the current study file.
+RESUMABLE_OPTIMIZER_SETTINGS = ("max_evaluations", "max_seconds", "target_objective",
+                                "no_improvement_evaluations", "early_termination")
+#: Target fields that may change on resume (stored simulations are re-scored).
+RESCORABLE_TARGET_FIELDS = ("value", "weight", "spread", "unit")
+
+
+@dataclass(frozen=True)
+class FreeParameter:
+    """A parameter the optimizer varies between ``lower`` and ``upper`` (SI units)."""
+
+    spec: ParameterSpec
+    lower: float
+    upper: float
+
+    @property
+    def name(self) -> str:
+        return self.spec.name
+
+
+@dataclass
+class Study:
+    """A validated, fully resolved study: what every job of a calibration works from."""
+
+    name: str
+    engine: Engine
+    scenes: dict[str, Scene]
+    settings: dict[str, dict]
+    free: list[FreeParameter]
+    fixed: dict[str, float]
+    targets: list[Target]
+    replicates: int
+    seed: int
+    timestep_fraction: float
+    optimizer: OptimizerSettings
+    #: W_RL of the Rayleigh time-step cost term (Rackl & Hanley 2017, eq. 10); 0 = off.
+    rayleigh_cost_weight: float = 0.0
+    calibration: dict = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def files(self) -> StudyFiles:
+        """Paths of this study's results (``results/<study>/``)."""
+        return StudyFiles.of(self.name)
+
+    def responses_needed(self, scene: str) -> list[str]:
+        """Responses of ``scene`` that some target asks for, in declaration order."""
+        wanted = {t.response for t in self.targets if t.scene == scene}
+        return [r for r in self.scenes[scene].responses if r in wanted]
+
+    def centre_point(self, overrides: list[str] = ()) -> dict[str, float]:
+        """Free values at the centre of the bounds, changed by ``NAME=VALUE`` overrides."""
+        point = {p.name: 0.5 * (p.lower + p.upper) for p in self.free}
+        for item in overrides:
+            name, _, value = item.partition("=")
+            if name not in point:
+                raise ConfigError(f"--point {item}: {name!r} is not a free parameter "
+                                  f"({', '.join(point)})")
+            try:
+                point[name] = float(value)
+            except ValueError:
+                raise ConfigError(f"--point {item}: {value!r} is not a number") from None
+        return point
+
+    def timestep_cost(self, free_values: dict[str, float]) -> float:
+        """Squared Rayleigh time-step cost of a point, added to its objective (0 when off)."""
+        if self.rayleigh_cost_weight == 0.0:
+            return 0.0
+        bounds = {name: (self.fixed[name], self.fixed[name]) for name in RAYLEIGH_PARAMETERS
+                  if name in self.fixed}
+        bounds.update({p.name: (p.lower, p.upper) for p in self.free})
+        term = rayleigh_cost(self.parameters_for(free_values), rayleigh_time_range(bounds),
+                             self.rayleigh_cost_weight)
+        return term * term
+
+    def parameters_for(self, free_values: dict[str, float]) -> dict[str, float]:
+        """All parameters of a point: the fixed ones overlaid with the free values (checked)."""
+        missing = [p.name for p in self.free if p.name not in free_values]
+        unknown = sorted(set(free_values) - {p.name for p in self.free})
+        if missing or unknown:
+            raise ConfigError(f"params.json: missing free parameters {missing}, "
+                              f"unknown {unknown}; free parameters are "
+                              f"{[p.name for p in self.free]}")
+        for p in self.free:
+            value = free_values[p.name]
+            if not isinstance(value, (int, float)) or not math.isfinite(value) or not (
+                    p.spec.lower <= value <= p.spec.upper):
+                raise ConfigError(f"params.json: {p.name} = {value!r} is outside the allowed "
+                                  f"range {p.spec.allowed()}")
+        return {**self.fixed, **{k: float(v) for k, v in free_values.items()}}
+
+    def simulation_seed(self, evaluation: str, scene: str, replicate: int, attempt: int = 0) -> int:
+        """Seed of one simulation, from the study seed, evaluation, scene, replicate and attempt.
+
+        Different replicates, evaluations and retries get independent streams;
+        the same simulation always gets the same seed (reproducible reruns).
+        """
+        key = [self.seed, zlib.crc32(evaluation.encode()), zlib.crc32(scene.encode()), replicate]
+        if attempt:
+            key.append(attempt)
+        return int(np.random.SeedSequence(key).generate_state(1)[0] % 2_147_483_646) + 1
+
+
+
+
+def demcal_version() -> str:
+    try:
+        return metadata.version("demcal")
+    except metadata.PackageNotFoundError:
+        return "unknown"
+
+
+def study_record(study: Study) -> dict:
+    """The resolved study as a JSON-able mapping (the content of ``study.json``)."""
+    return {
+        "demcal_version": demcal_version(),
+        "study": study.name,
+        "engine": {"name": study.engine.name, **study.engine.settings},
+        # lists, not objects: the order of scenes and free parameters matters
+        "scenes": [{"name": name, "settings": study.settings[name]} for name in study.scenes],
+        "parameters": [{"name": p.name, "lower": p.lower, "upper": p.upper,
+                        "unit": p.spec.unit} for p in study.free],
+        "fixed": study.fixed,
+        "targets": [{"scene": t.scene, "response": t.response, "value": t.value,
+                     "unit": study.scenes[t.scene].responses[t.response].unit,
+                     "weight": t.weight, "spread": t.spread} for t in study.targets],
+        "replicates": study.replicates,
+        "seed": study.seed,
+        "timestep_fraction": study.timestep_fraction,
+        "rayleigh_cost_weight": study.rayleigh_cost_weight,
+        "optimizer": study.optimizer.to_dict(),
+        "calibration": study.calibration,
+        "warnings": study.warnings,
+    }
+
+
+def study_from_record(record: dict) -> Study:
+    """The ``Study`` of a record written by :func:`study_record` (trusted: not validated again)."""
+    engine = dict(record["engine"])
+    return Study(
+        name=record["study"], engine=make_engine(engine.pop("name"), engine),
+        scenes={scene["name"]: SCENES[scene["name"]] for scene in record["scenes"]},
+        settings={scene["name"]: scene["settings"] for scene in record["scenes"]},
+        free=[FreeParameter(CATALOG[p["name"]], p["lower"], p["upper"])
+              for p in record["parameters"]],
+        fixed=record["fixed"],
+        targets=[Target(t["scene"], t["response"], t["value"], t["weight"], t["spread"])
+                 for t in record["targets"]],
+        replicates=record["replicates"], seed=record["seed"],
+        timestep_fraction=record["timestep_fraction"],
+        optimizer=OptimizerSettings.from_dict(record["optimizer"]),
+        rayleigh_cost_weight=record["rayleigh_cost_weight"],
+        calibration=record["calibration"], warnings=record["warnings"])
+
+
+def load_frozen(path) -> Study:
+    """The study frozen in a ``study.json`` (what jobs and child processes work from)."""
+    try:
+        return study_from_record(read_json(path, "study.json"))
+    except SimulationFailed as exc:
+        raise ConfigError(f"{exc}; run the study file again to write it") from None
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ConfigError(f"{path}: not a study written by demcal ({type(exc).__name__}: "
+                          f"{exc}); remove it and run the study file again") from None
+
+
+def incompatible_changes(old: dict, new: dict) -> list[str]:
+    """Fields in which ``new`` differs from ``old`` so that stored simulations no longer compare.
+
+    Allowed: the budget and stopping rules (``RESUMABLE_OPTIMIZER_SETTINGS``),
+    the daemon's ``calibration`` settings, warnings, the demcal version, and
+    target values, weights and spreads when the same responses are targeted.
+    """
+    changed = [path for path in _differences(old, new, "")
+               if not path.startswith(("demcal_version", "warnings", "calibration"))
+               and not any(path == f"optimizer.{name}" or path.startswith(f"optimizer.{name}.")
+                           for name in RESUMABLE_OPTIMIZER_SETTINGS)]
+    same_responses = [(t["scene"], t["response"]) for t in old.get("targets", [])] == [
+        (t["scene"], t["response"]) for t in new.get("targets", [])]
+    if same_responses:
+        changed = [path for path in changed if not (
+            path.startswith("targets[") and path.rsplit(".", 1)[-1] in RESCORABLE_TARGET_FIELDS)]
+    return changed
+
+
+def _differences(old, new, where: str) -> list[str]:
+    """Dotted paths of the leaves in which two JSON values differ."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        return [path for key in sorted(set(old) | set(new), key=str)
+                for path in _differences(old.get(key), new.get(key),
+                                         f"{where}.{key}" if where else str(key))]
+    if isinstance(old, list) and isinstance(new, list) and len(old) == len(new) and any(
+            isinstance(item, (dict, list)) for item in old):
+        return [path for i, (a, b) in enumerate(zip(old, new))
+                for path in _differences(a, b, f"{where}[{i}]")]
+    return [] if old == new else [where or "(study)"]
+
+
+def freeze(study: Study) -> Study:
+    """Write the resolved study to ``study.json`` and return it as jobs will read it.
+
+    An existing ``study.json`` (a calibration already started) is compared
+    field by field; a change that would mix incomparable simulations is
+    refused with every changed field named.
+    """
+    path = study.files.study
+    record = study_record(study)
+    if path.exists():
+        try:
+            old = read_json(path, "study.json")
+        except SimulationFailed as exc:
+            raise ConfigError(f"{exc}; move it away to start the study afresh") from None
+        changed = incompatible_changes(old, record)
+        if changed:
+            shown = "; ".join(f"{name}: {_short(_at(old, name))} -> {_short(_at(record, name))}"
+                              for name in changed[:5])
+            raise ConfigError(
+                f"{study.files.dir} holds a calibration of a different study ({shown}); "
+                f"give the study a new name, or move {study.files.dir} away")
+    write_json(path, record)
+    return study_from_record(read_json(path, "study.json"))
+
+
+def _short(value, limit: int = 60) -> str:
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def _at(record, dotted: str):
+    """The value at a dotted path such as ``targets[0].response`` (None if absent)."""
+    node = record
+    for part in dotted.replace("[", ".[").split("."):
+        if not part:
+            continue
+        if part.startswith("["):
+            index = int(part[1:-1])
+            node = node[index] if isinstance(node, list) and index < len(node) else None
+        else:
+            node = node.get(part) if isinstance(node, dict) else None
+    return node
