@@ -127,7 +127,10 @@ def print_best(study: Study) -> None:
         return
     best = read_json(files.best, "best.json")
     evaluation = files.evaluation(best["evaluation"])
-    print("best point (lowest surrogate prediction among the evaluated points):")
+    how = {"response models": "lowest objective predicted from the response models",
+           "objective surrogate": "lowest of observed and surrogate-predicted objective"}
+    print(f"best point ({how.get(best.get('chosen_by'), 'lowest objective')} among the "
+          f"evaluated points):")
     print(evaluation_summary(study, read_objective(evaluation), evaluation.dir))
     print(f"all evaluations: {files.evaluations_csv}")
 

@@ -213,6 +213,13 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
             f"rayleigh_cost_weight: {cost_weight:g} needs one of "
             f"{', '.join(RAYLEIGH_PARAMETERS)} among the free parameters (the Rayleigh time "
             f"step depends only on them); set it to 0 or free one of them")
+    form = config.get("objective", default("objective"))
+    unspread = [i for i, t in enumerate(targets) if not t.spread]
+    if form == "precision" and unspread:
+        raise ConfigError(f"targets[{unspread[0]}].spread: the precision-weighted objective "
+                          f"measures each error in units of its target's spread; give every "
+                          f"target a spread > 0 (its measurement standard deviation), or use "
+                          f"objective: relative")
     try:
         optimizer = OptimizerSettings.from_dict(config.get("optimizer", {}))
     except ValueError as exc:
@@ -225,7 +232,7 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
                  free=free, fixed=fixed, targets=targets,
                  replicates=int(config.get("replicates", default("replicates"))),
                  seed=int(config.get("seed", default("seed"))),
-                 timestep_fraction=fraction, optimizer=optimizer,
+                 timestep_fraction=fraction, optimizer=optimizer, objective_form=form,
                  rayleigh_cost_weight=cost_weight,
                  calibration={"retries": default("calibration", "retries"),
                               "poll_seconds": default("calibration", "poll_seconds"),

@@ -200,7 +200,7 @@ def _objective_of_responses(study: Study, point: dict, values: dict[str, list[fl
         return
     means = {key: replicate_mean(v) for key, v in values.items()}
     try:
-        value = objective_value(study.targets, means) + timestep_cost
+        value = objective_value(study.targets, means, study.objective_form) + timestep_cost
     except ValueError as exc:
         record.update(status=FAILED, reason=str(exc))
         return
@@ -212,7 +212,7 @@ def _objective_of_responses(study: Study, point: dict, values: dict[str, list[fl
         spread={key: replicate_spread(v) for key, v in values.items()},
         relative_errors={t.key: relative_error(means[t.key], t.value) for t in study.targets},
         targets={t.key: t.value for t in study.targets},
-        weights={t.key: t.weight for t in study.targets})
+        weights={t.key: t.weight for t in study.targets}, objective_form=study.objective_form)
 
 
 def run_snakemake_job(smk, stage: str) -> None:

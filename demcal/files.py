@@ -16,7 +16,7 @@ from pathlib import Path
 
 from demcal.errors import SimulationFailed
 
-PARTIAL_COLUMNS = ("wall_s", "progress", "stage", "response", "value")
+PARTIAL_COLUMNS = ("wall_s", "progress", "stage", "response", "value", "final")
 
 
 def _file_mode() -> int:
@@ -80,8 +80,10 @@ class PartialWriter:
     """Appends progress and early response estimates to ``partial.csv`` while a run goes on.
 
     Each row: wall seconds since start, progress in [0, 1], stage name, and
-    optionally a response with its current estimate. Lines are flushed one by
-    one so the daemon can read them during the run.
+    optionally a response with its current estimate, flagged ``final`` (1)
+    when the value will not change any more (a fill's bulk density once the
+    fill has settled) and 0 while it is an early estimate. Lines are flushed
+    one by one so the daemon can read them during the run.
     """
 
     def __init__(self, path: Path, clock):
@@ -92,13 +94,14 @@ class PartialWriter:
         with open(self.path, "w", newline="") as handle:
             csv.writer(handle).writerow(PARTIAL_COLUMNS)
 
-    def write(self, progress: float, stage: str, estimates: dict[str, float] | None = None) -> None:
-        rows = [(r, v) for r, v in (estimates or {}).items()] or [("", "")]
+    def write(self, progress: float, stage: str, estimates: dict[str, float] | None = None,
+              final: bool = False) -> None:
+        rows = [(r, v, int(final)) for r, v in (estimates or {}).items()] or [("", "", "")]
         wall = f"{self.clock() - self.start:.3f}"
         with open(self.path, "a", newline="") as handle:
             writer = csv.writer(handle)
-            for response, value in rows:
-                writer.writerow((wall, f"{progress:.4f}", stage, response, value))
+            for response, value, is_final in rows:
+                writer.writerow((wall, f"{progress:.4f}", stage, response, value, is_final))
 
 
 def read_partial(path: Path) -> list[dict]:
@@ -114,6 +117,7 @@ def read_partial(path: Path) -> list[dict]:
                         "stage": row["stage"],
                         "response": row["response"] or None,
                         "value": float(row["value"]) if row["value"] else None,
+                        "final": row.get("final") == "1",
                     })
                 except (KeyError, TypeError, ValueError):
                     continue

@@ -1,17 +1,31 @@
-"""The objective in every form: final, per replicate, and from early estimates.
+"""The objective in every form: final, per replicate, from early estimates, on predictions.
 
-Samuelsson (2023), eq. 3.3: f = sum_i w_i ((y_i - r_i) / r_i)^2, with y_i the
-simulated response averaged over replicates before the error is taken
-(section 2.5), and the absolute error where the target r_i is 0. The
-Rayleigh time-step cost (Rackl & Hanley 2017, eq. 10) is added by the
+Two forms, chosen per study (``objective:``):
+
+* ``relative`` — Samuelsson (2023), eq. 3.3: f = sum_i w_i ((y_i - r_i) / r_i)^2,
+  with y_i the simulated response averaged over replicates before the error
+  is taken (section 2.5), and the absolute error where the target r_i is 0;
+* ``precision`` — each error in units of the target's measurement spread,
+  f = sum_i w_i ((y_i - r_i) / s_i)^2, so that a response measured to 0.3 %
+  weighs as much per standard deviation as one measured to 7 % (the
+  thesis' future-work remark on weighting responses by their uncertainty).
+  The simulation noise enters where responses are modelled: the optimizer's
+  response models give each prediction a standard deviation.
+
+The Rayleigh time-step cost (Rackl & Hanley 2017, eq. 10) is added by the
 caller as ``cost``. Pure functions: no files.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from statistics import fmean, stdev
+
+import numpy as np
+
+OBJECTIVE_FORMS = ("relative", "precision")
 
 
 @dataclass(frozen=True)
@@ -46,22 +60,64 @@ def replicate_spread(values: list[float]) -> float:
     return stdev(values) if len(values) > 1 else 0.0
 
 
-def objective_value(targets: list[Target], mean_responses: dict[str, float]) -> float:
-    """Weighted sum of squared relative errors (Samuelsson 2023, eq. 3.3).
+def objective_value(targets: list[Target], mean_responses: dict[str, float],
+                    form: str = "relative") -> float:
+    """The objective of replicate-mean responses: eq. 3.3, or its precision-weighted form.
 
     ``mean_responses`` maps ``scene.response`` to the replicate mean.
     """
-    total = 0.0
-    for t in targets:
-        error = relative_error(mean_responses[t.key], t.value)
-        total += t.weight * error * error
+    total = float(objective_values(targets, mean_responses, form))
     if not math.isfinite(total):
         raise ValueError(f"objective is not finite ({total}); responses {mean_responses}")
     return total
 
 
+def objective_values(targets: list[Target] | tuple[Target, ...],
+                     responses: Mapping[str, float | np.ndarray], form: str = "relative"
+                     ) -> float | np.ndarray:
+    """The objective of responses given as numbers or as arrays of one shape (element-wise).
+
+    Used on simulated means and on model predictions or posterior samples.
+    """
+    total = 0.0
+    for t in targets:
+        y = np.asarray(responses[t.key], float)
+        if form == "precision":
+            error = (y - t.value) / t.spread
+        elif t.value == 0.0:
+            error = y - t.value
+        else:
+            error = (y - t.value) / t.value
+        total = total + t.weight * error * error
+    return total
+
+
+@dataclass(frozen=True)
+class ResponseObjective:
+    """The objective as a function of responses: what the optimizer applies to its response data."""
+
+    targets: tuple[Target, ...]
+    form: str = "relative"
+
+    def __call__(self, responses: Mapping[str, float | np.ndarray]) -> float | np.ndarray:
+        return objective_values(self.targets, responses, self.form)
+
+    @property
+    def keys(self) -> list[str]:
+        return [t.key for t in self.targets]
+
+    def to_dict(self) -> dict:
+        return {"form": self.form, "targets": [
+            {"scene": t.scene, "response": t.response, "value": t.value, "weight": t.weight,
+             "spread": t.spread} for t in self.targets]}
+
+    @classmethod
+    def from_dict(cls, record: dict) -> ResponseObjective:
+        return cls(tuple(Target(**t) for t in record["targets"]), record["form"])
+
+
 def replicate_objectives(targets: list[Target], replicates: dict[str, list[float]],
-                         cost: float = 0.0) -> list[float]:
+                         cost: float = 0.0, form: str = "relative") -> list[float]:
     """Eq. 3.3 of each replicate index alone (for the optimizer's noise estimate).
 
     Empty unless every targeted response has the same number (> 1) of replicates.
@@ -69,12 +125,12 @@ def replicate_objectives(targets: list[Target], replicates: dict[str, list[float
     counts = {len(replicates.get(t.key, [])) for t in targets}
     if len(counts) != 1 or counts in ({0}, {1}):
         return []
-    return [objective_value(targets, {t.key: replicates[t.key][i] for t in targets}) + cost
+    return [objective_value(targets, {t.key: replicates[t.key][i] for t in targets}, form) + cost
             for i in range(counts.pop())]
 
 
 def estimated_objective(targets: list[Target], estimates: dict[str, list[float]],
-                        cost: float = 0.0) -> float | None:
+                        cost: float = 0.0, form: str = "relative") -> float | None:
     """Objective from early estimates of a running evaluation (thesis sec. 3.6.1).
 
     Each targeted response's estimates are averaged over the replicates that
@@ -86,7 +142,6 @@ def estimated_objective(targets: list[Target], estimates: dict[str, list[float]]
     for t in targets:
         values = estimates.get(t.key)
         if values:
-            error = relative_error(sum(values) / len(values), t.value)
-            total += t.weight * error * error
+            total += float(objective_values([t], {t.key: sum(values) / len(values)}, form))
             used += 1
     return total if used and math.isfinite(total) else None

@@ -66,6 +66,8 @@ class Study:
     seed: int
     timestep_fraction: float
     optimizer: OptimizerSettings
+    #: "relative" (eq. 3.3) or "precision" (errors in units of the targets' spreads)
+    objective_form: str = "relative"
     #: W_RL of the Rayleigh time-step cost term (Rackl & Hanley 2017, eq. 10); 0 = off.
     rayleigh_cost_weight: float = 0.0
     calibration: dict = field(default_factory=dict)
@@ -161,6 +163,7 @@ def study_record(study: Study) -> dict:
         "seed": study.seed,
         "timestep_fraction": study.timestep_fraction,
         "rayleigh_cost_weight": study.rayleigh_cost_weight,
+        "objective": study.objective_form,
         "optimizer": study.optimizer.to_dict(),
         "calibration": study.calibration,
         "warnings": study.warnings,
@@ -182,6 +185,7 @@ def study_from_record(record: dict) -> Study:
         replicates=record["replicates"], seed=record["seed"],
         timestep_fraction=record["timestep_fraction"],
         optimizer=OptimizerSettings.from_dict(record["optimizer"]),
+        objective_form=record.get("objective", "relative"),
         rayleigh_cost_weight=record["rayleigh_cost_weight"],
         calibration=record["calibration"], warnings=record["warnings"])
 
@@ -201,11 +205,12 @@ def incompatible_changes(old: dict, new: dict) -> list[str]:
     """Fields in which ``new`` differs from ``old`` so that stored simulations no longer compare.
 
     Allowed: the budget and stopping rules (``RESUMABLE_OPTIMIZER_SETTINGS``),
-    the daemon's ``calibration`` settings, warnings, the demcal version, and
-    target values, weights and spreads when the same responses are targeted.
+    the daemon's ``calibration`` settings, warnings, the demcal version, the
+    objective's form, and target values, weights and spreads when the same
+    responses are targeted (stored simulations are then re-scored).
     """
     changed = [path for path in _differences(old, new, "")
-               if not path.startswith(("demcal_version", "warnings", "calibration"))
+               if not path.startswith(("demcal_version", "warnings", "calibration", "objective"))
                and not any(path == f"optimizer.{name}" or path.startswith(f"optimizer.{name}.")
                            for name in RESUMABLE_OPTIMIZER_SETTINGS)]
     same_responses = [(t["scene"], t["response"]) for t in old.get("targets", [])] == [

@@ -90,6 +90,11 @@ def test_early_termination_stops_hopeless_runs_and_saves_time(tmp_path):
     state = json.loads((tmp_path / "results/et/optimizer.json").read_text())
     assert {r["id"] for r in state["records"] if r["status"] == "terminated"} == {
         int(name[1:]) for name in stopped["evaluation"]}
+    for record in state["records"]:  # what a stopped run reported reaches the optimizer
+        if record["status"] == "terminated":
+            assert set(record["responses"]) == {"cylinder_lift.angle_of_repose",
+                                                "cylinder_lift.bulk_density"}
+            assert all(entry["final"] and entry["values"] for entry in record["responses"].values())
     for name in stopped["evaluation"]:
         sim = json.loads((tmp_path / f"results/et/evals/{name}/cylinder_lift/rep0/"
                                      "simulation.json").read_text())
@@ -118,7 +123,7 @@ def test_bad_config_is_one_message(tmp_path):
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 2
     assert err.strip() == ("demcal: optimizer.strategy: 'guess' is not one of dycors, "
-                           "kriging_ei")
+                           "kriging_ei, response_ei")
 
 
 def test_resume_with_a_changed_study_is_refused_but_budget_may_grow(tmp_path):

@@ -25,7 +25,7 @@ from pathlib import Path
 
 from demcal.daemon.children import Child, alive, child_command, is_snakemake_for, start_child
 from demcal.daemon.tables import write_best, write_evaluations_csv
-from demcal.daemon.watch import evaluations_to_stop, latest_estimates
+from demcal.daemon.watch import evaluations_to_stop, latest_estimates, partial_responses
 from demcal.errors import DemcalError, SimulationFailed
 from demcal.evaluation import objective, response_paths
 from demcal.files import atomic_write_text, log_tail, read_json, write_json
@@ -38,7 +38,7 @@ from demcal.layout import (
     read_point,
     write_point,
 )
-from demcal.objective import estimated_objective, replicate_objectives
+from demcal.objective import ResponseObjective, estimated_objective, replicate_objectives
 from demcal.optimizer import Optimizer
 from demcal.study import RESUMABLE_OPTIMIZER_SETTINGS, Study
 
@@ -80,9 +80,14 @@ class Calibration:
             optimizer.settings = dataclasses.replace(optimizer.settings, **{
                 name: getattr(self.study.optimizer, name)
                 for name in RESUMABLE_OPTIMIZER_SETTINGS})
+            optimizer.objective = self.response_objective()  # the targets may have changed
             return optimizer
         return Optimizer([p.lower for p in self.study.free], [p.upper for p in self.study.free],
-                         self.study.optimizer, seed=self.study.seed, workers=self.workers)
+                         self.study.optimizer, seed=self.study.seed, workers=self.workers,
+                         objective=self.response_objective())
+
+    def response_objective(self) -> ResponseObjective:
+        return ResponseObjective(tuple(self.study.targets), self.study.objective_form)
 
     def _load_start_time(self) -> float:
         """Start of the calibration (calibration.json), written on the first run."""
@@ -110,8 +115,10 @@ class Calibration:
                 scored = read_objective(self.files.evaluation(evaluation))
             except SimulationFailed:
                 continue
-            if "targets" not in scored or (scored["targets"], scored.get("weights", weights)) == (
-                    targets, weights):
+            scored_as = (scored.get("targets"), scored.get("weights", weights),
+                         scored.get("objective_form", "relative"))
+            if "targets" not in scored or scored_as == (targets, weights,
+                                                        self.study.objective_form):
                 continue  # never scored (a failed simulation), or scored as now
             result = objective(self.study, evaluation, response_paths(self.study, evaluation))
             outcomes[record["id"]] = (result["status"], result.get("objective"),
@@ -200,9 +207,12 @@ class Calibration:
         pid = proposal_id(evaluation)
         if status == "ok":
             self.optimizer.tell(pid, value=record["objective"],
-                                replicates=self._replicate_values(record))
-        elif status == "terminated":
-            self.optimizer.tell(pid, status="terminated")
+                                replicates=self._replicate_values(record),
+                                responses=record.get("replicates"))
+        elif status == "terminated":  # what it did learn enters the response models
+            self.optimizer.tell(pid, status="terminated", partial=partial_responses(
+                self.files.evaluation(evaluation), list(self.study.scenes),
+                self.study.replicates))
         else:
             self.optimizer.tell(pid, status="failed")
         self.save_state()
@@ -217,7 +227,7 @@ class Calibration:
             return None
         cost = self.study.timestep_cost(record["parameters"])
         return replicate_objectives(self.study.targets, record.get("replicates", {}),
-                                    cost) or None
+                                    cost, self.study.objective_form) or None
 
     def retry(self, evaluation: str, point: PointRecord, reason: str) -> None:
         """Run a failed evaluation again with new seeds (attempt + 1)."""
@@ -259,7 +269,8 @@ class Calibration:
                 return None  # the evaluation will record why
         return estimated_objective(self.study.targets,
                                    latest_estimates(files, list(self.study.scenes),
-                                                    self.study.replicates), cost)
+                                                    self.study.replicates), cost,
+                                   self.study.objective_form)
 
     # -- outputs ---------------------------------------------------------------------
     def write_tables(self) -> None:

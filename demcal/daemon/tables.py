@@ -50,5 +50,6 @@ def write_best(study: Study, best: dict) -> None:
     write_json(study.files.best, {
         "evaluation": files.id, "parameters": dict(zip([p.name for p in study.free], best["x"])),
         "objective": best["value"], "predicted_objective": best["predicted"],
+        "chosen_by": best["chosen_by"],
         "responses": record.get("responses", {}), "targets": record.get("targets", {}),
         "relative_errors": record.get("relative_errors", {})})

@@ -81,7 +81,8 @@ class AnalyticEngine(Engine):
                     failure.get("mode", "always") == "always" or job.attempt == 0):
                 return RunResult(FAILED, failure.get("reason", "injected failure"),
                                  cost=cost(chunk))
+            # from half way on, the responses are known: final values, flagged so
             early = {r: responses[r] for r in job.responses} if progress >= 0.5 else None
-            monitor.progress(progress, "run", early)
+            monitor.progress(progress, "run", early, final=early is not None)
         return RunResult(OK, measurements={r: responses[r] for r in job.responses},
                          cost=cost(chunks))

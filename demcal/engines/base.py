@@ -92,8 +92,10 @@ class RunMonitor:
     def stop_requested(self) -> bool:
         return self.stop_file.exists()
 
-    def progress(self, fraction: float, stage: str, estimates: dict[str, float] | None = None) -> None:
-        self.partial.write(min(max(fraction, 0.0), 1.0), stage, estimates)
+    def progress(self, fraction: float, stage: str, estimates: dict[str, float] | None = None,
+                 final: bool = False) -> None:
+        """Report progress; ``estimates`` of responses are ``final`` once they cannot change."""
+        self.partial.write(min(max(fraction, 0.0), 1.0), stage, estimates, final)
 
 
 class Engine(ABC):

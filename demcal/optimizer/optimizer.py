@@ -9,6 +9,14 @@ stopped early joins the distance set A, so running points repel new ones
 and parallel workers never get the same point; only finished values enter
 the surrogate data B (section 3.6.2: a terminated run updates A but not B).
 Failed points additionally exclude a small ball around them.
+
+Given the targets (``objective``, a :class:`~demcal.objective.ResponseObjective`),
+the optimizer also keeps each evaluation's responses (:mod:`.responses`):
+replicate values, and what a stopped run completed or estimated. One model
+per response then predicts the objective, which picks the best point and
+the early-termination threshold, and the response strategies search on it;
+a stopped run's responses enter those models, so a region that is stopped
+early is not proposed again and again.
 """
 
 from __future__ import annotations
@@ -19,11 +27,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from demcal.objective import ResponseObjective
+
 from . import strategies as st
 from .bounds import Bounds
 from .designs import default_initial_size, initial_design
 from .early_termination import EarlyTerminationDecision, early_termination_decision
-from .registry import strategy_class
+from .registry import RESPONSE_STRATEGIES, strategy_class
+from .responses import ResponseModels, ResponsePredictor
 from .search import History, WeightCycle
 from .settings import OptimizerSettings
 from .stopping import stop_reason
@@ -75,6 +86,7 @@ class Optimizer:
         seed: int = 0,
         initial_points: list[list[float]] | None = None,
         workers: int = 1,
+        objective: ResponseObjective | None = None,
     ):
         self.bounds = Bounds.of(lower, upper)
         self.settings = settings if isinstance(settings, OptimizerSettings) else OptimizerSettings.from_dict(settings)
@@ -99,6 +111,18 @@ class Optimizer:
         self.evaluations_without_improvement = 0
         self._surrogate: Surrogate | None = None
         self._surrogate_version = -1
+        self.objective = objective
+        self._check_objective()
+        self._response_models = self._new_response_models()
+
+    def _check_objective(self) -> None:
+        if self.objective is None and self.settings.strategy in RESPONSE_STRATEGIES:
+            raise ValueError(f"optimizer.strategy: {self.settings.strategy} works on the responses and "
+                             f"needs the targets; give the Optimizer an objective")
+
+    def _new_response_models(self) -> ResponseModels:
+        s = self.settings
+        return ResponseModels(s.response_model, s.duplicate_tolerance, s.kriging_restarts, self.seed)
 
     # ------------------------------------------------------------------ ask
     def ask(self, n: int = 1) -> list[Proposal]:
@@ -152,6 +176,7 @@ class Optimizer:
             weights=weights,
             settings=self.settings,
             initial_size=self.initial_size,
+            responses=self._predictor() if self.settings.strategy in RESPONSE_STRATEGIES else None,
         )
 
     # ----------------------------------------------------------------- tell
@@ -161,6 +186,8 @@ class Optimizer:
         value: float | None = None,
         status: str = "ok",
         replicates: list[float] | None = None,
+        responses: dict[str, list[float]] | None = None,
+        partial: dict[str, dict] | None = None,
     ) -> None:
         """Report the outcome of proposal ``id``.
 
@@ -169,12 +196,36 @@ class Optimizer:
         "failed" (the point and a small ball around it are never proposed
         again); "terminated" (stopped early: kept in the distance set only).
         A non-finite value is recorded as failed.
+
+        ``responses`` ("ok"): each response's replicate values, keyed
+        ``scene.response``; with an objective and no value given, the value
+        and its replicates follow from them. ``partial`` ("terminated"): what
+        the stopped run reported, ``{key: {"values": [...], "final": bool}}``
+        (final: the response was complete; else an early estimate).
         """
         record = self._record(id)
         if record["status"] != "pending":
             raise ValueError(f"evaluation {id} was already told ({record['status']})")
+        if status == "ok" and responses and value is None and replicates is None and self.objective is not None:
+            value, replicates = self._objective_of(responses)
         record.update(_outcome(id, value, status, replicates))
+        observed = partial if status == "terminated" else (responses if status == "ok" else None)
+        if observed:
+            record["responses"] = {
+                key: {"values": [float(v) for v in entry["values"]], "final": bool(entry["final"])}
+                if isinstance(entry, dict) else {"values": [float(v) for v in entry], "final": True}
+                for key, entry in observed.items()
+            }
         self._update_progress(record)
+
+    def _objective_of(self, responses: dict[str, list[float]]) -> tuple[float, list[float] | None]:
+        """The objective of replicate-mean responses, and per replicate when the counts agree."""
+        keys = self.objective.keys
+        value = float(self.objective({key: float(np.mean(responses[key])) for key in keys}))
+        counts = {len(responses[key]) for key in keys}
+        if len(counts) != 1 or counts == {1}:
+            return value, None
+        return value, [float(self.objective({key: responses[key][i] for key in keys})) for i in range(counts.pop())]
 
     def reopen(self, id: int) -> None:
         """Make a told evaluation pending again, to be rerun and told anew (rerun on request).
@@ -185,6 +236,7 @@ class Optimizer:
         if record["status"] == "pending":
             raise ValueError(f"evaluation {id} is still pending")
         record.update(status="pending", value=None, variance=None, replicates=None)
+        record.pop("responses", None)
         self._surrogate_version = -1
 
     def rescore(self, outcomes: dict[int, tuple[str, float | None, list[float] | None]]) -> None:
@@ -228,33 +280,48 @@ class Optimizer:
         return [r["id"] for r in self.records if r["status"] == "pending"]
 
     def best(self) -> dict | None:
-        """The evaluated point that is good both as observed and as the surrogate predicts it.
+        """The best evaluated point, and how it was chosen (``chosen_by``).
 
-        Each evaluated point is scored by the larger of its observed value and
-        the surrogate's prediction there, and the lowest score wins: a lucky
-        noisy sample (observed low, predicted high) is passed over, and so is
-        a point where a smoothing surrogate blurs a sharp valley (predicted
-        low, observed high). Returns x (real units), value (observed, mean of
-        replicates), predicted (surrogate value there) and id; None before
-        any value.
+        With response models (an objective and enough responses): the
+        evaluated point whose objective, applied to the models' predicted
+        responses, is lowest — noise-aware, since each model averages the
+        scatter of nearby simulations (``chosen_by`` "response models").
+        Otherwise each evaluated point is scored by the larger of its
+        observed value and the surrogate's prediction there, and the lowest
+        score wins: a lucky noisy sample (observed low, predicted high) is
+        passed over, and so is a point where a smoothing surrogate blurs a
+        sharp valley (``chosen_by`` "objective surrogate"). Returns x (real
+        units), value (observed, mean of replicates), predicted (the
+        objective predicted there), chosen_by and id; None before any value.
         """
         finished = [r for r in self.records if r["status"] == "ok"]
         if not finished:
             return None
         observed = np.array([r["value"] for r in finished])
-        surrogate = self._fitted_surrogate()
-        if surrogate is None:
-            predicted = observed
+        points = np.array([r["x"] for r in finished])
+        predictor = self._predictor()
+        if predictor is not None:
+            predicted = predictor.objective_mean(points)
+            index, chosen_by = int(np.argmin(predicted)), "response models"
         else:
-            predicted = surrogate.predict(np.array([r["x"] for r in finished]))
-        index = int(np.argmin(np.maximum(observed, predicted)))
+            surrogate = self._fitted_surrogate()
+            predicted = observed if surrogate is None else surrogate.predict(points)
+            index, chosen_by = int(np.argmin(np.maximum(observed, predicted))), "objective surrogate"
         record = finished[index]
         return {
             "id": record["id"],
             "x": self.bounds.from_unit(record["x"])[0].tolist(),
             "value": record["value"],
             "predicted": float(predicted[index]),
+            "chosen_by": chosen_by,
         }
+
+    def _predictor(self) -> ResponsePredictor | None:
+        """The response models with the objective on top, or None (no targets, too few responses)."""
+        if self.objective is None:
+            return None
+        models = self._response_models.fit(self.records, self.objective.keys, self.bounds.dimension)
+        return None if models is None else ResponsePredictor(models, self.objective)
 
     def stop_reason(self, elapsed_seconds: float) -> str | None:
         """Why the run should stop (budget, wall clock, target, stagnation, collapse) or None."""
@@ -279,7 +346,7 @@ class Optimizer:
         adaptive_budget = max(self.settings.max_evaluations - self.initial_size, 1)
         progress = (self.completed_evaluations() - self.initial_size) / adaptive_budget
         return early_termination_decision(
-            self.best_observed,
+            self._reference_for_stopping(),
             partial_estimate,
             progress,
             in_initial_design=record["in_initial_design"],
@@ -287,6 +354,29 @@ class Optimizer:
             thresholds=et.thresholds,
             progress_boundaries=et.progress_boundaries,
         )
+
+    def _reference_for_stopping(self) -> float | None:
+        """The best objective a running evaluation is compared with (thesis eq. 3.4).
+
+        With response models: their best prediction at an evaluated point
+        plus the objective's noise floor, the mean objective of the models'
+        residuals at the evaluated points (what simulation noise alone adds
+        to a single run's objective). A lucky noisy sample does not set the
+        bar, and once the best prediction is below the noise, a run is not
+        stopped for being as noisy as every run is. Else the best observed
+        value.
+        """
+        best = self.best()
+        if best is None or best["chosen_by"] != "response models":
+            return self.best_observed
+        finished = [r for r in self.records if r["status"] == "ok" and r.get("responses")]
+        predicted, _ = self._predictor().predict(np.array([r["x"] for r in finished]))
+        residuals = {
+            key: np.array([np.mean(r["responses"][key]["values"]) for r in finished]) - predicted[key]
+            + target.value
+            for key, target in zip(self.objective.keys, self.objective.targets)
+        }
+        return best["predicted"] + float(np.mean(self.objective(residuals)))
 
     # ------------------------------------------------------------ helpers
     def _record(self, id: int) -> dict:
@@ -296,19 +386,33 @@ class Optimizer:
         raise ValueError(f"unknown evaluation id {id!r}")
 
     def _fitted_surrogate(self) -> Surrogate | None:
-        """The surrogate on all finished values, refitted only when they changed."""
+        """The surrogate of the objective, refitted only when its data changed.
+
+        Its data: the finished values, and the objective of every stopped run
+        that completed all targeted responses (so a stopped region is known
+        to the surrogate, not proposed again).
+        """
         finished = [r for r in self.records if r["status"] == "ok"]
         if len(finished) < self.bounds.dimension + 2:
             return None
-        if self._surrogate_version != len(finished):
+        data = [(r["x"], r["value"], r["variance"] or 0.0) for r in finished] + self._stopped_values()
+        if self._surrogate_version != len(data):
             s = self.settings
             surrogate = make_surrogate(s.surrogate_name, s.duplicate_tolerance, s.kriging_restarts, self.seed)
-            x = np.array([r["x"] for r in finished])
-            y = np.array([r["value"] for r in finished])
-            variance = np.array([r["variance"] or 0.0 for r in finished])
+            x, y, variance = (np.array(column) for column in zip(*data))
             self._surrogate = surrogate.fit(x, y, variance)
-            self._surrogate_version = len(finished)
+            self._surrogate_version = len(data)
         return self._surrogate
+
+    def _stopped_values(self) -> list[tuple[list[float], float, float]]:
+        """(x, objective, 0) of the stopped runs whose targeted responses were all final."""
+        if self.objective is None:
+            return []
+        keys = self.objective.keys
+        complete = [r for r in self.records if r["status"] == "terminated" and r.get("responses")
+                    and all(key in r["responses"] and r["responses"][key]["final"] for key in keys)]
+        return [(r["x"], float(self.objective({key: np.mean(r["responses"][key]["values"]) for key in keys})), 0.0)
+                for r in complete]
 
     # -------------------------------------------------------------- state
     def to_json(self) -> str:
@@ -335,6 +439,8 @@ class Optimizer:
             "evaluations_without_improvement": self.evaluations_without_improvement,
             "rng": self.rng.bit_generator.state,
         }
+        if self.objective is not None:
+            state["objective"] = self.objective.to_dict()
         return json.dumps(state)
 
     @classmethod
@@ -359,4 +465,6 @@ class Optimizer:
         optimizer.evaluations_without_improvement = state["evaluations_without_improvement"]
         optimizer._surrogate = None
         optimizer._surrogate_version = -1
+        optimizer.objective = ResponseObjective.from_dict(state["objective"]) if "objective" in state else None
+        optimizer._response_models = optimizer._new_response_models()
         return optimizer

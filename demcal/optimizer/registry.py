@@ -30,7 +30,10 @@ class StrategyEntry:
 STRATEGIES: dict[str, StrategyEntry] = {
     "dycors": StrategyEntry("demcal.optimizer.search:Dycors", "cubic_rbf"),
     "kriging_ei": StrategyEntry("demcal.optimizer.search:KrigingEI", "kriging", ("kriging",)),
+    "response_ei": StrategyEntry("demcal.optimizer.search:ResponseEI", "cubic_rbf"),
 }
+#: Strategies that work on per-response models and so need the targets (the objective).
+RESPONSE_STRATEGIES = ("response_ei",)
 
 
 def register_strategy(

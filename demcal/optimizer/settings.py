@@ -16,6 +16,8 @@ from typing import Any
 from .registry import STRATEGIES
 
 SURROGATES = ("cubic_rbf", "kriging", "smt_rbf")
+#: Models of each response for the response strategies and the best point (demcal.optimizer.responses)
+RESPONSE_MODELS = ("kriging", "cubic_rbf")
 INITIAL_DESIGNS = ("symmetric_latin_hypercube", "latin_hypercube", "sobol")
 
 
@@ -76,6 +78,7 @@ class OptimizerSettings:
     failed_exclusion_radius: float = 0.02
     duplicate_tolerance: float = 1e-7
     kriging_restarts: int = 3
+    response_model: str = "kriging"
     early_termination: EarlyTerminationSettings = field(default_factory=EarlyTerminationSettings)
 
     @classmethod
@@ -130,6 +133,7 @@ class OptimizerSettings:
                     f"it needs {' or '.join(usable)} (or leave surrogate unset)"
                 )
         _choice("initial_design", self.initial_design, INITIAL_DESIGNS)
+        _choice("response_model", self.response_model, RESPONSE_MODELS)
         if self.initial_size is not None:
             _integer("initial_size", self.initial_size, 2, None)
         _integer("design_tries", self.design_tries, 1, None)

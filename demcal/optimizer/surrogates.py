@@ -227,10 +227,13 @@ class KrigingSurrogate(Surrogate):
 
     caps_large_values = False  # capping plus a nugget made the fit mostly trend and noise
 
-    def __init__(self, duplicate_tolerance: float = 1e-7, restarts: int = 5, seed: int = 0):
+    def __init__(self, duplicate_tolerance: float = 1e-7, restarts: int = 5, seed: int = 0,
+                 theta0: np.ndarray | None = None):
         super().__init__(duplicate_tolerance)
         self.restarts = restarts
         self.seed = seed
+        #: start of the length-scale search (a previous fit's optimum: a warm start)
+        self.theta0 = theta0
 
     def _fit_standardised(self, data: TrainingData) -> None:
         from smt.surrogate_models import KRG
@@ -246,6 +249,7 @@ class KrigingSurrogate(Surrogate):
             n_start=self.restarts,
             seed=self.seed,
             print_global=False,
+            **({} if self.theta0 is None or len(self.theta0) != d else {"theta0": list(self.theta0)}),
         )
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -256,6 +260,11 @@ class KrigingSurrogate(Surrogate):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             return self.model.predict_values(x).ravel()
+
+    @property
+    def length_scales(self) -> np.ndarray | None:
+        """The fitted correlation parameters (theta), for a warm start of the next fit."""
+        return None if self.constant else np.asarray(self.model.optimal_theta, float)
 
     def predict_std(self, x) -> np.ndarray:
         x = np.atleast_2d(np.asarray(x, float))

@@ -77,7 +77,7 @@ class CylinderLift(LammpsDriver):
         bulk, height = measure.fill_bulk_density(x, r, m, self.radius, self.s["d50"])
         measurements["fill_height"] = height
         arrays.update(fill_x=x, fill_r=r, fill_mass=m)
-        self.monitor.progress(fill_share, "fill", {"bulk_density": bulk})
+        self.monitor.progress(fill_share, "fill", {"bulk_density": bulk}, final=True)
         if wants_heap:
             self.lift(height)
             measurements["heap_at_rest"] = float(self.settle("heap", 0.8, 1.0, True))

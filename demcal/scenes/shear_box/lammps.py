@@ -166,7 +166,7 @@ class ShearBox(LammpsDriver):
         arrays.update(fill_x=x, fill_mass=m)
         measurements["fill_particles"] = float(len(x))
         bulk = measure.box_bulk_density(x, m, (self.length, self.width, self.height))
-        self.monitor.progress(fill_share, "fill", {"bulk_density": bulk})
+        self.monitor.progress(fill_share, "fill", {"bulk_density": bulk}, final=True)
         if wants_slope:
             measurements["slope_at_rest"] = float(self.outflow(fill_share))
             x, r, _ = self.particles()

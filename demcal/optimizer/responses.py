@@ -1,0 +1,163 @@
+"""Responses, not one number: per-response observations and one model per response.
+
+Each evaluation the optimizer is told about may carry its responses: every
+replicate's value per ``scene.response``, and for a run stopped early the
+responses it did complete (``final``, e.g. a fill's bulk density) or early
+estimates of them (not final). :func:`observations` turns the records into
+training data per response (the replicate mean, the variance of that mean,
+an estimate's own uncertainty); :class:`ResponseModels` fits one model per
+response on it (Rackl & Hanley 2017, sec. 2.3: a Kriging metamodel per
+response; Richter & Will 2021, sec. 3.7: metamodels per response) and
+refits only when a response's data changed. :class:`ResponsePredictor`
+applies the objective on top of the predictions, so the structure
+"objective = f(responses)" is used, not learnt.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from demcal.objective import ResponseObjective
+
+from .surrogates import CubicRBF, KrigingSurrogate, Surrogate, cubic_rbf_system, leave_one_out_errors
+
+#: Standard deviation of an early estimate relative to its value, when a run
+#: stopped before the response was final (the calibration device's mass flow
+#: over 20-50 % of the discharge against the final 20-80 %).
+ESTIMATE_RELATIVE_SD = 0.05
+
+
+def observations(records: list[dict], key: str, dimension: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Training data of one response: points (unit box), means and the variance of each mean.
+
+    A final value's variance is that of its replicates' mean (0 with one
+    replicate: the model's nugget then carries the noise); an early estimate
+    gets ``ESTIMATE_RELATIVE_SD`` of its value as standard deviation.
+    """
+    x, y, variance = [], [], []
+    for record in records:
+        entry = (record.get("responses") or {}).get(key)
+        if record["status"] not in ("ok", "terminated") or not entry or not entry["values"]:
+            continue
+        values = np.asarray(entry["values"], float)
+        mean = float(values.mean())
+        if not math.isfinite(mean):
+            continue
+        if entry["final"]:
+            var = float(values.var(ddof=1) / len(values)) if len(values) > 1 else 0.0
+        else:
+            var = (ESTIMATE_RELATIVE_SD * mean) ** 2
+        x.append(record["x"])
+        y.append(mean)
+        variance.append(var)
+    return (np.array(x, float).reshape(len(x), dimension), np.array(y, float), np.array(variance, float))
+
+
+class ResponseRBF(CubicRBF):
+    """The cubic RBF for a response: values uncapped, and a standard deviation.
+
+    The standard deviation is the root mean square of the leave-one-out
+    errors (Rippa 1999), the same everywhere: a rough but honest measure
+    of how well the interpolant predicts a point it has not seen.
+    """
+
+    caps_large_values = False
+
+    def _fit_standardised(self, data) -> None:
+        super()._fit_standardised(data)
+        n, d = data.x.shape
+        if n >= d + 2:
+            system = cubic_rbf_system(data.x, self.chosen_smoothing + data.noise)
+            self.loo_rms = float(np.sqrt(np.mean(leave_one_out_errors(system, data.z) ** 2)))
+        else:
+            self.loo_rms = 1.0  # too few points to judge: one standard deviation of the data
+
+    def predict_std(self, x) -> np.ndarray:
+        x = np.atleast_2d(np.asarray(x, float))
+        if self.constant:
+            return np.zeros(len(x))
+        return np.full(len(x), self.data.scale * self.loo_rms)
+
+
+#: A Kriging response model is refitted from the last length scales with one
+#: start; every this many refits, and whenever the data grew by a quarter,
+#: with all ``kriging_restarts`` starts again.
+FULL_REFIT_EVERY = 8
+
+
+def make_response_model(kind: str, duplicate_tolerance: float, restarts: int, seed: int,
+                        warm_start: Surrogate | None = None) -> Surrogate:
+    if kind == "kriging":
+        theta0 = getattr(warm_start, "length_scales", None)
+        return KrigingSurrogate(duplicate_tolerance, restarts=1 if theta0 is not None else restarts,
+                                seed=seed, theta0=theta0)
+    if kind == "cubic_rbf":
+        return ResponseRBF(duplicate_tolerance)
+    raise ValueError(f"unknown response model {kind!r}")
+
+
+class ResponseModels:
+    """One model per response, refitted only when that response's data changed."""
+
+    def __init__(self, kind: str, duplicate_tolerance: float, restarts: int, seed: int):
+        self.kind, self.duplicate_tolerance = kind, duplicate_tolerance
+        self.restarts, self.seed = restarts, seed
+        self._fitted: dict[str, tuple[tuple, Surrogate]] = {}
+        #: per response: refits since the last full one, and the data size then
+        self._since_full: dict[str, tuple[int, int]] = {}
+
+    def fit(self, records: list[dict], keys: list[str], dimension: int) -> dict[str, Surrogate] | None:
+        """The models of ``keys``, or None while some response has fewer than d + 2 points."""
+        models = {}
+        for key in keys:
+            x, y, variance = observations(records, key, dimension)
+            if len(y) < dimension + 2:
+                return None
+            signature = (x.tobytes(), y.tobytes(), variance.tobytes())
+            cached = self._fitted.get(key)
+            if cached is None or cached[0] != signature:
+                refits, size = self._since_full.get(key, (0, 0))
+                full = cached is None or refits + 1 >= FULL_REFIT_EVERY or len(y) > 1.25 * size
+                model = make_response_model(self.kind, self.duplicate_tolerance, self.restarts, self.seed,
+                                            warm_start=None if full else cached[1])
+                self._fitted[key] = (signature, model.fit(x, y, variance))
+                self._since_full[key] = (0, len(y)) if full else (refits + 1, size)
+            models[key] = self._fitted[key][1]
+        return models
+
+
+@dataclass(frozen=True)
+class ResponsePredictor:
+    """Response models with the objective on top: what the response strategies and best() use."""
+
+    models: dict[str, Surrogate]
+    objective: ResponseObjective
+
+    def predict(self, x: np.ndarray) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+        """Predicted mean and standard deviation of each response at the rows of ``x``."""
+        x = np.atleast_2d(x)
+        means = {key: model.predict(x) for key, model in self.models.items()}
+        stds = {key: model.predict_std(x) for key, model in self.models.items()}
+        return means, stds
+
+    def objective_mean(self, x: np.ndarray) -> np.ndarray:
+        """The objective of the predicted responses (the plug-in estimate) at the rows of ``x``."""
+        means, _ = self.predict(x)
+        return np.asarray(self.objective(means), float) * np.ones(len(np.atleast_2d(x)))
+
+    def expected_improvement(self, x: np.ndarray, best: float, rng: np.random.Generator,
+                             samples: int = 128) -> np.ndarray:
+        """Monte Carlo expected improvement of the objective over ``best`` at the rows of ``x``.
+
+        Each response is drawn from its model's normal posterior (independent
+        responses, the same draws for every candidate), the objective is
+        applied to each draw, and the improvements are averaged.
+        """
+        means, stds = self.predict(x)
+        draws = rng.standard_normal((samples, len(self.models)))
+        sampled = {key: means[key][None, :] + stds[key][None, :] * draws[:, [i]]
+                   for i, key in enumerate(self.models)}
+        return np.maximum(best - np.asarray(self.objective(sampled), float), 0.0).mean(axis=0)
