@@ -221,7 +221,8 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
                           f"target a spread > 0 (its measurement standard deviation), or use "
                           f"objective: relative")
     try:
-        optimizer = OptimizerSettings.from_dict(config.get("optimizer", {}))
+        optimizer = OptimizerSettings.from_dict(
+            {"strategy": default("optimizer", "strategy"), **config.get("optimizer", {})})
     except ValueError as exc:
         raise ConfigError(str(exc)) from None
     engine_config = dict(config["engine"])
