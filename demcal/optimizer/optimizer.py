@@ -370,6 +370,8 @@ class Optimizer:
         if best is None or best["chosen_by"] != "response models":
             return self.best_observed
         finished = [r for r in self.records if r["status"] == "ok" and r.get("responses")]
+        if not finished:
+            return best["predicted"]
         predicted, _ = self._predictor().predict(np.array([r["x"] for r in finished]))
         residuals = {
             key: np.array([np.mean(r["responses"][key]["values"]) for r in finished]) - predicted[key]
