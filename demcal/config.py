@@ -19,6 +19,7 @@ from demcal.engines import make_engine
 from demcal.errors import ConfigError
 from demcal.objective import Target
 from demcal.optimizer import OptimizerSettings
+from demcal.optimizer.registry import RESPONSE_STRATEGIES
 from demcal.parameters import CATALOG
 from demcal.resources import SCHEMA_PATH
 from demcal.scenes import SCENES, Scene
@@ -220,11 +221,17 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
                           f"measures each error in units of its target's spread; give every "
                           f"target a spread > 0 (its measurement standard deviation), or use "
                           f"objective: relative")
+    # The response models do not model the Rayleigh cost term yet: with it, a
+    # study's default is the optimizer's own (dycors), and response_ei is refused.
+    strategy = default("optimizer", "strategy") if cost_weight == 0.0 else OptimizerSettings().strategy
     try:
-        optimizer = OptimizerSettings.from_dict(
-            {"strategy": default("optimizer", "strategy"), **config.get("optimizer", {})})
+        optimizer = OptimizerSettings.from_dict({"strategy": strategy, **config.get("optimizer", {})})
     except ValueError as exc:
         raise ConfigError(str(exc)) from None
+    if cost_weight > 0.0 and optimizer.strategy in RESPONSE_STRATEGIES:
+        raise ConfigError(f"optimizer.strategy: {optimizer.strategy} does not model the Rayleigh "
+                          f"time-step cost yet; with rayleigh_cost_weight {cost_weight:g} use "
+                          f"dycors or kriging_ei")
     engine_config = dict(config["engine"])
     engine = make_engine(engine_config.pop("name"), engine_config)
     if check_engine:

@@ -195,3 +195,15 @@ def test_simulator_file_in_a_subfolder_is_fine(analytic_config):
                                  "responses_file": "out/responses.json",
                                  "partial_file": "progress.csv"}
     assert load_study(analytic_config, check_engine=False).engine.name == "command"
+
+
+def test_rayleigh_cost_keeps_a_strategy_that_models_it(analytic_config):
+    """The response models leave the Rayleigh cost out: such studies default to dycors."""
+    analytic_config["parameters"]["particle_density"] = {"lower": 2000.0, "upper": 3000.0}
+    analytic_config["rayleigh_cost_weight"] = 0.5
+    assert load_study(analytic_config).optimizer.strategy == "dycors"
+    analytic_config["optimizer"] = {"strategy": "response_ei"}
+    with pytest.raises(ConfigError, match="optimizer.strategy: response_ei does not model the Rayleigh"):
+        load_study(analytic_config)
+    del analytic_config["rayleigh_cost_weight"]
+    assert load_study(analytic_config).optimizer.strategy == "response_ei"

@@ -86,7 +86,11 @@ class Calibration:
                          self.study.optimizer, seed=self.study.seed, workers=self.workers,
                          objective=self.response_objective())
 
-    def response_objective(self) -> ResponseObjective:
+    def response_objective(self) -> ResponseObjective | None:
+        """The objective the optimizer applies to responses; None with the Rayleigh cost term,
+        which the response models do not model yet (the optimizer then works on values only)."""
+        if self.study.rayleigh_cost_weight:
+            return None
         return ResponseObjective(tuple(self.study.targets), self.study.objective_form)
 
     def _load_start_time(self) -> float:
