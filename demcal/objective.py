@@ -121,11 +121,12 @@ def replicate_objectives(targets: list[Target], replicates: dict[str, list[float
     """Eq. 3.3 of each replicate index alone (for the optimizer's noise estimate).
 
     Empty unless every targeted response has the same number (> 1) of replicates.
+    A non-finite replicate gives a non-finite value, for the caller to judge.
     """
     counts = {len(replicates.get(t.key, [])) for t in targets}
     if len(counts) != 1 or counts in ({0}, {1}):
         return []
-    return [objective_value(targets, {t.key: replicates[t.key][i] for t in targets}, form) + cost
+    return [float(objective_values(targets, {t.key: replicates[t.key][i] for t in targets}, form)) + cost
             for i in range(counts.pop())]
 
 

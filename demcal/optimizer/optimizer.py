@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from demcal.objective import ResponseObjective
+from demcal.objective import ResponseObjective, replicate_objectives
 
 from . import strategies as st
 from .bounds import Bounds
@@ -220,12 +220,9 @@ class Optimizer:
 
     def _objective_of(self, responses: dict[str, list[float]]) -> tuple[float, list[float] | None]:
         """The objective of replicate-mean responses, and per replicate when the counts agree."""
-        keys = self.objective.keys
-        value = float(self.objective({key: float(np.mean(responses[key])) for key in keys}))
-        counts = {len(responses[key]) for key in keys}
-        if len(counts) != 1 or counts == {1}:
-            return value, None
-        return value, [float(self.objective({key: responses[key][i] for key in keys})) for i in range(counts.pop())]
+        objective = self.objective
+        value = float(objective({key: float(np.mean(responses[key])) for key in objective.keys}))
+        return value, replicate_objectives(objective.targets, responses, 0.0, objective.form) or None
 
     def reopen(self, id: int) -> None:
         """Make a told evaluation pending again, to be rerun and told anew (rerun on request).
