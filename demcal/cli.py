@@ -4,6 +4,7 @@
     demcal status [CONFIG]
     demcal stop [CONFIG]
     demcal rerun-failed [CONFIG]
+    demcal solutions [CONFIG] [--k 2] [--samples 65536]
     demcal convergence [CONFIG] [--scene S] [--fractions F ...] [--sizes N ...] [--seeds 2]
 
 CONFIG defaults to config/config.yaml. Errors in the configuration or on
@@ -25,12 +26,12 @@ from demcal.config import load_study_file
 from demcal.daemon.children import alive, child_cores, profile_settings
 from demcal.daemon.control import reopen_failed, request_stop
 from demcal.daemon.loop import Calibration
-from demcal.errors import DemcalError
+from demcal.errors import ConfigError, DemcalError
 from demcal.files import read_json
 from demcal.layout import read_objective
 from demcal.optimizer import Optimizer
 from demcal.resources import PROFILES_DIR
-from demcal.study import Study, freeze
+from demcal.study import Study, freeze, load_frozen
 from demcal.summary import evaluation_summary
 
 DEFAULT_CONFIG = "config/config.yaml"
@@ -172,6 +173,26 @@ def rerun_failed(args) -> int:
     return 0
 
 
+def solutions(args) -> int:
+    from demcal.solution_files import write_solutions
+
+    study = load_study_file(args.config, check_engine=False)
+    if study.files.study.exists():
+        study = load_frozen(study.files.study)
+    if not (args.k > 0 and args.samples >= 64):
+        raise ConfigError(f"--k {args.k} must be > 0 and --samples {args.samples} at least 64")
+    analysis = write_solutions(study, args.k, args.samples)
+    s = analysis.solutions
+    print(f"solution space of {study.name!r}: {len(s.points_unit)} of {s.sampled} sampled parameter sets "
+          f"meet every target within {s.k:g} sd (target spread, simulation noise and model sd combined)")
+    for verdict in analysis.verdicts:
+        print(f"  {verdict.sentence}")
+    files = study.files
+    print(f"sets: {files.solutions}; figures: {files.plots / 'solution_space.png'}, "
+          f"{files.plots / 'sensitivity.png'}")
+    return 0
+
+
 def convergence(args) -> int:
     from demcal import convergence as study
 
@@ -188,6 +209,9 @@ def main(argv: list[str] | None = None) -> int:
                              ("stop", stop, "stop a running calibration cleanly"),
                              ("rerun-failed", rerun_failed,
                               "rerun the failed evaluations (new seeds) on the next run"),
+                             ("solutions", solutions,
+                              "the parameter sets that meet the targets, and which parameters "
+                              "the targets pin"),
                              ("convergence", convergence,
                               "error against run time: one point at several time steps and "
                               "sizes")):
@@ -201,6 +225,11 @@ def main(argv: list[str] | None = None) -> int:
             sub.add_argument("--workers", type=int, help="evaluations in flight")
             # set by the workflow's calibrate rule: the daemon ends with its Snakemake
             sub.add_argument("--watch-pid", type=int, help=argparse.SUPPRESS)
+        if name == "solutions":
+            sub.add_argument("--k", type=float, default=2.0,
+                             help="tolerance in combined standard deviations (default 2)")
+            sub.add_argument("--samples", type=int, default=2**16,
+                             help="Sobol points sampled over the box (default 65536)")
         if name == "convergence":
             sub.add_argument("--scene", help="default: the study's first scene")
             sub.add_argument("--fractions", type=float, nargs="+",

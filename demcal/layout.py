@@ -146,6 +146,14 @@ class StudyFiles:
         return self.dir / "finished.json"
 
     @property
+    def solutions(self) -> Path:
+        return self.dir / "solutions.csv"
+
+    @property
+    def solutions_summary(self) -> Path:
+        return self.dir / "solutions.json"
+
+    @property
     def daemon_log(self) -> Path:
         return self.dir / "daemon.log"
 

@@ -9,9 +9,10 @@ import sys
 import time
 
 import numpy as np
+import pandas as pd
 import pytest
 import yaml
-from conftest import ROOT, demcal, evaluations, finish, study
+from conftest import ROOT, TRUTH, demcal, evaluations, finish, study
 
 
 def test_local_calibration_reaches_the_known_optimum(tmp_path):
@@ -30,6 +31,16 @@ def test_local_calibration_reaches_the_known_optimum(tmp_path):
     assert best["objective"] < 2e-3  # responses within about 3 % of the targets
     assert "evaluation budget reached (20 of 20)" in out
     assert "cylinder_lift.angle_of_repose [deg]" in out
+
+    # the solution space on the same response models: the truth lies in (or next to) the set
+    out = finish(demcal(tmp_path, "solutions", config, "--samples", 4096))
+    sets = pd.read_csv(tmp_path / "results/conv/solutions.csv")
+    unit = (sets[list(TRUTH)] - [0.1, 0.02]) / [0.8, 0.28]
+    truth = (np.array(list(TRUTH.values())) - [0.1, 0.02]) / [0.8, 0.28]
+    assert len(sets) >= 20 and np.min(np.linalg.norm(unit - truth, axis=1)) < 0.05
+    assert all(f"  {name}: " in out for name in TRUTH)
+    for figure in ("solution_space.png", "sensitivity.png", "sensitivity.csv"):
+        assert (tmp_path / "results/conv/plots" / figure).stat().st_size > 0
 
 
 def test_kill_9_then_resume_loses_and_repeats_nothing(tmp_path):

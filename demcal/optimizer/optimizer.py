@@ -176,7 +176,7 @@ class Optimizer:
             weights=weights,
             settings=self.settings,
             initial_size=self.initial_size,
-            responses=self._predictor() if self.settings.strategy in RESPONSE_STRATEGIES else None,
+            responses=self.response_predictor() if self.settings.strategy in RESPONSE_STRATEGIES else None,
         )
 
     # ----------------------------------------------------------------- tell
@@ -296,7 +296,7 @@ class Optimizer:
             return None
         observed = np.array([r["value"] for r in finished])
         points = np.array([r["x"] for r in finished])
-        predictor = self._predictor()
+        predictor = self.response_predictor()
         if predictor is not None:
             predicted = predictor.objective_mean(points)
             index, chosen_by = int(np.argmin(predicted)), "response models"
@@ -313,12 +313,17 @@ class Optimizer:
             "chosen_by": chosen_by,
         }
 
-    def _predictor(self) -> ResponsePredictor | None:
-        """The response models with the objective on top, or None (no targets, too few responses)."""
-        if self.objective is None:
+    def response_predictor(self, objective: ResponseObjective | None = None) -> ResponsePredictor | None:
+        """The models of the targeted responses with ``objective`` (default: the optimizer's) on top.
+
+        Inputs in the unit box. None without an objective or while some
+        targeted response has fewer than d + 2 observations.
+        """
+        objective = objective or self.objective
+        if objective is None:
             return None
-        models = self._response_models.fit(self.records, self.objective.keys, self.bounds.dimension)
-        return None if models is None else ResponsePredictor(models, self.objective)
+        models = self._response_models.fit(self.records, objective.keys, self.bounds.dimension)
+        return None if models is None else ResponsePredictor(models, objective)
 
     def stop_reason(self, elapsed_seconds: float) -> str | None:
         """Why the run should stop (budget, wall clock, target, stagnation, collapse) or None."""
@@ -369,7 +374,7 @@ class Optimizer:
         finished = [r for r in self.records if r["status"] == "ok" and r.get("responses")]
         if not finished:
             return best["predicted"]
-        predicted, _ = self._predictor().predict(np.array([r["x"] for r in finished]))
+        predicted, _ = self.response_predictor().predict(np.array([r["x"] for r in finished]))
         residuals = {
             key: np.array([np.mean(r["responses"][key]["values"]) for r in finished]) - predicted[key]
             + target.value

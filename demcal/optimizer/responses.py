@@ -56,6 +56,16 @@ def observations(records: list[dict], key: str, dimension: int) -> tuple[np.ndar
     return (np.array(x, float).reshape(len(x), dimension), np.array(y, float), np.array(variance, float))
 
 
+def final_means(records: list[dict], key: str, dimension: int) -> tuple[np.ndarray, np.ndarray]:
+    """Points (unit box) and replicate means of one response where it was simulated to the end."""
+    rows = [(record["x"], float(np.mean(entry["values"]))) for record in records
+            if record["status"] in ("ok", "terminated")
+            and (entry := (record.get("responses") or {}).get(key)) and entry["values"] and entry["final"]]
+    rows = [(x, y) for x, y in rows if math.isfinite(y)]
+    return (np.array([x for x, _ in rows], float).reshape(len(rows), dimension),
+            np.array([y for _, y in rows], float))
+
+
 class ResponseRBF(CubicRBF):
     """The cubic RBF for a response: values uncapped, and a standard deviation.
 

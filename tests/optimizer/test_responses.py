@@ -77,7 +77,7 @@ def test_best_is_the_evaluated_point_with_the_lowest_predicted_objective():
     best = opt.best()
     assert best["chosen_by"] == "response models"
     finished = [r for r in opt.records if r["status"] == "ok"]
-    predicted = opt._predictor().objective_mean(np.array([r["x"] for r in finished]))
+    predicted = opt.response_predictor().objective_mean(np.array([r["x"] for r in finished]))
     assert best["id"] == finished[int(np.argmin(predicted))]["id"]
     assert best["predicted"] == pytest.approx(predicted.min())
 

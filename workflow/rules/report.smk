@@ -27,6 +27,23 @@ rule plots:
         "../../scripts/plots.py"
 
 
+rule solutions:
+    input:
+        str(FILES.finished),
+    output:
+        report(str(PLOTS / "solution_space.png"), caption="../report/solution_space.rst",
+               category="Solution space"),
+        report(str(PLOTS / "sensitivity.png"), caption="../report/sensitivity.rst",
+               category="Solution space"),
+    log:
+        str(FILES.logs / "solutions.log"),
+    localrule: True
+    params:
+        study_file=STUDY_FILE,
+    script:
+        "../../scripts/solutions.py"
+
+
 rule evaluation_dag:
     input:
         str(FILES.finished),

@@ -1,0 +1,197 @@
+"""The solution space of a study on disk: analysis from optimizer.json, tables and figures.
+
+``demcal solutions CONFIG`` and the report's ``solutions`` job call
+:func:`write_solutions`. It rebuilds the response models from the
+optimizer's saved evaluations (the same models the optimizer used), applies
+:mod:`demcal.solutions` and writes:
+
+- ``results/<study>/solutions.csv``: the accepted parameter sets with their
+  predicted responses and standard deviations;
+- ``results/<study>/solutions.json``: tolerances, counts and the verdict per
+  parameter;
+- ``plots/solution_space.png``: corner plot of the set (pairwise scatter,
+  histograms, bounds as axis limits, the best point);
+- ``plots/sensitivity.png`` and ``plots/sensitivity.csv``: Sobol indices of
+  each response per parameter.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from demcal.errors import DemcalError  # noqa: E402
+from demcal.files import read_json  # noqa: E402
+from demcal.objective import ResponseObjective  # noqa: E402
+from demcal.optimizer import Optimizer  # noqa: E402
+from demcal.optimizer.responses import final_means  # noqa: E402
+from demcal.solutions import (  # noqa: E402
+    SolutionSet,
+    Verdict,
+    identifiability,
+    largest_total_index,
+    sample_solutions,
+    sensitivity_indices,
+    simulation_noise_sd,
+)
+from demcal.study import Study, load_frozen  # noqa: E402
+
+#: Most points drawn in the corner plot (a thinned, seeded subset of the set).
+CORNER_POINTS = 3000
+
+
+@dataclass(frozen=True)
+class SolutionAnalysis:
+    solutions: SolutionSet
+    verdicts: list[Verdict]
+    sensitivity: list[dict]
+    names: list[str]
+    lower: np.ndarray
+    upper: np.ndarray
+
+    def points(self) -> np.ndarray:
+        """The accepted parameter sets in real units."""
+        return self.lower + self.solutions.points_unit * (self.upper - self.lower)
+
+
+def analyse(study: Study, k: float = 2.0, samples: int = 2**16, seed: int = 0) -> SolutionAnalysis:
+    """The solution space and identifiability of ``study`` from its saved evaluations."""
+    if not study.files.optimizer.exists():
+        raise DemcalError(f"study {study.name!r} has no evaluations yet ({study.files.optimizer} missing); "
+                          f"run the calibration first")
+    optimizer = Optimizer.from_json(study.files.optimizer.read_text())
+    predictor = optimizer.response_predictor(ResponseObjective(tuple(study.targets), study.objective_form))
+    dimension = optimizer.bounds.dimension
+    if predictor is None:
+        raise DemcalError(f"study {study.name!r}: too few evaluations with responses to model them "
+                          f"(every targeted response needs at least {dimension + 2})")
+    observed = {key: final_means(optimizer.records, key, dimension) for key in predictor.models}
+    noise = simulation_noise_sd(predictor, observed)
+    solutions = sample_solutions(predictor, dimension, noise, k, samples, seed)
+    names = [p.name for p in study.free]
+    sensitivity = sensitivity_indices(predictor, names, seed=seed)
+    verdicts = identifiability(solutions, names, [p.spec.unit for p in study.free],
+                               np.array(optimizer.bounds.lower), np.array(optimizer.bounds.upper),
+                               largest_total_index(sensitivity))
+    return SolutionAnalysis(solutions, verdicts, sensitivity, names, np.array(optimizer.bounds.lower),
+                            np.array(optimizer.bounds.upper))
+
+
+def solutions_table(analysis: SolutionAnalysis) -> pd.DataFrame:
+    table = pd.DataFrame(analysis.points(), columns=analysis.names)
+    for key in analysis.solutions.means:
+        table[f"{key} predicted"] = analysis.solutions.means[key]
+        table[f"{key} sd"] = analysis.solutions.stds[key]
+    return table
+
+
+def plot_corner(analysis: SolutionAnalysis, best: dict | None, path: Path, seed: int = 0) -> None:
+    """Pairwise scatter of the solution set, a histogram per parameter, the best point in red."""
+    points, names, d = analysis.points(), analysis.names, len(analysis.names)
+    if len(points) > CORNER_POINTS:
+        points = points[np.random.default_rng(seed).choice(len(points), CORNER_POINTS, replace=False)]
+    size = max(2.2, 9.0 / d)
+    fig, axes = plt.subplots(d, d, figsize=(size * d, size * d), squeeze=False)
+    best_x = None if best is None else [best["parameters"][name] for name in names]
+    for row in range(d):
+        for col in range(d):
+            ax = axes[row, col]
+            if col > row:
+                ax.set_visible(False)
+                continue
+            if col == row:
+                if len(points):
+                    ax.hist(points[:, col], bins=30, range=(analysis.lower[col], analysis.upper[col]),
+                            color="tab:blue", alpha=0.7)
+                if best_x is not None:
+                    ax.axvline(best_x[col], color="tab:red")
+                ax.set_yticks([])
+            else:
+                ax.scatter(points[:, col], points[:, row], s=2, alpha=0.3, color="tab:blue", rasterized=True)
+                if best_x is not None:
+                    ax.plot(best_x[col], best_x[row], marker="*", color="tab:red", markersize=12)
+                ax.set_ylim(analysis.lower[row], analysis.upper[row])
+                if col == 0:
+                    ax.set_ylabel(names[row])
+            ax.set_xlim(analysis.lower[col], analysis.upper[col])
+            if row == d - 1:
+                ax.set_xlabel(names[col])
+    s = analysis.solutions
+    fig.suptitle(f"Parameter sets whose predicted responses meet every target within {s.k:g} sd\n"
+                 f"{len(s.points_unit)} of {s.sampled} sampled; best point in red", fontsize="medium")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def plot_sensitivity(rows: list[dict], path: Path) -> None:
+    """Total (light) and first-order (dark) Sobol index of each parameter, one panel per response."""
+    table = pd.DataFrame(rows)
+    responses = list(dict.fromkeys(table["response"]))
+    columns = min(2, len(responses))
+    grid_rows = -(-len(responses) // columns)
+    height = 1.4 + 0.35 * table["parameter"].nunique()
+    fig, axes = plt.subplots(grid_rows, columns, figsize=(5.5 * columns, height * grid_rows), squeeze=False)
+    for ax in axes.flat[len(responses):]:
+        ax.set_visible(False)
+    for ax, response in zip(axes.flat, responses):
+        part = table[table["response"] == response]
+        y = np.arange(len(part))
+        ax.barh(y, part["ST"].clip(lower=0), color="tab:blue", alpha=0.35, label="total (alone and with others)")
+        ax.barh(y, part["S1"].clip(lower=0), color="tab:blue", label="first order (alone)")
+        ax.set_yticks(y, part["parameter"])
+        ax.set_xlim(0, 1)
+        ax.set_title(response, fontsize="medium")
+        ax.set_xlabel("share of the response's variance over the box")
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=2, fontsize="small")
+    fig.suptitle("Sensitivity of each response to each parameter (Sobol indices on the response models)",
+                 fontsize="medium")
+    fig.tight_layout(rect=(0, 0.06, 1, 1))
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def write_solutions(study: Study, k: float = 2.0, samples: int = 2**16, seed: int = 0) -> SolutionAnalysis:
+    """Analyse the study and write its solution files and figures (see the module docstring)."""
+    files = study.files
+    analysis = analyse(study, k, samples, seed)
+    files.plots.mkdir(parents=True, exist_ok=True)
+    solutions_table(analysis).to_csv(files.solutions, index=False, float_format="%.6g")
+    pd.DataFrame(analysis.sensitivity).to_csv(files.plots / "sensitivity.csv", index=False, float_format="%.3f")
+    s = analysis.solutions
+    summary = {"k": s.k, "sampled": s.sampled, "accepted": int(len(s.points_unit)),
+               "simulation_noise_sd": s.noise_sd,
+               "target_spread": {t.key: t.spread for t in study.targets},
+               "verdicts": [asdict(v) for v in analysis.verdicts]}
+    files.solutions_summary.write_text(json.dumps(summary, indent=2, default=float))
+    best = read_json(files.best, "best.json") if files.best.exists() else None
+    plot_corner(analysis, best, files.plots / "solution_space.png", seed)
+    plot_sensitivity(analysis.sensitivity, files.plots / "sensitivity.png")
+    return analysis
+
+
+def write_report_files(smk) -> None:
+    """Entry point of the workflow's solutions job: the figures, or figures saying why there are none."""
+    import logging
+
+    logging.basicConfig(filename=smk.log[0], level=logging.INFO, force=True)
+    study = load_frozen(smk.params.study_file)
+    try:
+        write_solutions(study)
+    except DemcalError as exc:
+        logging.info("no solution space: %s", exc)
+        for path in smk.output:
+            fig, ax = plt.subplots(figsize=(6, 1.5))
+            ax.axis("off")
+            ax.text(0.5, 0.5, f"No solution space: {exc}", ha="center", va="center", wrap=True)
+            fig.savefig(path, dpi=100)
+            plt.close(fig)

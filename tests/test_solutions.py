@@ -1,0 +1,77 @@
+"""The solution space and identifiability verdicts on response models of known responses."""
+
+import numpy as np
+import pytest
+
+from demcal.objective import ResponseObjective, Target
+from demcal.optimizer.responses import ResponsePredictor, ResponseRBF
+from demcal.solutions import (
+    identifiability,
+    largest_total_index,
+    sample_solutions,
+    sensitivity_indices,
+    simulation_noise_sd,
+    tolerance_sd,
+    within_tolerance,
+)
+
+NAMES, UNITS = ["sliding_friction_pp", "sliding_friction_pw"], ["-", "-"]
+LOWER, UPPER = np.array([0.2, 0.2]), np.array([0.9, 0.9])
+
+
+def predictor_of(responses: dict, targets: tuple[Target, ...]) -> ResponsePredictor:
+    """Cubic RBF models of closed-form responses of the unit box, fitted on a seeded 40-point sample."""
+    x = np.random.default_rng(3).random((40, 2))
+    models = {key: ResponseRBF().fit(x, f(x), np.zeros(len(x))) for key, f in responses.items()}
+    return ResponsePredictor(models, ResponseObjective(targets))
+
+
+def analyse(responses, targets):
+    predictor = predictor_of(responses, targets)
+    noise = {key: 0.0 for key in responses}
+    solutions = sample_solutions(predictor, 2, noise, k=2.0, samples=4096, seed=1)
+    indices = sensitivity_indices(predictor, NAMES, base_samples=256, seed=1)
+    return solutions, indices, identifiability(solutions, NAMES, UNITS, LOWER, UPPER, largest_total_index(indices))
+
+
+def test_a_response_of_one_parameter_pins_it_and_leaves_the_other_free():
+    """Mass flow = 10 x0 with a target of 5 ± 0.2: x0 within 0.46-0.54 of the unit box (pinned), x1 anywhere."""
+    target = Target("calibration_device", "mass_flow", 5.0, spread=0.2)
+    solutions, indices, (pp, pw) = analyse({target.key: lambda x: 10 * x[:, 0]}, (target,))
+    assert pp.verdict == "pinned" and pw.verdict == "not identified"
+    assert 0.2 + 0.7 * 0.44 < pp.low < pp.high < 0.2 + 0.7 * 0.56
+    assert pw.share > 0.9
+    assert "no targeted response is sensitive to it" in pw.sentence and "sliding_friction_pw" in pw.sentence
+    by_name = {row["parameter"]: row for row in indices}
+    assert by_name["sliding_friction_pp"]["ST"] > 0.9 and by_name["sliding_friction_pw"]["ST"] < 0.05
+    assert np.all(np.abs(solutions.means[target.key] - 5.0) <= 2 * 0.2 + 1e-9)
+
+
+def test_a_trade_off_between_two_parameters_is_named_as_such():
+    """Angle = 20 (x0 + x1) with a target of 20 ± 0.5: a line through the box, neither parameter identified."""
+    target = Target("cylinder_lift", "angle_of_repose", 20.0, spread=0.5)
+    _, _, verdicts = analyse({target.key: lambda x: 20 * (x[:, 0] + x[:, 1])}, (target,))
+    assert [v.verdict for v in verdicts] == ["not identified", "not identified"]
+    assert all("trades off against other parameters" in v.sentence for v in verdicts)
+
+
+def test_a_target_out_of_reach_gives_no_verdict_instead_of_a_range():
+    target = Target("cylinder_lift", "angle_of_repose", 80.0, spread=0.5)
+    solutions, _, verdicts = analyse({target.key: lambda x: 20 * (x[:, 0] + x[:, 1])}, (target,))
+    assert len(solutions.points_unit) == 0
+    assert all(v.verdict == "no solutions" and "only 0 of 4096" in v.sentence for v in verdicts)
+
+
+def test_the_tolerance_combines_spread_noise_and_model_sd():
+    target = Target("s", "r", 10.0, spread=3.0)
+    assert tolerance_sd(target, 4.0, np.array([0.0, 12.0])) == pytest.approx([5.0, 13.0])
+    means, stds = {"s.r": np.array([19.9, 20.1])}, {"s.r": np.zeros(2)}
+    assert within_tolerance((target,), means, stds, {"s.r": 4.0}, k=2.0).tolist() == [True, False]
+
+
+def test_the_noise_is_the_scatter_of_simulations_about_the_model():
+    target = Target("s", "r", 1.0)
+    predictor = predictor_of({target.key: lambda x: x[:, 0]}, (target,))
+    x = np.array([[0.1, 0.1], [0.5, 0.5], [0.9, 0.2]])
+    observed = {target.key: (x, x[:, 0] + np.array([0.03, -0.03, 0.03]))}
+    assert simulation_noise_sd(predictor, observed)[target.key] == pytest.approx(0.03, abs=2e-3)
