@@ -132,7 +132,10 @@ def print_best(study: Study) -> None:
            "objective surrogate": "lowest of observed and surrogate-predicted objective"}
     print(f"best point ({how.get(best.get('chosen_by'), 'lowest objective')} among the "
           f"evaluated points):")
-    print(evaluation_summary(study, read_objective(evaluation), evaluation.dir))
+    print(evaluation_summary(study, read_objective(evaluation), evaluation.dir, best))
+    if best.get("predicted_responses"):
+        print("(simulated: this evaluation, ± spread of its replicates; predicted: the response models "
+              "there, ± their sd; target ± its spread)")
     print(f"all evaluations: {files.evaluations_csv}")
 
 

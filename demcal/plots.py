@@ -160,16 +160,24 @@ def best_point_table(study: Study) -> pd.DataFrame:
                               "value": "", "target": "", "relative_error_percent": "",
                               "unit": ""}])
     best = read_json(best_file, "best.json")
-    rows = [{"quantity": name, "value": value, "target": "", "relative_error_percent": "",
+    on_bounds = best.get("on_bounds", {})
+    rows = [{"quantity": name, "value": value,
+             "note": f"on its {on_bounds[name]} bound" if name in on_bounds else "",
              "unit": next(p.spec.unit for p in study.free if p.name == name)}
             for name, value in best["parameters"].items()]
+    predicted = best.get("predicted_responses", {})
     for t in study.targets:
-        rows.append({"quantity": t.key, "value": best["responses"].get(t.key), "target": t.value,
+        rows.append({"quantity": t.key, "value": best["responses"].get(t.key),
+                     "predicted": predicted.get(t.key, {}).get("mean", ""),
+                     "predicted_sd": predicted.get(t.key, {}).get("sd", ""),
+                     "target": t.value, "target_spread": "" if t.spread is None else t.spread,
                      "relative_error_percent": 100 * best["relative_errors"].get(t.key, np.nan),
                      "unit": study.scenes[t.scene].responses[t.response].unit})
-    rows.append({"quantity": "objective", "value": best["objective"], "target": 0,
-                 "relative_error_percent": "", "unit": "-"})
-    return pd.DataFrame(rows)
+    rows.append({"quantity": "objective", "value": best["objective"],
+                 "predicted": best.get("predicted_objective", ""), "target": 0, "unit": "-"})
+    columns = ["quantity", "value", "predicted", "predicted_sd", "target", "target_spread",
+               "relative_error_percent", "unit", "note"]
+    return pd.DataFrame(rows).reindex(columns=columns).fillna("")
 
 
 def write_report_files(smk) -> None:

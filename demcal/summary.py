@@ -12,8 +12,17 @@ from demcal.resources import SNAKEFILE
 from demcal.study import Study
 
 
-def evaluation_summary(study: Study, record: dict, where: Path) -> str:
-    """Status, parameters, responses against targets and objective of one evaluation."""
+def _with_sd(value: float, sd: float | None) -> str:
+    return f"{value:.4g}" + (f" ±{sd:.2g}" if sd else "")
+
+
+def evaluation_summary(study: Study, record: dict, where: Path, best: dict | None = None) -> str:
+    """Status, parameters, responses against targets and objective of one evaluation.
+
+    With ``best`` (best.json of this evaluation), each response also shows
+    the response models' prediction ± sd there and the target ± spread, and
+    parameters on a bound are flagged.
+    """
     lines = [f"demcal: evaluation {record.get('evaluation')!r} of study {study.name!r}: "
              f"{record.get('status')}"
              + (f", objective {record['objective']:.4g}" if "objective" in record else "")]
@@ -21,16 +30,25 @@ def evaluation_summary(study: Study, record: dict, where: Path) -> str:
     units = {p.name: p.spec.unit for p in study.free if p.spec.unit != "-"}
     lines.append("  parameters: " + ", ".join(
         f"{k} = {v:.4g} {units.get(k, '')}".rstrip() for k, v in params.items()))
+    for name, side in (best or {}).get("on_bounds", {}).items():
+        bound = next(p for p in study.free if p.name == name)
+        lines.append(f"  warning: {name} lies on its {side} bound "
+                     f"({bound.lower if side == 'lower' else bound.upper:g}): the bounds may cut the "
+                     f"solution off; widen them if the physics allows")
+    predicted = (best or {}).get("predicted_responses", {})
     if record.get("status") == "ok":
-        lines.append(f"  {'response':34s} {'simulated':>12s} {'target':>12s} {'error':>8s}")
+        header = f"  {'response':34s} {'simulated':>14s}"
+        if predicted:
+            header += f" {'predicted':>16s}"
+        lines.append(header + f" {'target':>14s} {'error':>8s}")
         for t in study.targets:
             unit = study.scenes[t.scene].responses[t.response].unit
-            value = record["responses"][t.key]
-            spread = record.get("spread", {}).get(t.key, 0.0)
-            error = record["relative_errors"][t.key]
-            shown = f"{value:.4g}" + (f" ±{spread:.2g}" if spread else "")
-            lines.append(f"  {t.key + ' [' + unit + ']':34s} {shown:>12s} {t.value:>12.4g} "
-                         f"{100 * error:>+7.1f}%")
+            line = (f"  {t.key + ' [' + unit + ']':34s} "
+                    f"{_with_sd(record['responses'][t.key], record.get('spread', {}).get(t.key)):>14s}")
+            if predicted:
+                line += f" {_with_sd(predicted[t.key]['mean'], predicted[t.key]['sd']):>16s}"
+            lines.append(line + f" {_with_sd(t.value, t.spread):>14s} "
+                         f"{100 * record['relative_errors'][t.key]:>+7.1f}%")
     else:
         lines.append(f"  reason: {record.get('reason', '')}")
     cost = record.get("cost", {})

@@ -160,7 +160,7 @@ def test_default_target_calibrates_and_reports(tmp_path, analytic_config):
     assert "report: results/unit/report.html" in proc.stdout
     assert (study / "report.html").stat().st_size > 100_000
     for name in ("objective_vs_evaluation", "objective_vs_time", "parameter_traces",
-                 "responses_vs_targets"):
+                 "responses_vs_targets", "solution_space", "sensitivity"):
         assert (study / "plots" / f"{name}.png").read_bytes()[:4] == b"\x89PNG"
     assert "<svg" in (study / "plots" / "evaluation_dag.svg").read_text()
     table = (study / "plots" / "best_point.csv").read_text()

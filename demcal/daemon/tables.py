@@ -52,4 +52,8 @@ def write_best(study: Study, best: dict) -> None:
         "objective": best["value"], "predicted_objective": best["predicted"],
         "chosen_by": best["chosen_by"],
         "responses": record.get("responses", {}), "targets": record.get("targets", {}),
-        "relative_errors": record.get("relative_errors", {})})
+        "relative_errors": record.get("relative_errors", {}),
+        "predicted_responses": {key: {"mean": mean, "sd": sd}
+                                for key, (mean, sd) in best.get("responses", {}).items()},
+        "target_spreads": {t.key: t.spread for t in study.targets},
+        "on_bounds": {study.free[i].name: side for i, side in best["on_bounds"]}})

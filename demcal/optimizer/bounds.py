@@ -47,3 +47,16 @@ class Bounds:
         """Map unit-box points (rows) back to real units."""
         low, high = np.array(self.lower), np.array(self.upper)
         return low + np.atleast_2d(np.asarray(u, float)) * (high - low)
+
+#: Share of a parameter's range within which a point counts as lying on that bound.
+ON_BOUND_SHARE = 0.01
+
+
+def on_bounds(unit_point) -> list[tuple[int, str]]:
+    """(index, "lower"/"upper") of each coordinate of a unit-box point that lies on a bound.
+
+    A best point on a bound often means the bounds cut the solution off.
+    """
+    return [(i, "lower" if u <= ON_BOUND_SHARE else "upper") for i, u in enumerate(unit_point)
+            if u <= ON_BOUND_SHARE or u >= 1.0 - ON_BOUND_SHARE]
+

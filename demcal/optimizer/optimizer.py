@@ -30,7 +30,7 @@ import numpy as np
 from demcal.objective import ResponseObjective, replicate_objectives
 
 from . import strategies as st
-from .bounds import Bounds
+from .bounds import Bounds, on_bounds
 from .designs import default_initial_size, initial_design
 from .early_termination import EarlyTerminationDecision, early_termination_decision
 from .registry import RESPONSE_STRATEGIES, strategy_class
@@ -289,7 +289,9 @@ class Optimizer:
         passed over, and so is a point where a smoothing surrogate blurs a
         sharp valley (``chosen_by`` "objective surrogate"). Returns x (real
         units), value (observed, mean of replicates), predicted (the
-        objective predicted there), chosen_by and id; None before any value.
+        objective predicted there), chosen_by, id, on_bounds (index and
+        "lower"/"upper" of each coordinate on a bound) and, with response
+        models, responses ({key: (predicted mean, sd)}); None before any value.
         """
         finished = [r for r in self.records if r["status"] == "ok"]
         if not finished:
@@ -305,13 +307,18 @@ class Optimizer:
             predicted = observed if surrogate is None else surrogate.predict(points)
             index, chosen_by = int(np.argmin(np.maximum(observed, predicted))), "objective surrogate"
         record = finished[index]
-        return {
+        best = {
             "id": record["id"],
             "x": self.bounds.from_unit(record["x"])[0].tolist(),
             "value": record["value"],
             "predicted": float(predicted[index]),
             "chosen_by": chosen_by,
+            "on_bounds": on_bounds(record["x"]),
         }
+        if predictor is not None:
+            means, stds = predictor.predict(points[index])
+            best["responses"] = {key: (float(means[key][0]), float(stds[key][0])) for key in means}
+        return best
 
     def response_predictor(self, objective: ResponseObjective | None = None) -> ResponsePredictor | None:
         """The models of the targeted responses with ``objective`` (default: the optimizer's) on top.

@@ -80,6 +80,21 @@ def test_best_is_the_evaluated_point_with_the_lowest_predicted_objective():
     predicted = opt.response_predictor().objective_mean(np.array([r["x"] for r in finished]))
     assert best["id"] == finished[int(np.argmin(predicted))]["id"]
     assert best["predicted"] == pytest.approx(predicted.min())
+    means, stds = opt.response_predictor().predict(np.array([finished[int(np.argmin(predicted))]["x"]]))
+    assert best["responses"] == {key: pytest.approx((means[key][0], stds[key][0])) for key in means}
+
+
+def test_a_best_point_on_a_bound_is_flagged_in_best_and_in_the_summary():
+    """Targets beyond the box's upper friction end: the answer sits on the sliding-friction bound."""
+    targets = (Target("lift", "angle", lift((1.2, 0.1))["lift.angle"]),
+               Target("lift", "density", lift((1.2, 0.1))["lift.density"]))
+    opt = Optimizer([0.1, 0.02], [0.9, 0.3], {"strategy": "response_ei", "max_evaluations": 16}, seed=3,
+                    objective=ResponseObjective(targets))
+    while opt.completed_evaluations() < 16:
+        proposal = opt.ask(1)[0]
+        opt.tell(proposal.id, responses={k: [v] for k, v in lift(proposal.x).items()})
+    best = opt.best()
+    assert best["x"][0] == pytest.approx(0.9, abs=0.008) and best["on_bounds"][0] == (0, "upper")
 
 
 @pytest.mark.parametrize("strategy", ["response_ei", "dycors"])
