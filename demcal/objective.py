@@ -81,15 +81,24 @@ def objective_values(targets: list[Target] | tuple[Target, ...],
     """
     total = 0.0
     for t in targets:
-        y = np.asarray(responses[t.key], float)
-        if form == "precision":
-            error = (y - t.value) / t.spread
-        elif t.value == 0.0:
-            error = y - t.value
-        else:
-            error = (y - t.value) / t.value
+        error = target_error(t, responses[t.key], form)
         total = total + t.weight * error * error
     return total
+
+
+def target_error(target: Target, simulated: float | np.ndarray, form: str = "relative") -> float | np.ndarray:
+    """The error of one response in the objective's form: (y - r) / r (Rackl & Hanley 2017, eq. 9;
+    y - r where r is 0), or (y - r) / s in units of the target's spread (precision form)."""
+    y = np.asarray(simulated, float)
+    if form == "precision":
+        return (y - target.value) / target.spread
+    return relative_error(y, target.value)
+
+
+def weighted_residuals(targets: list[Target] | tuple[Target, ...], responses: Mapping[str, float | np.ndarray],
+                       form: str = "relative") -> np.ndarray:
+    """sqrt(w_i) e_i per target (rows): the residuals whose squares sum to the objective (least squares)."""
+    return np.array([math.sqrt(t.weight) * target_error(t, responses[t.key], form) for t in targets])
 
 
 @dataclass(frozen=True)

@@ -322,8 +322,8 @@ class Calibration:
             reason = reason or self.optimizer.stop_reason(self.elapsed())
             if reason is None:
                 self.propose()
-                if not self.children:
-                    reason = "no more points to evaluate"
+                if not self.children:  # e.g. the strategy has converged and says so
+                    reason = self.optimizer.stop_reason(self.elapsed()) or "no more points to evaluate"
             if reason is not None and not self.children:
                 break
             show_progress(self.progress_line())

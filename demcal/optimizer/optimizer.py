@@ -33,7 +33,7 @@ from . import strategies as st
 from .bounds import Bounds, on_bounds
 from .designs import default_initial_size, initial_design
 from .early_termination import EarlyTerminationDecision, early_termination_decision
-from .registry import RESPONSE_STRATEGIES, strategy_class
+from .registry import RESPONSE_STRATEGIES, STRATEGIES, strategy_class
 from .responses import ResponseModels, ResponsePredictor
 from .search import History, WeightCycle
 from .settings import OptimizerSettings
@@ -96,7 +96,9 @@ class Optimizer:
         self.workers = workers
         self.rng = np.random.default_rng(self.seed)
         dimension = self.bounds.dimension
-        self.initial_size = self.settings.initial_size or default_initial_size(dimension, workers)
+        per_parameter = STRATEGIES[self.settings.strategy].samples_per_parameter
+        self.initial_size = self.settings.initial_size or (
+            per_parameter * dimension if per_parameter else default_initial_size(dimension, workers))
         include = None if not initial_points else self.bounds.to_unit(initial_points)
         design = initial_design(
             self.settings.initial_design, self.initial_size, dimension, self.rng, self.settings.design_tries, include
@@ -111,6 +113,8 @@ class Optimizer:
         self.evaluations_without_improvement = 0
         self._surrogate: Surrogate | None = None
         self._surrogate_version = -1
+        #: what a strategy must remember between proposals (saved with the state)
+        self.strategy_state: dict = {}
         self.objective = objective
         self._check_objective()
         self._response_models = self._new_response_models()
@@ -136,6 +140,8 @@ class Optimizer:
             else:
                 unit = self._adaptive_point()
                 in_design = False
+            if unit is None:  # the strategy waits for running evaluations, or has finished
+                break
             proposals.append(self._issue(unit, in_design))
         return proposals
 
@@ -153,8 +159,8 @@ class Optimizer:
         self.next_id += 1
         return Proposal(record["id"], self.bounds.from_unit(unit)[0].tolist(), in_design)
 
-    def _adaptive_point(self) -> np.ndarray:
-        """The point the configured strategy chooses from the current history."""
+    def _adaptive_point(self) -> np.ndarray | None:
+        """The point the configured strategy chooses from the current history (None: none now)."""
         weights = WeightCycle(self.settings.weights, self.weight_index)
         point = strategy_class(self.settings.strategy)().propose(self._history(weights))
         self.weight_index = weights.index
@@ -177,6 +183,10 @@ class Optimizer:
             settings=self.settings,
             initial_size=self.initial_size,
             responses=self.response_predictor() if self.settings.strategy in RESPONSE_STRATEGIES else None,
+            response_means=tuple(
+                {key: float(np.mean(entry["values"])) for key, entry in r["responses"].items() if entry["final"]}
+                if r["status"] == "ok" and r.get("responses") else None for r in records),
+            strategy_state=self.strategy_state,
         )
 
     # ----------------------------------------------------------------- tell
@@ -335,6 +345,8 @@ class Optimizer:
     def stop_reason(self, elapsed_seconds: float) -> str | None:
         """Why the run should stop (budget, wall clock, target, stagnation, collapse) or None."""
         s = self.settings
+        if self.strategy_state.get("stop_reason"):
+            return self.strategy_state["stop_reason"]
         best = self.best()
         return stop_reason(
             self.completed_evaluations(),
@@ -345,7 +357,7 @@ class Optimizer:
             s.target_objective,
             self.evaluations_without_improvement,
             s.no_improvement_evaluations,
-            self.step.collapsed and s.stop_on_step_collapse,
+            self.step.collapsed and s.stop_on_step_collapse and STRATEGIES[s.strategy].step_size,
         )
 
     def early_termination(self, id: int, partial_estimate: float) -> EarlyTerminationDecision:
@@ -359,7 +371,7 @@ class Optimizer:
             partial_estimate,
             progress,
             in_initial_design=record["in_initial_design"],
-            enabled=et.enabled,
+            enabled=et.enabled and STRATEGIES[self.settings.strategy].stops_early,
             thresholds=et.thresholds,
             progress_boundaries=et.progress_boundaries,
         )
@@ -450,6 +462,8 @@ class Optimizer:
             "evaluations_without_improvement": self.evaluations_without_improvement,
             "rng": self.rng.bit_generator.state,
         }
+        if self.strategy_state:
+            state["strategy_state"] = self.strategy_state
         if self.objective is not None:
             state["objective"] = self.objective.to_dict()
         return json.dumps(state)
@@ -476,6 +490,7 @@ class Optimizer:
         optimizer.evaluations_without_improvement = state["evaluations_without_improvement"]
         optimizer._surrogate = None
         optimizer._surrogate_version = -1
+        optimizer.strategy_state = state.get("strategy_state", {})
         optimizer.objective = ResponseObjective.from_dict(state["objective"]) if "objective" in state else None
         optimizer._response_models = optimizer._new_response_models()
         return optimizer

@@ -19,11 +19,12 @@ the candidates they add and in how they pick one. Adding a strategy: subclass
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from . import strategies as st
+from .responses import ResponsePredictor
 from .settings import OptimizerSettings
 from .surrogates import Surrogate
 
@@ -56,9 +57,14 @@ class History:
     ``initial_size`` and ``settings.max_evaluations`` with :attr:`evaluated`
     and :attr:`handed_out` place the proposal in the budget.
 
-    ``responses``: reserved for per-response observations (replicate means,
-    spreads and counts, partial observations of stopped runs, per-response
-    models); None until the optimizer records them.
+    ``responses``: the response models with the objective on top (a
+    :class:`~.responses.ResponsePredictor`) for the response strategies;
+    None for the others and while some response has too few observations.
+    ``response_means``: per evaluation, its replicate-mean responses where it
+    finished ok (else None). ``strategy_state``: the optimizer's mutable,
+    saved record of what a strategy must remember between proposals (e.g.
+    the Levenberg–Marquardt iterate); set ``stop_reason`` in it to end the
+    calibration.
     """
 
     ids: tuple[int, ...]
@@ -73,7 +79,9 @@ class History:
     weights: WeightCycle
     settings: OptimizerSettings
     initial_size: int
-    responses: dict | None = None
+    responses: ResponsePredictor | None = None
+    response_means: tuple[dict | None, ...] = ()
+    strategy_state: dict = field(default_factory=dict)
 
     @property
     def dimension(self) -> int:
@@ -102,9 +110,13 @@ class History:
 
 
 class Strategy:
-    """The protocol: :meth:`propose` returns the next point in the unit box."""
+    """The protocol: :meth:`propose` returns the next point in the unit box.
 
-    def propose(self, history: History) -> np.ndarray:
+    It may return None: no point now (it waits for running evaluations) or
+    no point any more (it has set ``history.strategy_state["stop_reason"]``).
+    """
+
+    def propose(self, history: History) -> np.ndarray | None:
         raise NotImplementedError
 
 
