@@ -104,6 +104,11 @@ class Problem:
     def true_objective(self, x) -> float:
         return self.objective(self.response_values(x))
 
+    def worst_miss_in_spreads(self, x) -> float:
+        """The largest |y - r| / s over the responses at x: noise-free y, s the target's measurement spread."""
+        clean, targets, spreads = self.response_values(x), self.targets, self.spreads
+        return max(abs(clean[k] - targets[k]) / spreads[k] for k in self.keys)
+
     def noisy_responses(self, x, seed: int, k: int) -> dict[str, list[float]]:
         """The replicate values of each response of evaluation ``k`` (0-based) of run ``seed``."""
         rng = np.random.default_rng([NOISE_KEY, zlib.crc32(self.name.encode()), int(seed), int(k)])

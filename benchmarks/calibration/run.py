@@ -6,15 +6,17 @@ responses, identifiable), p5r2 (5 / 2, a manifold of solutions), p2r2rep
 (2 / 2, two replicates per evaluation).
 
 Tools: ``demcal:<strategy>`` for every strategy registered in
-``demcal.optimizer.registry.STRATEGIES`` (in-process, ask/tell), Optuna
+``demcal.optimizer.registry.STRATEGIES`` (in-process, ask/tell; append
+``@precision`` for the precision-weighted objective form), Optuna
 GPSampler and pySOT DYCORS (in-process, this venv), GrainLearning and ACCES
 (NumPy < 2: run by worker_np1.py in the venv of requirements-np1.txt).
 
 Measures per run: the true objective (eq. 3.3 of the noise-free responses)
 at the answer the tool reports, whether it is at the noise level, the number
 of simulations until the running answer first reaches the noise level, the
-true objective of the best point evaluated, and the tool's seconds per
-proposal (wall time minus time in the simulations).
+true objective of the best point evaluated, the worst miss of a response at
+the answer in units of its target's measurement spread, and the tool's
+seconds per proposal (wall time minus time in the simulations).
 
 Run from the repository root in the benchmark venv (README.md here):
 
@@ -60,7 +62,8 @@ PEERS = ("optuna_gp", "pysot_dycors", "grainlearning", "acces")
 SUBPROCESS_PEERS = ("grainlearning", "acces")
 FIELDS = [
     "tool", "problem", "budget", "seed", "status", "evaluations", "noise_level", "true_objective",
-    "at_noise_level", "best_evaluated_true_objective", "evaluations_to_noise_level", "seconds_per_proposal",
+    "at_noise_level", "best_evaluated_true_objective", "evaluations_to_noise_level", "worst_miss_in_spreads",
+    "seconds_per_proposal",
     "wall_seconds", "answer", "extra",
 ]
 
@@ -73,13 +76,13 @@ def demcal_strategies() -> list[str]:
 
 # ------------------------------------------------------------ demcal adapter
 # The two functions that stand between this benchmark and demcal's Optimizer.
-def make_demcal_optimizer(problem: Problem, strategy: str, budget: int, seed: int):
-    """A demcal optimizer for ``problem`` with strategy ``strategy`` and ``budget`` evaluations."""
+def make_demcal_optimizer(problem: Problem, strategy: str, budget: int, seed: int, form: str = "relative"):
+    """A demcal optimizer for ``problem`` with strategy ``strategy``, ``budget`` evaluations and objective form."""
     from demcal.objective import ResponseObjective
     from demcal.optimizer import Optimizer
 
     settings = {"strategy": strategy, "max_evaluations": budget}
-    objective = ResponseObjective(tuple(demcal_targets(problem)), "relative")
+    objective = ResponseObjective(tuple(demcal_targets(problem)), form)
     return Optimizer(list(problem.lower), list(problem.upper), settings, seed=seed, objective=objective)
 
 
@@ -112,11 +115,15 @@ def demcal_targets(problem: Problem):
 
 # --------------------------------------------------------------------- tools
 def run_demcal(problem: Problem, evaluator: Evaluator, seed: int, budget: int, strategy: str) -> dict:
-    """demcal ask/tell, one simulation at a time; the running answer is ``opt.best()`` after each tell."""
+    """demcal ask/tell, one simulation at a time; the running answer is ``opt.best()`` after each tell.
+
+    ``strategy``: a registered name, optionally ``@precision`` for that objective form.
+    """
     from demcal.objective import objective_value, replicate_objectives
 
+    strategy, _, form = strategy.partition("@")
     targets = demcal_targets(problem)
-    opt = make_demcal_optimizer(problem, strategy, budget, seed)
+    opt = make_demcal_optimizer(problem, strategy, budget, seed, form or "relative")
     running = []
     while True:
         proposals = opt.ask()
@@ -127,7 +134,10 @@ def run_demcal(problem: Problem, evaluator: Evaluator, seed: int, budget: int, s
         value = objective_value(targets, mean_responses(responses))
         if not math.isclose(value, value_here, rel_tol=1e-9, abs_tol=1e-15):
             raise RuntimeError(f"demcal's eq. 3.3 {value} differs from the benchmark's {value_here}")
-        tell_demcal(opt, proposal.id, responses, value, replicate_objectives(targets, responses))
+        if form:  # the precision form: the optimizer computes its objective from the responses
+            opt.tell(proposal.id, responses=responses)
+        else:
+            tell_demcal(opt, proposal.id, responses, value, replicate_objectives(targets, responses))
         best = opt.best()
         running.append(None if best is None else best["x"])
     best = opt.best()
@@ -265,6 +275,7 @@ def one_run(tool: str, problem: Problem, budget: int, seed: int, np1_python: Pat
         at_noise_level=true_objective <= noise_level,
         best_evaluated_true_objective=min(problem.true_objective(e["x"]) for e in log),
         evaluations_to_noise_level=reached[0] if reached else "",
+        worst_miss_in_spreads=problem.worst_miss_in_spreads(result["answer"]),
         seconds_per_proposal=tool_seconds / max(len(log), 1),
         wall_seconds=time.perf_counter() - start,
         answer=" ".join(f"{v:.6g}" for v in result["answer"]),
@@ -303,6 +314,7 @@ def summarise(rows: list[dict], tools: list[str]) -> list[dict]:
                         at_noise=sum(str(r["at_noise_level"]) == "True" for r in ok),
                         to_noise=median_evaluations([r["evaluations_to_noise_level"] for r in ok], budget),
                         best_evaluated=float(np.median([float(r["best_evaluated_true_objective"]) for r in ok])),
+                        worst_miss=float(np.median([float(r["worst_miss_in_spreads"]) for r in ok])),
                         seconds=float(np.median([float(r["seconds_per_proposal"]) for r in ok])),
                     )
                 table.append(entry)
@@ -384,22 +396,25 @@ def write_report(table: list[dict], command: str, out: Path, elapsed: float, np1
         "reaches the noise level (a run that never does counts as infinite); running answer = `opt.best()` after "
         "each tell for demcal, the best-so-far point by the noisy objective for the peers. Best evaluated: median "
         "true objective of the best point each run evaluated. s/proposal: tool wall time (minus simulations) per "
-        "evaluation, median over the runs.",
+        "evaluation, median over the runs. Worst miss: the largest |y - r| / s over the responses at the answer "
+        "(noise-free y, s the target's measurement spread), median over the runs: how many measurement sds the "
+        "answer's worst response is off. `@precision`: demcal with the precision-weighted objective form.",
         "",
         "| problem | budget | tool | runs | median true objective | worst | at noise level | sims to noise level "
-        "| median best evaluated | s/proposal |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "| median best evaluated | median worst miss [spreads] | s/proposal |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     failures = []
     for e in table:
         if not e["ok"]:
-            lines.append(f"| {e['problem']} | {e['budget']} | {e['tool']} | {e['runs']} | failed | | | | | |")
+            lines.append(f"| {e['problem']} | {e['budget']} | {e['tool']} | {e['runs']} | failed | | | | | | |")
             failures.append(f"- {e['tool']} on {e['problem']}, budget {e['budget']}: {e['failure']}")
             continue
         runs = f"{e['ok']}" if e["ok"] == e["runs"] else f"{e['ok']} of {e['runs']} ok"
         lines.append(
             f"| {e['problem']} | {e['budget']} | {e['tool']} | {runs} | {e['median']:.3g} | {e['worst']:.3g} "
-            f"| {e['at_noise']}/{e['ok']} | {e['to_noise']} | {e['best_evaluated']:.3g} | {e['seconds']:.3g} |"
+            f"| {e['at_noise']}/{e['ok']} | {e['to_noise']} | {e['best_evaluated']:.3g} | {e['worst_miss']:.2g} "
+            f"| {e['seconds']:.3g} |"
         )
         if e["ok"] < e["runs"]:
             failures.append(f"- {e['tool']} on {e['problem']}, budget {e['budget']}: {e['failure']}")
@@ -453,7 +468,10 @@ def main(argv: list[str] | None = None) -> None:
     tools = [t for t in (args.tools or ",".join([f"demcal:{s}" for s in strategies] + list(PEERS))).split(",") if t]
     for tool in tools:
         if tool.startswith("demcal:"):
-            if tool.split(":", 1)[1] not in strategies:
+            strategy, _, form = tool.split(":", 1)[1].partition("@")
+            if form not in ("", "precision"):
+                parser.error(f"{tool}: the objective form after @ can only be precision")
+            if strategy not in strategies:
                 parser.error(f"{tool}: demcal has no strategy {tool.split(':', 1)[1]!r}; registered: "
                              f"{', '.join(strategies)}")
         elif tool not in PEERS:
