@@ -159,6 +159,12 @@ def test_default_target_calibrates_and_reports(tmp_path, analytic_config):
     study = tmp_path / "results" / "unit"
     assert "report: results/unit/report.html" in proc.stdout
     assert (study / "report.html").stat().st_size > 100_000
+    # the landing page opens with the answer; docutils rendered it without complaint
+    landing = (study / "report.html").read_text()
+    landing = landing[landing.index("var workflow_desc"):landing.index("</script>", landing.index("var workflow_desc"))]
+    assert "<h1>The answer</h1>" in landing and "Best parameters" in landing
+    assert "cylinder_lift.angle_of_repose [deg]" in landing and "data:image/png;base64," in landing
+    assert "System Message" not in landing
     for name in ("objective_vs_evaluation", "objective_vs_time", "parameter_traces",
                  "responses_vs_targets", "solution_space", "sensitivity"):
         assert (study / "plots" / f"{name}.png").read_bytes()[:4] == b"\x89PNG"

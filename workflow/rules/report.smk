@@ -49,7 +49,7 @@ rule evaluation_dag:
         str(FILES.finished),
     output:
         report(str(PLOTS / "evaluation_dag.svg"), caption="../report/evaluation_dag.rst",
-               category="Workflow"),
+               category="Evaluation DAG"),
     log:
         str(FILES.logs / "evaluation_dag.log"),
     localrule: True

@@ -1,0 +1,103 @@
+"""The report's opening: the answer first (reStructuredText for Snakemake's report page).
+
+Built from the study's result files when the report is made: why and when
+the calibration ended, what it spent, the best parameters (with bounds, and
+a warning on a bound), each response simulated / predicted ± sd / target ±
+spread, what the targets identify (solutions.json) and the solution-space
+and sensitivity figures, embedded so that the page is self-contained.
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+from pathlib import Path
+
+import pandas as pd
+
+from demcal.study import Study
+
+HOW_CHOSEN = {"response models": "the evaluated point with the lowest objective predicted from the response models",
+              "objective surrogate": "the evaluated point with the lowest of observed and surrogate-predicted "
+                                     "objective"}
+
+
+def _table(header: list[str], rows: list[list[str]]) -> list[str]:
+    lines = [".. list-table::", "   :header-rows: 1", ""]
+    for row in [header, *rows]:
+        lines += [f"   * - {row[0]}", *(f"     - {cell}" for cell in row[1:])]
+    return [*lines, ""]
+
+
+def _with_sd(value, sd) -> str:
+    if value in (None, ""):
+        return "–"
+    return f"{value:.4g}" + (f" ± {sd:.2g}" if sd else "")
+
+
+def _image(path: Path) -> list[str]:
+    if not path.exists():
+        return []
+    data = base64.b64encode(path.read_bytes()).decode()
+    # docutils limits a line to 10000 characters; a URI may continue on indented lines (joined)
+    return [".. image::", *(f"   {data[i:i + 76]}" if i else f"   data:image/png;base64,{data[:76]}"
+                            for i in range(0, len(data), 76)), "   :width: 100%", ""]
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 60:
+        return f"{seconds:.0f} s" if seconds >= 1 else "under 1 s"
+    return f"{seconds / 60:.0f} min" if seconds < 5400 else f"{seconds / 3600:.1f} h"
+
+
+def _read(path: Path) -> dict | None:
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+
+
+def report_headline(study: Study) -> str:
+    """The report's first section as reStructuredText; says so when there is no result yet."""
+    files = study.files
+    lines = ["The answer", "==========", ""]
+    finished, best = _read(files.finished), _read(files.best)
+    if finished is None:
+        return "\n".join([*lines, "The calibration has not finished (no finished.json): run it first.", ""])
+    counts = finished.get("evaluations", {})
+    spent = ""
+    if files.evaluations_csv.exists():
+        cpu = pd.to_numeric(pd.read_csv(files.evaluations_csv)["cpu_s"], errors="coerce").sum()
+        spent = f"; simulation CPU time {_duration(cpu)}"
+    lines += [f"**Ended:** {finished.get('reason', 'unknown')}. **Evaluations:** "
+              f"{sum(counts.values())} ({counts.get('ok', 0)} ok, {counts.get('failed', 0)} failed, "
+              f"{counts.get('terminated', 0)} stopped early){spent}.", ""]
+    if best is None:
+        return "\n".join([*lines, "No evaluation succeeded: the reasons are in ``evaluations.csv``.", ""])
+    lines += [f"**Best parameters** (evaluation ``{best['evaluation']}``, "
+              f"{HOW_CHOSEN.get(best.get('chosen_by'), 'the lowest objective')}):", ""]
+    on_bounds = best.get("on_bounds", {})
+    rows = []
+    for p in study.free:
+        unit = "" if p.spec.unit == "-" else f" {p.spec.unit}"
+        note = f" **on its {on_bounds[p.name]} bound**" if p.name in on_bounds else ""
+        rows.append([p.name, f"{best['parameters'][p.name]:.4g}{unit}", f"{p.lower:g} – {p.upper:g}{unit}{note}"])
+    lines += _table(["parameter", "value", "bounds"], rows)
+    predicted = best.get("predicted_responses", {})
+    rows = []
+    for t in study.targets:
+        unit = study.scenes[t.scene].responses[t.response].unit
+        model = predicted.get(t.key, {})
+        rows.append([f"{t.key} [{unit}]", _with_sd(best["responses"].get(t.key), None),
+                     _with_sd(model.get("mean"), model.get("sd")), _with_sd(t.value, t.spread),
+                     f"{100 * best['relative_errors'].get(t.key, float('nan')):+.1f} %"])
+    lines += ["**Responses against the targets** (simulated at the best point; predicted there by the response "
+              "models ± their sd; target ± its measurement spread):", ""]
+    lines += _table(["response", "simulated", "predicted", "target", "error"], rows)
+    solutions = _read(files.solutions_summary)
+    if solutions:
+        lines += [f"**What the targets identify** ({solutions['accepted']} of {solutions['sampled']} sampled "
+                  f"parameter sets meet every target within {solutions['k']:g} sd):", ""]
+        lines += [f"- {verdict['sentence']}" for verdict in solutions["verdicts"]] + [""]
+    lines += _image(files.plots / "solution_space.png") + _image(files.plots / "sensitivity.png")
+    return "\n".join(lines)
