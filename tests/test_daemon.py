@@ -1,6 +1,7 @@
 """The calibration daemon end to end on the analytic engine (child Snakemake per evaluation)."""
 
 import errno
+import itertools
 import json
 import os
 import signal
@@ -116,6 +117,9 @@ def test_early_termination_stops_hopeless_runs_and_saves_time(tmp_path):
     assert max(walls) < duration and min(walls) < duration * 0.9
     initial = state["initial_size"]
     assert all(int(name[1:]) >= initial for name in stopped["evaluation"])
+    # stopped runs teach the response models: no region is proposed and stopped again and again
+    consecutive = [len(list(run)) for status, run in itertools.groupby(table["status"]) if status == "terminated"]
+    assert max(consecutive) <= 3, table["status"].tolist()
 
 
 def test_second_daemon_on_the_same_study_is_refused(tmp_path):
