@@ -32,7 +32,7 @@ from demcal.layout import read_objective
 from demcal.optimizer import Optimizer
 from demcal.resources import PROFILES_DIR
 from demcal.study import Study, freeze, load_frozen
-from demcal.summary import evaluation_summary
+from demcal.summary import confirmation_summary, evaluation_summary
 
 DEFAULT_CONFIG = "config/config.yaml"
 DEFAULT_PROFILE = PROFILES_DIR / "local"
@@ -136,6 +136,9 @@ def print_best(study: Study) -> None:
     if best.get("predicted_responses"):
         print("(simulated: this evaluation, ± spread of its replicates; predicted: the response models "
               "there, ± their sd; target ± its spread)")
+    confirmed = confirmation_summary(study, best)
+    if confirmed:
+        print(confirmed)
     print(f"all evaluations: {files.evaluations_csv}")
 
 

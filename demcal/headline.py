@@ -94,6 +94,17 @@ def report_headline(study: Study) -> str:
     lines += ["**Responses against the targets** (simulated at the best point; predicted there by the response "
               "models ± their sd; target ± its measurement spread):", ""]
     lines += _table(["response", "simulated", "predicted", "target", "error"], rows)
+    confirmation = best.get("confirmation")
+    if confirmation and confirmation["responses"]:
+        rows = []
+        for t in study.targets:
+            entry = confirmation["responses"].get(t.key)
+            if entry:
+                rows.append([t.key, _with_sd(entry["mean"], entry["sd"]), str(entry["count"]),
+                             _with_sd(t.value, t.spread)])
+        lines += [f"**Confirmed** by {len(confirmation['evaluations'])} more simulations of the best point "
+                  f"(new seeds; mean ± sd of their responses):", ""]
+        lines += _table(["response", "mean", "simulations", "target"], rows)
     solutions = _read(files.solutions_summary)
     if solutions:
         lines += [f"**What the targets identify** ({solutions['accepted']} of {solutions['sampled']} sampled "

@@ -33,7 +33,8 @@ from demcal.timestep import RAYLEIGH_PARAMETERS, rayleigh_cost, rayleigh_time_ra
 
 #: Optimizer settings a resumed calibration takes from the current study file.
 RESUMABLE_OPTIMIZER_SETTINGS = ("max_evaluations", "max_seconds", "target_objective",
-                                "no_improvement_evaluations", "early_termination")
+                                "no_improvement_evaluations", "early_termination",
+                                "confirm_replicates")
 #: Target fields that may change on resume (stored simulations are re-scored).
 RESCORABLE_TARGET_FIELDS = ("value", "weight", "spread", "unit")
 

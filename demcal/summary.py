@@ -8,6 +8,7 @@ from pathlib import Path
 
 from demcal.errors import SimulationFailed
 from demcal.layout import read_objective
+from demcal.objective import relative_error
 from demcal.resources import SNAKEFILE
 from demcal.study import Study
 
@@ -53,6 +54,24 @@ def evaluation_summary(study: Study, record: dict, where: Path, best: dict | Non
         lines.append(f"  reason: {record.get('reason', '')}")
     cost = record.get("cost", {})
     lines.append(f"  simulation CPU time {cost.get('cpu_s', 0):.0f} s; files in {where}/")
+    return "\n".join(lines)
+
+
+def confirmation_summary(study: Study, best: dict) -> str | None:
+    """The re-simulations of the best point (``confirm_replicates``) against the targets, or None."""
+    confirmation = best.get("confirmation")
+    if not confirmation:
+        return None
+    lines = [f"confirmed by {len(confirmation['evaluations'])} more simulations of {confirmation['of']} "
+             f"({', '.join(confirmation['evaluations'])}; {confirmation['failed']} failed, "
+             f"{confirmation['pending']} still running):"]
+    for t in study.targets:
+        entry = confirmation["responses"].get(t.key)
+        if entry:
+            unit = study.scenes[t.scene].responses[t.response].unit
+            lines.append(f"  {t.key + ' [' + unit + ']':34s} mean {_with_sd(entry['mean'], entry['sd']):>16s} "
+                         f"(n = {entry['count']})  target {_with_sd(t.value, t.spread)}  "
+                         f"{100 * relative_error(entry['mean'], t.value):+.1f}%")
     return "\n".join(lines)
 
 

@@ -23,12 +23,18 @@ def test_local_calibration_reaches_the_known_optimum(tmp_path):
     the found point is near the valley, not necessarily at TRUTH: the
     optimizer's own quality is measured in benchmarks/optimizer.
     """
-    config = study(tmp_path, "conv", optimizer={"max_evaluations": 20,
+    config = study(tmp_path, "conv", optimizer={"max_evaluations": 20, "confirm_replicates": 2,
                                                  "early_termination": {"enabled": False}})
     out = finish(demcal(tmp_path, "run", config, "--profile", ROOT / "profiles" / "local"))
     best = json.loads((tmp_path / "results/conv/best.json").read_text())
     table = evaluations(tmp_path, "conv")
-    assert len(table) == 20 and set(table["status"]) == {"ok"}
+    assert len(table) == 22 and set(table["status"]) == {"ok"}  # 20 + 2 re-simulations of the best point
+    confirmation = best["confirmation"]
+    assert confirmation["of"] == best["evaluation"] and confirmation["evaluations"] == ["e0020", "e0021"]
+    assert confirmation["responses"]["cylinder_lift.bulk_density"]["count"] == 2
+    assert f"confirmed by 2 more simulations of {best['evaluation']} (e0020, e0021; 0 failed" in out
+    again = json.loads((tmp_path / "results/conv/evals/e0021/params.json").read_text())
+    assert again["parameters"] == pytest.approx(best["parameters"])
     assert best["objective"] < 2e-3  # responses within about 3 % of the targets
     assert "evaluation budget reached (20 of 20)" in out
     assert "cylinder_lift.angle_of_repose [deg]" in out

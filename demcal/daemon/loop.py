@@ -165,6 +165,23 @@ class Calibration:
             self.save_state()
             self.launch(evaluation)
 
+    def confirm_best(self, reason: str) -> bool:
+        """Launch the re-simulations of the best point (``confirm_replicates``) once the
+        calibration has stopped, unless it was stopped on request; True if any were launched."""
+        if reason.startswith("stopped on request"):
+            return False
+        proposals = self.optimizer.confirm()
+        for proposal in proposals:
+            of = evaluation_id(self.optimizer.confirmation()["confirms"])
+            write_point(self.files.evaluation(evaluation_id(proposal.id)),
+                        PointRecord(dict(zip(self.names, proposal.x)), proposed_by=f"confirmation of {of}"))
+        if proposals:
+            self.save_state()
+            log.info("confirming the best point with %d more simulations", len(proposals))
+            for proposal in proposals:
+                self.launch(evaluation_id(proposal.id))
+        return bool(proposals)
+
     # -- resuming ----------------------------------------------------------------
     def resume(self) -> None:
         """Re-attach, read back or relaunch the evaluations pending in the saved state."""
@@ -281,7 +298,7 @@ class Calibration:
         write_evaluations_csv(self.study)
         best = self.optimizer.best()
         if best is not None:
-            write_best(self.study, best)
+            write_best(self.study, best, self.optimizer.confirmation())
 
     def progress_line(self) -> str:
         records = [r["status"] for r in self.optimizer.records]
@@ -324,7 +341,7 @@ class Calibration:
                 self.propose()
                 if not self.children:  # e.g. the strategy has converged and says so
                     reason = self.optimizer.stop_reason(self.elapsed()) or "no more points to evaluate"
-            if reason is not None and not self.children:
+            if reason is not None and not self.children and not self.confirm_best(reason):
                 break
             show_progress(self.progress_line())
             time.sleep(self.poll_seconds)

@@ -43,8 +43,9 @@ def write_evaluations_csv(study: Study) -> None:
     atomic_write_text(study.files.evaluations_csv, buffer.getvalue())
 
 
-def write_best(study: Study, best: dict) -> None:
-    """best.json from the optimizer's best point (``Optimizer.best()``) and its records."""
+def write_best(study: Study, best: dict, confirmation: dict | None = None) -> None:
+    """best.json from the optimizer's best point (``Optimizer.best()``) and its records, with the
+    re-simulations that confirm it (``Optimizer.confirmation()``) where there are any."""
     files = study.files.evaluation(evaluation_id(best["id"]))
     record = read_objective(files)
     write_json(study.files.best, {
@@ -56,4 +57,9 @@ def write_best(study: Study, best: dict) -> None:
         "predicted_responses": {key: {"mean": mean, "sd": sd}
                                 for key, (mean, sd) in best.get("responses", {}).items()},
         "target_spreads": {t.key: t.spread for t in study.targets},
-        "on_bounds": {study.free[i].name: side for i, side in best["on_bounds"]}})
+        "on_bounds": {study.free[i].name: side for i, side in best["on_bounds"]},
+        **({} if confirmation is None else {"confirmation": {
+            "of": evaluation_id(confirmation["confirms"]),
+            "evaluations": [evaluation_id(i) for i in confirmation["ids"]],
+            "pending": confirmation["pending"], "failed": confirmation["failed"],
+            "responses": confirmation["responses"]}})})

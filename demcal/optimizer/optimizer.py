@@ -297,7 +297,8 @@ class Optimizer:
         observed value and the surrogate's prediction there, and the lowest
         score wins: a lucky noisy sample (observed low, predicted high) is
         passed over, and so is a point where a smoothing surrogate blurs a
-        sharp valley (``chosen_by`` "objective surrogate"). Returns x (real
+        sharp valley (``chosen_by`` "objective surrogate"). Once the best point
+        has been confirmed (:meth:`confirm`), it stays the answer. Returns x (real
         units), value (observed, mean of replicates), predicted (the
         objective predicted there), chosen_by, id, on_bounds (index and
         "lower"/"upper" of each coordinate on a bound) and, with response
@@ -316,6 +317,9 @@ class Optimizer:
             surrogate = self._fitted_surrogate()
             predicted = observed if surrogate is None else surrogate.predict(points)
             index, chosen_by = int(np.argmin(np.maximum(observed, predicted))), "objective surrogate"
+        confirmed = next((r["confirms"] for r in self.records if "confirms" in r), None)
+        if confirmed is not None:  # the answer stays the point that was chosen and then confirmed
+            index = next(i for i, r in enumerate(finished) if r["id"] == confirmed)
         record = finished[index]
         best = {
             "id": record["id"],
@@ -371,7 +375,7 @@ class Optimizer:
             partial_estimate,
             progress,
             in_initial_design=record["in_initial_design"],
-            enabled=et.enabled and STRATEGIES[self.settings.strategy].stops_early,
+            enabled=et.enabled and STRATEGIES[self.settings.strategy].stops_early and "confirms" not in record,
             thresholds=et.thresholds,
             progress_boundaries=et.progress_boundaries,
         )
@@ -402,6 +406,41 @@ class Optimizer:
         return best["predicted"] + float(np.mean(self.objective(residuals)))
 
     # ------------------------------------------------------------ helpers
+    # ------------------------------------------------------- confirmation
+    def confirm(self) -> list[Proposal]:
+        """Proposals that simulate the best point ``confirm_replicates`` more times; once per run.
+
+        For after the calibration has stopped. The confirmations are ordinary
+        evaluations (they join the response data) marked with the id they
+        confirm; early termination never stops them. [] when none are
+        wanted, they were made already or there is no best point.
+        """
+        wanted, best = self.settings.confirm_replicates, self.best()
+        if not wanted or best is None or any("confirms" in r for r in self.records):
+            return []
+        unit = np.array(self._record(best["id"])["x"])
+        proposals = [self._issue(unit, in_design=False) for _ in range(wanted)]
+        for proposal in proposals:
+            self._record(proposal.id)["confirms"] = best["id"]
+        return proposals
+
+    def confirmation(self) -> dict | None:
+        """The confirmation runs so far: which point, their ids, pending count, and per response the
+        mean, sd and count of their replicate means; None before any confirmation."""
+        runs = [r for r in self.records if "confirms" in r]
+        if not runs:
+            return None
+        finished = [r for r in runs if r["status"] == "ok" and r.get("responses")]
+        responses = {}
+        for key in (self.objective.keys if self.objective else []):
+            means = [float(np.mean(r["responses"][key]["values"])) for r in finished if key in r["responses"]]
+            if means:
+                responses[key] = {"mean": float(np.mean(means)), "sd": float(np.std(means, ddof=1)) if
+                                  len(means) > 1 else 0.0, "count": len(means)}
+        return {"confirms": runs[0]["confirms"], "ids": [r["id"] for r in runs],
+                "pending": sum(r["status"] == "pending" for r in runs),
+                "failed": sum(r["status"] in ("failed", "terminated") for r in runs), "responses": responses}
+
     def _record(self, id: int) -> dict:
         for record in self.records:
             if record["id"] == id:

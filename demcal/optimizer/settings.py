@@ -54,6 +54,9 @@ class OptimizerSettings:
     is a stop reason (the step then stays at sigma_min either way).
     ``failure_tolerance`` None means max(4, d): the thesis' 4 for its 2-D
     case, growing with the dimension as in Regis & Shoemaker (2013).
+    ``confirm_replicates``: once the calibration has stopped, simulate the
+    best point this many times more (new seeds) and report their mean
+    (0: no confirmation).
     """
 
     strategy: str = "dycors"
@@ -79,6 +82,7 @@ class OptimizerSettings:
     duplicate_tolerance: float = 1e-7
     kriging_restarts: int = 3
     response_model: str = "kriging"
+    confirm_replicates: int = 0
     early_termination: EarlyTerminationSettings = field(default_factory=EarlyTerminationSettings)
 
     @classmethod
@@ -159,6 +163,7 @@ class OptimizerSettings:
         _number("failed_exclusion_radius", self.failed_exclusion_radius, 0.0, 1.0)
         _number("duplicate_tolerance", self.duplicate_tolerance, 0.0, 1.0)
         _integer("kriging_restarts", self.kriging_restarts, 1, None)
+        _integer("confirm_replicates", self.confirm_replicates, 0, 100)
         et = self.early_termination
         _boolean("early_termination.enabled", et.enabled)
         if len(et.thresholds) != len(et.progress_boundaries) + 1:

@@ -141,3 +141,28 @@ def test_state_with_objective_and_responses_resumes_to_the_same_proposal():
 def test_response_strategies_need_the_targets():
     with pytest.raises(ValueError, match="needs the targets"):
         Optimizer([0.1, 0.02], [0.9, 0.3], {"strategy": "response_ei"})
+
+
+def test_confirmation_resimulates_the_best_point_once_and_keeps_it_the_answer():
+    rng = np.random.default_rng(1)
+    opt = optimizer(max_evaluations=12, confirm_replicates=3)
+    assert opt.confirm() == []  # nothing to confirm yet
+    while proposals := opt.ask(1):
+        opt.tell(proposals[0].id, responses={k: [v * (1 + 0.01 * rng.standard_normal())]
+                                             for k, v in lift(proposals[0].x).items()})
+    best = opt.best()
+    confirmations = opt.confirm()
+    assert len(confirmations) == 3 and opt.confirm() == []
+    assert all(p.x == pytest.approx(best["x"]) for p in confirmations)
+    assert not opt.early_termination(confirmations[0].id, 1e9).stop
+    told = []
+    for proposal in confirmations:
+        told.append({k: v * (1 + 0.01 * rng.standard_normal()) for k, v in lift(proposal.x).items()})
+        opt.tell(proposal.id, responses={k: [v] for k, v in told[-1].items()})
+    summary = opt.confirmation()
+    assert summary["confirms"] == best["id"] and summary["pending"] == 0 and summary["failed"] == 0
+    angles = [t["lift.angle"] for t in told]
+    assert summary["responses"]["lift.angle"] == pytest.approx(
+        {"mean": np.mean(angles), "sd": np.std(angles, ddof=1), "count": 3})
+    assert opt.best()["id"] == best["id"]
+    assert Optimizer.from_json(opt.to_json()).confirmation() == summary
