@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from demcal.engines.base import FAILED, OK, TERMINATED, RunMonitor, RunResult, SimulationJob
-from demcal.errors import ConfigError, DemcalError, SimulationFailed
+from demcal.errors import ConfigError, DemcalError, SimulationFailed, bounded_reason
 from demcal.files import read_json, write_json
 from demcal.layout import EvaluationFiles, PointRecord, ReplicateFiles, read_point, write_point
 from demcal.objective import objective_value, relative_error, replicate_mean, replicate_spread
@@ -70,7 +70,7 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> dict:
         np.savez(replicate_files.state, **result.arrays)
         record["state_file"] = replicate_files.state.name
     record.update(seed=seed, attempt=attempt, parameters=parameters, status=result.status,
-                  reason=result.reason,
+                  reason=bounded_reason(result.reason),
                   measurements=result.measurements, cost=result.cost, ended_at=time.time())
     write_json(replicate_files.simulation, record)
     log.info("simulation %s %s rep%d: %s %s", evaluation, scene, replicate, result.status,
@@ -96,7 +96,8 @@ def extract(study: Study, simulation_path: Path) -> dict:
     try:
         sim = read_json(simulation_path, "simulation.json")
         record = {k: sim.get(k) for k in ("evaluation", "scene", "replicate", "seed", "cost")}
-        record.update(status=sim.get("status", FAILED), reason=sim.get("reason", ""), responses={})
+        record.update(status=sim.get("status", FAILED), reason=bounded_reason(sim.get("reason", "")),
+                      responses={})
         if record["status"] == OK:
             record["responses"] = _responses(study, sim, simulation_path.parent)
     except SimulationFailed as exc:
@@ -179,7 +180,7 @@ def objective(study: Study, evaluation: str, response_paths: list[Path]) -> dict
     record = {"evaluation": evaluation, "parameters": point,
               "cost": {"cpu_s": cpu, "simulation_wall_s": wall}}
     if failures:
-        record.update(status=FAILED, reason="; ".join(failures))
+        record.update(status=FAILED, reason=bounded_reason("; ".join(failures)))
     elif terminated:
         record.update(status=TERMINATED, reason="stopped early (STOP requested)")
     elif missing := [t.key for t in study.targets if t.key not in values]:

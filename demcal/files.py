@@ -126,10 +126,21 @@ def read_partial(path: Path) -> list[dict]:
     return rows
 
 
+#: Longest log line quoted in a reason (its end: where errors are); bytes read from a log's end.
+TAIL_LINE_CHARS, TAIL_BYTES = 240, 64 * 1024
+
+
 def log_tail(path: Path, lines: int = 5) -> str:
-    """The last ``lines`` lines of a log joined with " | " (empty if unreadable), for reasons."""
+    """The last ``lines`` lines of a log joined with " | " (empty if unreadable), for reasons.
+
+    Reads only the log's end, and quotes at most the last TAIL_LINE_CHARS
+    characters of each line (a simulator may write megabytes on one line).
+    """
     try:
-        text = Path(path).read_text(errors="replace").strip().splitlines()
+        with open(path, "rb") as handle:
+            handle.seek(max(handle.seek(0, 2) - TAIL_BYTES, 0))
+            text = handle.read().decode(errors="replace").strip().splitlines()
     except OSError:
         return ""
-    return " | ".join(text[-lines:])
+    return " | ".join(line if len(line) <= TAIL_LINE_CHARS else "..." + line[-TAIL_LINE_CHARS:]
+                      for line in text[-lines:])

@@ -301,3 +301,27 @@ def test_editing_the_study_file_during_a_run_does_not_reach_the_running_calibrat
     assert len(objectives) == 8
     for path in objectives:
         assert json.loads(path.read_text())["targets"] == wanted, path
+
+
+def test_a_failure_after_demcal_stop_is_recorded_not_retried(tmp_path, monkeypatch):
+    """The retry used to remove the evaluation's STOP file and relaunch it after the stop."""
+    from demcal.config import load_study_file
+    from demcal.daemon.loop import Calibration
+    from demcal.layout import PointRecord, evaluation_id, write_point
+    from demcal.study import freeze
+
+    monkeypatch.chdir(tmp_path)
+    calibration = Calibration(freeze(load_study_file(study(tmp_path, "halt"))), None, 2)
+    launched = []
+    monkeypatch.setattr(calibration, "launch", launched.append)
+    failed = {"status": "failed", "reason": "cylinder_lift rep0: node lost"}
+    for proposal in calibration.optimizer.ask(2):
+        evaluation = evaluation_id(proposal.id)
+        write_point(calibration.files.evaluation(evaluation),
+                    PointRecord(dict(zip(calibration.names, proposal.x))))
+    calibration.finish("e0000", failed)
+    assert launched == ["e0000"]  # retried while the calibration runs (retries: 1)
+    calibration.files.stop_calibration.touch()  # demcal stop
+    calibration.finish("e0001", failed)
+    assert launched == ["e0000"]
+    assert [r["status"] for r in calibration.optimizer.records] == ["pending", "failed"]

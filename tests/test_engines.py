@@ -100,7 +100,15 @@ SIMULATOR = textwrap.dedent("""
         sys.exit("solver diverged")
     if mode == "slow":
         time.sleep(30)
-    if mode != "silent":
+    if mode == "flood":
+        sys.stderr.write("x" * 4_000_000 + " solver diverged\\n")
+        sys.exit(1)
+    lies = {"true": True, "text": "1400 kg/m3", "null": None, "nan": float("nan"), "list": [1400]}
+    if mode in lies:
+        json.dump({"bulk_density": lies[mode], "angle_of_repose": 20 + mu}, open("out.json", "w"))
+    elif mode == "array":
+        json.dump([1400, 20], open("out.json", "w"))
+    elif mode != "silent":
         json.dump({"bulk_density": 1400 + mu, "angle_of_repose": 20 + mu}, open("out.json", "w"))
 """)
 
@@ -125,11 +133,19 @@ def test_command_engine_reads_responses(tmp_path):
 @pytest.mark.parametrize("mode,reason", [
     ("crash", r"simulator exited with code 1: solver diverged"),
     ("silent", r"simulator responses file missing"),
+    ("true", r"out.json: 'bulk_density' is true \(bool\), not a number$"),
+    ("text", r"out.json: 'bulk_density' is \"1400 kg/m3\" \(str\), not a number$"),
+    ("null", r"out.json: 'bulk_density' is null, not a number$"),
+    ("nan", r"out.json: 'bulk_density' is nan, not a finite number$"),
+    ("list", r"out.json: 'bulk_density' is \[1400\] \(list\), not a number$"),
+    ("array", r"simulator responses file is not a JSON object"),
+    ("flood", r"simulator exited with code 1: \.\.\.x+ solver diverged \(its output: command.log"),
 ])
 def test_command_engine_failures_have_reasons(tmp_path, mode, reason):
     result = run(command_engine(tmp_path, mode), make_job(tmp_path))
     assert result.status == FAILED
     assert re.search(reason, result.reason), result.reason
+    assert len(result.reason) < 600  # a flooding simulator's 4 MB line is not copied into records
 
 
 def test_command_engine_stop_terminates_the_process(tmp_path):
@@ -200,3 +216,12 @@ def test_lammps_engine_without_a_driver_fails_with_a_reason(tmp_path):
     result = LammpsEngine().run(job, RunMonitor(job), None)
     assert (result.status, result.reason) == (FAILED, "LAMMPS engine has no driver for scene "
                                                       "'cylinder_lift'")
+
+
+def test_recorded_reasons_are_bounded_and_keep_both_ends():
+    from demcal.errors import REASON_CHARS, bounded_reason
+
+    text = "start " + "x" * 100_000 + " end"
+    short = bounded_reason(text)
+    assert short.startswith("start ") and short.endswith(" end") and len(short) < REASON_CHARS + 60
+    assert "characters cut; see the log" in short and bounded_reason("fine") == "fine"

@@ -222,7 +222,8 @@ class Calibration:
     def finish(self, evaluation: str, record: dict) -> None:
         point = read_point(self.files.evaluation(evaluation))
         status = record.get("status")
-        if status == "failed" and point.attempt < self.retries:
+        # after `demcal stop` nothing is launched any more, retries included
+        if status == "failed" and point.attempt < self.retries and not self.files.stop_calibration.exists():
             self.retry(evaluation, point, record.get("reason", ""))
             return
         pid = proposal_id(evaluation)

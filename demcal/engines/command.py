@@ -14,6 +14,8 @@ group and records the run as terminated.
 from __future__ import annotations
 
 import csv
+import json
+import math
 import os
 import shlex
 import shutil
@@ -75,6 +77,27 @@ def command_words(template: str, fields: dict) -> list[str]:
     return [word.format(**fields) for word in shlex.split(template)]
 
 
+def simulator_numbers(values: dict, names: list[str], where: str) -> dict[str, float]:
+    """The responses ``names`` from a simulator's JSON object, each a finite number (not a boolean).
+
+    Raises SimulationFailed naming the file, the response and what it held instead.
+    """
+    numbers = {}
+    for name in names:
+        if name not in values:
+            raise SimulationFailed(f"simulator responses file {where}: no {name!r} "
+                                   f"(it has: {', '.join(map(str, values)) or 'nothing'})")
+        value = values[name]
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            held = "null" if value is None else f"{json.dumps(value)[:60]} ({type(value).__name__})"
+            raise SimulationFailed(f"simulator responses file {where}: {name!r} is {held}, not a number")
+        if not math.isfinite(value):
+            raise SimulationFailed(f"simulator responses file {where}: {name!r} is {value}, not a "
+                                   f"finite number")
+        numbers[name] = float(value)
+    return numbers
+
+
 def _read_simulator_partial(path: Path) -> tuple[float | None, dict[str, float]]:
     """Latest progress and latest estimate per response from the simulator's CSV."""
     progress, estimates = None, {}
@@ -118,6 +141,17 @@ class CommandEngine(Engine):
         if shutil.which(executable) is None:
             raise ConfigError(f"engine.command: executable {executable!r} not found on PATH "
                               f"(is the simulator installed?)")
+        for word in words:
+            try:
+                fields = list(string.Formatter().parse(word))
+            except ValueError as exc:
+                raise ConfigError(f"engine.command: {word!r}: {exc} (write a literal brace as "
+                                  f"{{{{ or }}}})") from None
+            for _, name, spec, conversion in fields:
+                if name is not None and (not name.isidentifier() or spec or conversion):
+                    raise ConfigError(f"engine.command: {word!r}: placeholders are plain names "
+                                      f"such as {{seed}} or {{sliding_friction_pp}}, without "
+                                      f"formats, conversions, indices or empty braces")
         known = set(FIXED_PLACEHOLDERS) | {p for s in scenes for p in s.parameters}
         unknown = sorted(placeholders(template) - known)
         if unknown:
@@ -165,15 +199,13 @@ class CommandEngine(Engine):
             tail = log_tail(workdir / LOG_FILE)
             how = (f"died from {signal_name(proc.returncode)}" if proc.returncode < 0
                    else f"exited with code {proc.returncode}")
-            return RunResult(FAILED, f"simulator {how}: {tail}", cost=cost)
+            return RunResult(FAILED, f"simulator {how}: {tail} (its output: {LOG_FILE} in the run "
+                                     f"directory)", cost=cost)
         try:
             values = read_json(responses_path, "simulator responses file")
-            measurements = {r: float(values[r]) for r in job.responses}
+            measurements = simulator_numbers(values, job.responses, self.settings["responses_file"])
         except SimulationFailed as exc:
             return RunResult(FAILED, str(exc), cost=cost)
-        except (KeyError, TypeError, ValueError) as exc:
-            return RunResult(FAILED, f"simulator responses file {responses_path.name} lacks a "
-                                     f"number for {exc}", cost=cost)
         return RunResult(OK, measurements=measurements, cost=cost)
 
     @staticmethod
