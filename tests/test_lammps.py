@@ -7,6 +7,7 @@ instability reason, never as a hang or a crash.
 
 import math
 import threading
+import time
 
 import pytest
 from conftest import PARAMETER_CORNERS, run_and_extract
@@ -94,3 +95,13 @@ def test_stop_request_terminates_cleanly(tmp_path):
     timer.join()
     assert (result.status, result.reason) == (TERMINATED, "stop requested")
     assert result.arrays == {}
+
+
+def test_a_run_beyond_the_wall_clock_limit_is_killed_and_recorded_as_failed(tmp_path):
+    """The stiff tiny run takes about 5 s; with a 1 s limit it is killed, not waited for."""
+    job = tiny_job(tmp_path, youngs_modulus=6.5e8)
+    start = time.monotonic()
+    result, _ = run_and_extract(LammpsEngine({"timeout": 1}), job)
+    assert result.status == FAILED
+    assert result.reason.startswith("LAMMPS run exceeded the engine timeout of 1 s (engine.timeout)")
+    assert time.monotonic() - start < 4.0

@@ -103,6 +103,9 @@ class Engine(ABC):
 
     ``check`` receives the study's scenes as objects: an engine reads what
     they declare (``parameters``, ``driver(name)``) and never imports them.
+    A retry of a failed evaluation runs in a fresh run directory (the
+    daemon deletes the evaluation's scene directories first): an engine
+    keeps nothing there across attempts.
     """
 
     name: str = ""

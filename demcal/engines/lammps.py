@@ -32,6 +32,9 @@ from demcal.files import log_tail, read_json, write_json
 
 JOB_FILE, RESULT_FILE, STATE_FILE, WORKER_LOG = (
     "lammps-job.json", "lammps-result.json", "lammps-state.npz", "lammps-worker.log")
+#: Wall-clock limit of one simulation when ``engine.timeout`` is not given [s]: a hung LAMMPS
+#: process must not hold a worker forever.
+DEFAULT_TIMEOUT_S = 86400.0
 
 
 def preload_mpi() -> str:
@@ -87,14 +90,22 @@ class LammpsEngine(Engine):
         env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
         start = time.monotonic()
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        timeout = float(self.settings.get("timeout", DEFAULT_TIMEOUT_S))
         with open(workdir / WORKER_LOG, "w") as log:
-            proc = subprocess.run(
-                [sys.executable, "-m", "demcal.engines.lammps_worker", str(workdir / JOB_FILE)],
-                stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT, env=env,
-                cwd=workdir, check=False)
+            try:
+                proc = subprocess.run(
+                    [sys.executable, "-m", "demcal.engines.lammps_worker", str(workdir / JOB_FILE)],
+                    stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT, env=env,
+                    cwd=workdir, check=False, timeout=timeout)
+            except subprocess.TimeoutExpired:  # subprocess.run has killed the worker
+                proc = None
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         cost = {"wall_s": time.monotonic() - start,
                 "cpu_s": (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)}
+        if proc is None:
+            return RunResult(FAILED, f"LAMMPS run exceeded the engine timeout of {timeout:g} s "
+                                     f"(engine.timeout) and was killed (log: "
+                                     f"{log_tail(workdir / WORKER_LOG)})", cost=cost)
         if proc.returncode < 0:
             return RunResult(FAILED, f"LAMMPS process died from {signal_name(proc.returncode)} "
                                      f"(log: {log_tail(workdir / WORKER_LOG)})", cost=cost)
