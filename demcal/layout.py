@@ -138,6 +138,10 @@ class StudyFiles:
         return self.dir / "evaluations.csv"
 
     @property
+    def evaluations_columns(self) -> Path:
+        return self.dir / "evaluations.columns.csv"
+
+    @property
     def best(self) -> Path:
         return self.dir / "best.json"
 

@@ -36,10 +36,10 @@ def load_table(study: Study) -> pd.DataFrame:
     """evaluations.csv with evaluation number, wall time since start and cumulative CPU time."""
     table = pd.read_csv(study.files.evaluations_csv)
     table["number"] = np.arange(1, len(table) + 1)
-    start = read_json(study.files.calibration, "calibration.json")["started_at"]
-    table["ended_at"] = pd.to_numeric(table["ended_at"], errors="coerce")
+    start = pd.Timestamp(read_json(study.files.calibration, "calibration.json")["started_at"], unit="s", tz="UTC")
+    table["ended_at"] = pd.to_datetime(table["ended_at"], utc=True, errors="coerce")
     table["cpu_s"] = pd.to_numeric(table["cpu_s"], errors="coerce").fillna(0.0)
-    table["wall_h"] = (table["ended_at"] - start) / 3600.0
+    table["wall_h"] = (table["ended_at"] - start).dt.total_seconds() / 3600.0
     order = table.sort_values("ended_at").index
     table.loc[order, "cpu_h"] = table.loc[order, "cpu_s"].cumsum() / 3600.0
     return table

@@ -4,6 +4,7 @@ import errno
 import itertools
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -29,6 +30,18 @@ def test_local_calibration_reaches_the_known_optimum(tmp_path):
     best = json.loads((tmp_path / "results/conv/best.json").read_text())
     table = evaluations(tmp_path, "conv")
     assert len(table) == 22 and set(table["status"]) == {"ok"}  # 20 + 2 re-simulations of the best point
+    assert best["stop_reason"] == "evaluation budget reached (20 of 20)"
+    assert best["units"] == {"sliding_friction_pp": "-", "rolling_friction_pp": "-",
+                             "cylinder_lift.angle_of_repose": "deg", "cylinder_lift.bulk_density": "kg/m^3"}
+    # evaluations.csv: ISO times, a duration, short numbers; units in the sidecar
+    text = (tmp_path / "results/conv/evaluations.csv").read_text()
+    assert re.search(r",20\d\d-\d\d-\d\dT\d\d:\d\d:\d\dZ,20\d\d-", text)
+    mantissas = re.findall(r"(?<![\w.])(\d+\.\d+)(?:e[-+]\d+)?(?![\w.])", text)
+    assert mantissas and max(len(m.replace(".", "").lstrip("0")) for m in mantissas) <= 7  # not 0.8611111111111112
+    assert (table["wall_s"] > 0).all()
+    columns = pd.read_csv(tmp_path / "results/conv/evaluations.columns.csv")
+    assert list(columns["column"]) == list(table.columns)
+    assert columns.set_index("column").loc["cylinder_lift.bulk_density", "unit"] == "kg/m^3"
     confirmation = best["confirmation"]
     assert confirmation["of"] == best["evaluation"] and confirmation["evaluations"] == ["e0020", "e0021"]
     assert confirmation["responses"]["cylinder_lift.bulk_density"]["count"] == 2

@@ -295,11 +295,11 @@ class Calibration:
                                    self.study.objective_form)
 
     # -- outputs ---------------------------------------------------------------------
-    def write_tables(self) -> None:
+    def write_tables(self, stop_reason: str | None = None) -> None:
         write_evaluations_csv(self.study)
         best = self.optimizer.best()
         if best is not None:
-            write_best(self.study, best, self.optimizer.confirmation())
+            write_best(self.study, best, self.optimizer.confirmation(), stop_reason)
 
     def progress_line(self) -> str:
         records = [r["status"] for r in self.optimizer.records]
@@ -346,7 +346,7 @@ class Calibration:
                 break
             show_progress(self.progress_line())
             time.sleep(self.poll_seconds)
-        self.write_tables()
+        self.write_tables(reason)
         show_progress(self.progress_line())
         counts = {}
         for record in self.optimizer.records:

@@ -4,22 +4,55 @@ from __future__ import annotations
 
 import csv
 import io
+from datetime import UTC, datetime
 
 from demcal.errors import SimulationFailed
 from demcal.files import atomic_write_text, write_json
 from demcal.layout import evaluation_id, read_launch, read_objective, read_point
 from demcal.study import Study
 
+#: Significant digits of the numbers in evaluations.csv (the JSON records keep every digit).
+CSV_DIGITS = 7
+
+
+def _number(value) -> str:
+    return f"{value:.{CSV_DIGITS}g}" if isinstance(value, float) else ("" if value is None else str(value))
+
+
+def _iso(epoch) -> str:
+    """A Unix time as ISO 8601 in UTC to the second, '' if unknown."""
+    if epoch in ("", None):
+        return ""
+    return datetime.fromtimestamp(float(epoch), UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
+def evaluation_columns(study: Study) -> list[tuple[str, str, str]]:
+    """(column, unit, meaning) of every column of evaluations.csv, in order."""
+    units = {t.key: study.scenes[t.scene].responses[t.response].unit for t in study.targets}
+    return [
+        ("evaluation", "", "evaluation id (results/<study>/evals/<id>/)"),
+        ("status", "", "ok, failed, terminated (stopped early) or running"),
+        ("reason", "", "why it failed or was stopped"),
+        ("objective", "-", f"objective ({study.objective_form} form) of the replicate-mean responses"),
+        ("attempts", "", "runs of this point (retries after failures)"),
+        *[(p.name, p.spec.unit, "free parameter") for p in study.free],
+        *[(t.key, units[t.key], "replicate mean") for t in study.targets],
+        *[(f"{t.key}.rep{r}", units[t.key], f"replicate {r}") for t in study.targets for r in range(study.replicates)],
+        ("started_at", "UTC", "launch time (ISO 8601)"),
+        ("ended_at", "UTC", "time the objective was written (ISO 8601)"),
+        ("wall_s", "s", "wall-clock time from launch to objective"),
+        ("cpu_s", "s", "CPU time of the simulations"),
+    ]
+
 
 def write_evaluations_csv(study: Study) -> None:
-    """One row per evaluation: parameters, responses per replicate, objective, status, cost."""
-    names = [p.name for p in study.free]
-    header = ["evaluation", "status", "reason", "objective", "attempts", *names,
-              *[t.key for t in study.targets],
-              *[f"{t.key}.rep{r}" for t in study.targets for r in range(study.replicates)],
-              "started_at", "ended_at", "cpu_s"]
+    """One row per evaluation: parameters, responses per replicate, objective, status, cost.
+
+    Units and meanings of the columns go to the sidecar evaluations.columns.csv.
+    """
+    columns = evaluation_columns(study)
     buffer = io.StringIO()
-    writer = csv.DictWriter(buffer, fieldnames=header, extrasaction="ignore")
+    writer = csv.DictWriter(buffer, fieldnames=[c for c, _, _ in columns], extrasaction="ignore")
     writer.writeheader()
     for files in study.files.evaluations():
         try:
@@ -31,25 +64,34 @@ def write_evaluations_csv(study: Study) -> None:
             ended = files.objective.stat().st_mtime
         except (SimulationFailed, OSError):
             record, ended = {"status": "running"}, ""
-        writer.writerow({
-            "evaluation": files.id, "status": record.get("status"),
-            "reason": record.get("reason", ""), "objective": record.get("objective", ""),
-            "attempts": point.attempt + 1, **point.parameters,
-            **record.get("responses", {}),
-            **{f"{key}.rep{i}": value for key, values in record.get("replicates", {}).items()
-               for i, value in enumerate(values)},
-            "started_at": read_launch(files).get("started_at", ""), "ended_at": ended,
-            "cpu_s": (record.get("cost") or {}).get("cpu_s", "")})
+        started = read_launch(files).get("started_at", "")
+        row = {"evaluation": files.id, "status": record.get("status"),
+               "reason": record.get("reason", ""), "objective": record.get("objective"),
+               "attempts": point.attempt + 1, **point.parameters,
+               **record.get("responses", {}),
+               **{f"{key}.rep{i}": value for key, values in record.get("replicates", {}).items()
+                  for i, value in enumerate(values)},
+               "started_at": _iso(started), "ended_at": _iso(ended),
+               "wall_s": float(ended) - float(started) if ended != "" and started != "" else None,
+               "cpu_s": (record.get("cost") or {}).get("cpu_s")}
+        writer.writerow({key: _number(value) for key, value in row.items()})
     atomic_write_text(study.files.evaluations_csv, buffer.getvalue())
+    sidecar = io.StringIO()
+    csv.writer(sidecar).writerows([("column", "unit", "meaning"), *columns])
+    atomic_write_text(study.files.evaluations_columns, sidecar.getvalue())
 
 
-def write_best(study: Study, best: dict, confirmation: dict | None = None) -> None:
+def write_best(study: Study, best: dict, confirmation: dict | None = None, stop_reason: str | None = None) -> None:
     """best.json from the optimizer's best point (``Optimizer.best()``) and its records, with the
-    re-simulations that confirm it (``Optimizer.confirmation()``) where there are any."""
+    re-simulations that confirm it (``Optimizer.confirmation()``) where there are any, the units
+    of every parameter and response, and why the calibration ended (None while it runs)."""
     files = study.files.evaluation(evaluation_id(best["id"]))
     record = read_objective(files)
     write_json(study.files.best, {
-        "evaluation": files.id, "parameters": dict(zip([p.name for p in study.free], best["x"])),
+        "evaluation": files.id, "stop_reason": stop_reason,
+        "parameters": dict(zip([p.name for p in study.free], best["x"])),
+        "units": {**{p.name: p.spec.unit for p in study.free},
+                  **{t.key: study.scenes[t.scene].responses[t.response].unit for t in study.targets}},
         "objective": best["value"], "predicted_objective": best["predicted"],
         "chosen_by": best["chosen_by"],
         "responses": record.get("responses", {}), "targets": record.get("targets", {}),
