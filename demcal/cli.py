@@ -24,11 +24,11 @@ from pathlib import Path
 
 from demcal.config import load_study_file
 from demcal.daemon.children import alive, child_cores, profile_settings
-from demcal.daemon.control import reopen_failed, request_stop
+from demcal.daemon.control import reopen_failed, request_stop, running_daemon
 from demcal.daemon.loop import Calibration
 from demcal.errors import ConfigError, DemcalError
 from demcal.files import read_json
-from demcal.layout import read_objective
+from demcal.layout import StudyFiles, read_objective
 from demcal.optimizer import Optimizer
 from demcal.resources import PROFILES_DIR
 from demcal.study import Study, freeze, load_frozen
@@ -142,8 +142,19 @@ def print_best(study: Study) -> None:
     print(f"all evaluations: {files.evaluations_csv}")
 
 
+def study_of(argument: str, check_engine: bool = False) -> Study:
+    """The study named by a YAML file, or by its name when results/<name>/study.json exists."""
+    frozen = StudyFiles.of(argument).study
+    if not Path(argument).is_file() and "/" not in argument and frozen.is_file():
+        return load_frozen(frozen)
+    return load_study_file(argument, check_engine=check_engine)
+
+
+STATUS_WORDS = {"ok": "ok", "failed": "failed", "terminated": "stopped early", "pending": "pending"}
+
+
 def status(args) -> int:
-    study = load_study_file(args.config, check_engine=False)
+    study = study_of(args.config)
     state = study.files.optimizer
     if not state.exists():
         print(f"demcal: study {study.name!r} has not started ({state} missing)")
@@ -152,23 +163,41 @@ def status(args) -> int:
     counts = {}
     for record in optimizer.records:
         counts[record["status"]] = counts.get(record["status"], 0) + 1
-    print(f"study {study.name!r}: " + ", ".join(f"{n} {s}" for s, n in sorted(counts.items()))
-          + f" of a budget of {optimizer.settings.max_evaluations}")
+    daemon = running_daemon(study)
+    finished = read_json(study.files.finished, "finished.json") if study.files.finished.exists() else None
+    if daemon is not None:
+        state_text = f"running (daemon pid {daemon})"
+    elif finished is not None:
+        state_text = f"ended: {finished.get('reason', 'unknown reason')}"
+    else:
+        state_text = "not running and not finished (interrupted): 'demcal run' continues it"
+    pending = counts.pop("pending", 0)
+    line = ", ".join(f"{n} {STATUS_WORDS.get(s, s)}" for s, n in sorted(counts.items()))
+    if pending:
+        line += f", {pending} " + ("running" if daemon is not None else "pending (resumed by the next run)")
+    print(f"study {study.name!r}: {state_text}\n  {line or 'no evaluations yet'} "
+          f"(budget {optimizer.settings.max_evaluations})")
     if study.files.best.exists():
         print_best(study)
     return 0
 
 
 def stop(args) -> int:
-    study = load_study_file(args.config, check_engine=False)
+    study = study_of(args.config)
+    daemon = running_daemon(study)
+    if daemon is None:
+        print(f"demcal: no calibration of {study.name!r} is running; nothing to stop")
+        return 0
     request_stop(study)
-    print(f"demcal: asked the daemon of {study.name!r} to stop; running evaluations end as "
-          f"'terminated'")
+    print(f"demcal: asked the daemon of {study.name!r} (pid {daemon}) to stop: it proposes no more "
+          f"points, running evaluations end as 'terminated' and it writes its tables and ends. "
+          f"Everything is kept: 'demcal run' continues the calibration to its budget later "
+          f"(for Snakemake, delete {study.files.finished} first).")
     return 0
 
 
 def rerun_failed(args) -> int:
-    study = load_study_file(args.config, check_engine=False)
+    study = study_of(args.config)
     lock = lock_study(study)  # noqa: F841  (no daemon may run meanwhile)
     reopened = reopen_failed(study)
     if not reopened:
@@ -182,7 +211,7 @@ def rerun_failed(args) -> int:
 def solutions(args) -> int:
     from demcal.solution_files import write_solutions
 
-    study = load_study_file(args.config, check_engine=False)
+    study = study_of(args.config)
     if study.files.study.exists():
         study = load_frozen(study.files.study)
     if not (args.k > 0 and args.samples >= 64):
@@ -222,7 +251,9 @@ def main(argv: list[str] | None = None) -> int:
                               "error against run time: one point at several time steps and "
                               "sizes")):
         sub = commands.add_parser(name, help=text)
-        sub.add_argument("config", nargs="?", default=DEFAULT_CONFIG)
+        sub.add_argument("config", nargs="?", default=DEFAULT_CONFIG,
+                         help="the study's YAML file" + ("" if name in ("run", "convergence") else
+                                                         ", or its name once it has run"))
         sub.set_defaults(func=func)
         if name == "run":
             sub.add_argument("--profile", default=str(DEFAULT_PROFILE),

@@ -338,3 +338,20 @@ def test_a_failure_after_demcal_stop_is_recorded_not_retried(tmp_path, monkeypat
     calibration.finish("e0001", failed)
     assert launched == ["e0000"]
     assert [r["status"] for r in calibration.optimizer.records] == ["pending", "failed"]
+
+
+def test_status_and_stop_say_what_runs_and_what_stop_means(tmp_path):
+    config = study(tmp_path, "halting", engine={"duration": 3.0})
+    daemon = demcal(tmp_path, "run", config)
+    deadline = time.monotonic() + 60
+    while not list((tmp_path / "results/halting/evals").glob("e*/launch.json")):
+        assert time.monotonic() < deadline and daemon.poll() is None
+        time.sleep(0.2)
+    status = finish(demcal(tmp_path, "status", "halting"))  # by name, not by file
+    assert f"study 'halting': running (daemon pid {daemon.pid})" in status and " running (budget 14)" in status
+    stop = finish(demcal(tmp_path, "stop", config))
+    assert "asked the daemon of 'halting'" in stop and "'demcal run' continues the calibration" in stop
+    assert "finished: stopped on request (demcal stop)" in finish(daemon)
+    status = finish(demcal(tmp_path, "status", "halting"))
+    assert "study 'halting': ended: stopped on request (demcal stop)" in status and "pending" not in status
+    assert "nothing to stop" in finish(demcal(tmp_path, "stop", "halting"))

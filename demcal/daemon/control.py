@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import fcntl
+import json
 import shutil
 
 from demcal.daemon.tables import write_evaluations_csv
@@ -56,3 +58,20 @@ def request_stop(study: Study) -> None:
         evaluation_files = study.files.evaluation(evaluation.name)
         if evaluation_files.launch.exists() and not evaluation_files.objective.exists():
             evaluation_files.stop.touch()
+
+
+def running_daemon(study: Study) -> int | None:
+    """The pid of the daemon that holds the study's lock now, or None when none runs."""
+    path = study.files.daemon_lock
+    if not path.exists():
+        return None
+    with open(path) as lock:
+        try:
+            fcntl.flock(lock, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except BlockingIOError:
+            try:
+                return int(json.loads(path.read_text() or "{}").get("pid", 0)) or -1
+            except ValueError:
+                return -1
+        fcntl.flock(lock, fcntl.LOCK_UN)
+    return None
