@@ -248,12 +248,40 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
                  warnings=[warning] if warning else [])
 
 
-def load_study_file(path: str | Path, check_engine: bool = True) -> Study:
-    """Read a YAML study file and validate it."""
+class StrictLoader(yaml.SafeLoader):
+    """YAML's safe loader that refuses a key given twice in one mapping (YAML keeps the last)."""
+
+    def construct_mapping(self, node, deep=False):
+        seen = set()
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=deep)
+            if key in seen:
+                raise ConfigError(f"duplicate key {key!r} (line {key_node.start_mark.line + 1}): "
+                                  f"YAML would silently keep only the last one; remove one")
+            seen.add(key)
+        return super().construct_mapping(node, deep=deep)
+
+
+def read_study_yaml(path: str | Path) -> dict:
+    """The mapping of a YAML study file, read strictly; every problem is a ConfigError naming the file."""
+    path = Path(path)
     try:
-        config = yaml.safe_load(Path(path).read_text())
+        config = yaml.load(path.read_text(encoding="utf-8"), Loader=StrictLoader)
     except FileNotFoundError:
         raise ConfigError(f"configuration file not found: {path}") from None
+    except IsADirectoryError:
+        raise ConfigError(f"{path} is a directory; give the study's YAML file") from None
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: {exc}") from None
     except yaml.YAMLError as exc:
         raise ConfigError(f"{path}: not valid YAML: {exc}") from None
-    return load_study(config, check_engine)
+    if not isinstance(config, dict):
+        raise ConfigError(f"{path}: a study file is a YAML mapping (study:, engine:, parameters:, ...)")
+    return config
+
+
+def load_study_file(path: str | Path, check_engine: bool = True) -> Study:
+    """Read a YAML study file and validate it."""
+    return load_study(read_study_yaml(path), check_engine)

@@ -127,6 +127,23 @@ def test_missing_file_and_bad_yaml(tmp_path):
         load_study_file(bad)
 
 
+def test_duplicate_keys_non_utf8_and_directories_are_one_clear_message(tmp_path):
+    twice = tmp_path / "twice.yaml"
+    twice.write_text("study: a\nseed: 1\nreplicates: 2\nseed: 3\n")
+    with pytest.raises(ConfigError, match=r"twice.yaml: duplicate key 'seed' \(line 4\): YAML would silently"):
+        load_study_file(twice)
+    latin = tmp_path / "latin.yaml"
+    latin.write_bytes("study: m\u00fcller\n".encode("latin-1"))
+    with pytest.raises(ConfigError, match=r"latin.yaml: not UTF-8 text"):
+        load_study_file(latin)
+    with pytest.raises(ConfigError, match=r"is a directory; give the study's YAML file"):
+        load_study_file(tmp_path)
+    listing = tmp_path / "list.yaml"
+    listing.write_text("- study: a\n")
+    with pytest.raises(ConfigError, match=r"list.yaml: a study file is a YAML mapping"):
+        load_study_file(listing)
+
+
 def test_rayleigh_cost_needs_a_free_material_parameter(analytic_config):
     config = analytic_config
     config["rayleigh_cost_weight"] = 1.0

@@ -98,6 +98,12 @@ def test_bad_config_stops_before_any_job_with_the_message(tmp_path, analytic_con
     assert ("invalid configuration: parameters.sliding_friction_pp: lower bound 0.9 must be "
             "less than upper bound 0.1") in proc.stderr
     assert not (tmp_path / "results").exists()
+    # a key given twice passes Snakemake's YAML reading; demcal's strict reading refuses it
+    (tmp_path / "twice.yaml").write_text(yaml.safe_dump(analytic_config) + "seed: 99\n")
+    proc = subprocess.run([*SNAKEMAKE, "-s", str(ROOT / "Snakefile"), "--directory", str(tmp_path),
+                           "--configfile", str(tmp_path / "twice.yaml"), "--cores", "1", "-n"],
+                          capture_output=True, text=True, timeout=120, stdin=subprocess.DEVNULL)
+    assert proc.returncode != 0 and "duplicate key 'seed'" in proc.stdout + proc.stderr
 
 
 def test_dag_of_one_evaluation_renders(tmp_path, analytic_config):
