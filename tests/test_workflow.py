@@ -234,3 +234,21 @@ def test_rayleigh_cost_is_added_to_the_objective(tmp_path, analytic_config):
     errors = sum(e * e for e in record["relative_errors"].values())
     assert record["timestep_cost"] == pytest.approx(0.25)
     assert record["objective"] == pytest.approx(errors + 0.25)
+
+
+def test_the_readme_analytic_command_prints_a_short_terminal_story(tmp_path):
+    """The README's analytic command (the example shortened to 8 quick evaluations): besides
+    the progress lines, at most 30 lines, ending with the answer and where the report is."""
+    example = yaml.safe_load((ROOT / "config/examples/analytic.yaml").read_text())
+    example["engine"]["duration"] = 0.3
+    example["optimizer"]["max_evaluations"] = 8
+    (tmp_path / "analytic.yaml").write_text(yaml.safe_dump(example))
+    proc = subprocess.run([*SNAKEMAKE, "-s", str(ROOT / "Snakefile"), "--profile", str(ROOT / "profiles/local"),
+                           "--configfile=analytic.yaml"], cwd=tmp_path, capture_output=True, text=True,
+                          timeout=600, stdin=subprocess.DEVNULL)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    lines = [line for line in (proc.stdout + proc.stderr).splitlines() if not line.startswith("[demcal ")]
+    assert len(lines) <= 30, "\n".join(lines)
+    text = "\n".join(lines)
+    assert "finished: evaluation budget reached (8 of 8)" in text and "cylinder_lift.bulk_density [kg/m^3]" in text
+    assert "report: results/analytic-demo/report.html" in text
