@@ -216,6 +216,8 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
             f"step depends only on them); set it to 0 or free one of them")
     form = config.get("objective", default("objective"))
     unspread = [i for i, t in enumerate(targets) if not t.spread]
+    if form == "auto":  # weigh each error by its measurement spread when every spread is known
+        form = "relative" if unspread else "precision"
     if form == "precision" and unspread:
         raise ConfigError(f"targets[{unspread[0]}].spread: the precision-weighted objective "
                           f"measures each error in units of its target's spread; give every "

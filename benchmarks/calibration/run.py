@@ -365,7 +365,8 @@ def problem_lines() -> list[str]:
     return lines
 
 
-def write_report(table: list[dict], command: str, out: Path, elapsed: float, np1_python: Path) -> None:
+def write_report(table: list[dict], command: str, out: Path, elapsed: float, np1_python: Path,
+                 revision: str) -> None:
     versions = package_versions()
     main_venv = ", ".join(f"{k} {v}" for k, v in versions.items())
     lines = [
@@ -377,7 +378,7 @@ def write_report(table: list[dict], command: str, out: Path, elapsed: float, np1
         f"Machine: {platform.machine()}, {os.cpu_count()} cores (shared with other work, so wall times and "
         f"seconds per proposal vary), {platform.system()} {platform.release()}. Written by run.py.",
         "",
-        f"Versions: demcal at {demcal_revision()}; main venv: {main_venv}; "
+        f"Versions: demcal at {revision} (when the run started); main venv: {main_venv}; "
         f"NumPy-1 venv (GrainLearning, ACCES): {np1_versions(np1_python)}.",
         "",
         "## Problems",
@@ -486,7 +487,7 @@ def main(argv: list[str] | None = None) -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     command = "python benchmarks/calibration/run.py " + " ".join(argv if argv is not None else sys.argv[1:])
 
-    started = time.perf_counter()
+    started, revision = time.perf_counter(), demcal_revision()
     rows = []
     with open(args.out / "results.csv", "w", newline="") as handle:
         writer = csv.DictWriter(handle, fieldnames=FIELDS)
@@ -506,7 +507,8 @@ def main(argv: list[str] | None = None) -> None:
                         else:
                             print(f"{problem.name} budget={budget} {tool} seed={seed}: {row['status']}", flush=True)
     rows = [{k: ("" if v is None else v) for k, v in r.items()} for r in rows]
-    write_report(summarise(rows, tools), command, args.out, time.perf_counter() - started, args.np1_python)
+    write_report(summarise(rows, tools), command, args.out, time.perf_counter() - started, args.np1_python,
+                 revision)
 
 
 if __name__ == "__main__":
