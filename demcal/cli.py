@@ -18,6 +18,7 @@ import fcntl
 import json
 import logging
 import os
+import shutil
 import sys
 import time
 from pathlib import Path
@@ -42,6 +43,8 @@ DEFAULT_WORKERS = 2
 
 def _workers(study: Study, profile: Path | None, given: int | None) -> int:
     """Evaluations in flight: --workers, else calibration.workers, else the profile's jobs, else 2."""
+    if given is not None and given < 1:
+        raise ConfigError(f"--workers {given}: give at least 1 (evaluations in flight)")
     return int(given or study.calibration.get("workers")
                or profile_settings(profile).get("jobs", DEFAULT_WORKERS))
 
@@ -101,8 +104,10 @@ def run(args) -> int:
     interactive = sys.stderr.isatty()
 
     def show(line: str) -> None:
-        if interactive:
-            print("\r\033[K" + line, end="", file=sys.stderr, flush=True)
+        if interactive:  # one line that rewrites itself: never wider than the terminal
+            width = shutil.get_terminal_size().columns - 1
+            shown = line if len(line) <= width else line[:max(width - 3, 0)] + "..."
+            print("\r\033[K" + shown, end="", file=sys.stderr, flush=True)
         else:
             show.count = getattr(show, "count", 0) + 1
             if show.count % max(1, int(30 / calibration.poll_seconds)) == 1:

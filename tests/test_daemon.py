@@ -160,7 +160,10 @@ def test_bad_config_is_one_message(tmp_path):
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 2
     assert err.strip() == ("demcal: optimizer.strategy: 'guess' is not one of dycors, "
-                           "kriging_ei, response_ei")
+                           "kriging_ei, response_ei, rackl_hanley")
+    proc = demcal(tmp_path, "run", study(tmp_path, "good"), "--workers", "-1")
+    _, err = proc.communicate(timeout=60)
+    assert (proc.returncode, err.strip()) == (2, "demcal: --workers -1: give at least 1 (evaluations in flight)")
 
 
 def test_resume_with_a_changed_study_is_refused_but_budget_may_grow(tmp_path):

@@ -314,7 +314,10 @@ class Calibration:
         elapsed = self.elapsed()
         finished = done + failed + stopped
         eta = ""
-        if finished:
+        s = self.optimizer.settings
+        # "to budget" only when the budget is the stop to expect: no other rule may end the run first
+        if finished and finished < budget and not (s.max_seconds or s.target_objective is not None
+                                                   or s.no_improvement_evaluations):
             eta = f", ~{_clock((budget - finished) * elapsed / finished)} to budget"
         return (f"[demcal {self.study.name}] {finished}/{budget} done ({failed} failed, "
                 f"{stopped} stopped early), {len(self.children)} running | {best_text} | "
