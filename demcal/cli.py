@@ -2,6 +2,7 @@
 
     demcal run [CONFIG] [--profile profiles/local] [--workers N]
     demcal status [CONFIG]
+    demcal studies
     demcal stop [CONFIG]
     demcal rerun-failed [CONFIG]
     demcal solutions [CONFIG] [--k 2] [--samples 65536]
@@ -29,7 +30,7 @@ from demcal.daemon.control import reopen_failed, request_stop, running_daemon
 from demcal.daemon.loop import Calibration
 from demcal.errors import ConfigError, DemcalError
 from demcal.files import read_json
-from demcal.layout import StudyFiles, read_objective
+from demcal.layout import RESULTS, StudyFiles, read_objective
 from demcal.optimizer import Optimizer
 from demcal.resources import PROFILES_DIR
 from demcal.study import Study, freeze, load_frozen
@@ -158,32 +159,60 @@ def study_of(argument: str, check_engine: bool = False) -> Study:
 STATUS_WORDS = {"ok": "ok", "failed": "failed", "terminated": "stopped early", "pending": "pending"}
 
 
-def status(args) -> int:
-    study = study_of(args.config)
-    state = study.files.optimizer
-    if not state.exists():
-        print(f"demcal: study {study.name!r} has not started ({state} missing)")
-        return 0
-    optimizer = Optimizer.from_json(state.read_text())
+def study_state(study: Study) -> tuple[str, str]:
+    """Whether the study runs, ended (and why) or was interrupted; and its evaluation counts."""
+    optimizer = Optimizer.from_json(study.files.optimizer.read_text())
     counts = {}
     for record in optimizer.records:
         counts[record["status"]] = counts.get(record["status"], 0) + 1
     daemon = running_daemon(study)
     finished = read_json(study.files.finished, "finished.json") if study.files.finished.exists() else None
     if daemon is not None:
-        state_text = f"running (daemon pid {daemon})"
+        state = f"running (daemon pid {daemon})"
     elif finished is not None:
-        state_text = f"ended: {finished.get('reason', 'unknown reason')}"
+        state = f"ended: {finished.get('reason', 'unknown reason')}"
     else:
-        state_text = "not running and not finished (interrupted): 'demcal run' continues it"
+        state = "not running and not finished (interrupted): 'demcal run' continues it"
     pending = counts.pop("pending", 0)
     line = ", ".join(f"{n} {STATUS_WORDS.get(s, s)}" for s, n in sorted(counts.items()))
     if pending:
         line += f", {pending} " + ("running" if daemon is not None else "pending (resumed by the next run)")
-    print(f"study {study.name!r}: {state_text}\n  {line or 'no evaluations yet'} "
-          f"(budget {optimizer.settings.max_evaluations})")
+    confirmations = sum("confirms" in r for r in optimizer.records)
+    extra = f", plus {confirmations} confirmation runs" if confirmations else ""
+    return state, f"{line or 'no evaluations yet'} (budget {optimizer.settings.max_evaluations}{extra})"
+
+
+def status(args) -> int:
+    study = study_of(args.config)
+    if not study.files.optimizer.exists():
+        print(f"demcal: study {study.name!r} has not started ({study.files.optimizer} missing)")
+        return 0
+    state, counts = study_state(study)
+    print(f"study {study.name!r}: {state}\n  {counts}")
     if study.files.best.exists():
         print_best(study)
+    return 0
+
+
+def studies(args) -> int:
+    """Every study under the results folder with its state, counts and best objective."""
+    found = sorted(path.parent for path in RESULTS.glob("*/study.json"))
+    if not found:
+        print(f"demcal: no studies in {RESULTS}/ (a study appears there once it has run)")
+        return 0
+    for folder in found:
+        try:
+            study = load_frozen(folder / "study.json")
+        except DemcalError as exc:
+            print(f"{folder.name}: unreadable study.json ({exc})")
+            continue
+        if not study.files.optimizer.exists():
+            print(f"{study.name}: not started")
+            continue
+        state, counts = study_state(study)
+        best = read_json(study.files.best, "best.json") if study.files.best.exists() else None
+        answer = "" if best is None else f"; best {best['evaluation']}, objective {best['objective']:.4g}"
+        print(f"{study.name}: {state}\n  {counts}{answer}")
     return 0
 
 
@@ -246,6 +275,7 @@ def main(argv: list[str] | None = None) -> int:
     commands = parser.add_subparsers(dest="command", required=True)
     for name, func, text in (("run", run, "run (or resume) a calibration"),
                              ("status", status, "show the state of a calibration"),
+                             ("studies", studies, "list the studies in results/ with their state"),
                              ("stop", stop, "stop a running calibration cleanly"),
                              ("rerun-failed", rerun_failed,
                               "rerun the failed evaluations (new seeds) on the next run"),
@@ -256,10 +286,12 @@ def main(argv: list[str] | None = None) -> int:
                               "error against run time: one point at several time steps and "
                               "sizes")):
         sub = commands.add_parser(name, help=text)
+        sub.set_defaults(func=func)
+        if name == "studies":
+            continue
         sub.add_argument("config", nargs="?", default=DEFAULT_CONFIG,
                          help="the study's YAML file" + ("" if name in ("run", "convergence") else
                                                          ", or its name once it has run"))
-        sub.set_defaults(func=func)
         if name == "run":
             sub.add_argument("--profile", default=str(DEFAULT_PROFILE),
                              help="Snakemake profile directory for the evaluations "

@@ -358,3 +358,5 @@ def test_status_and_stop_say_what_runs_and_what_stop_means(tmp_path):
     status = finish(demcal(tmp_path, "status", "halting"))
     assert "study 'halting': ended: stopped on request (demcal stop)" in status and "pending" not in status
     assert "nothing to stop" in finish(demcal(tmp_path, "stop", "halting"))
+    listing = finish(demcal(tmp_path, "studies"))
+    assert listing.startswith("halting: ended: stopped on request (demcal stop)\n  ")
