@@ -10,6 +10,7 @@ from __future__ import annotations
 import functools
 import math
 import re
+import statistics
 from pathlib import Path
 
 import jsonschema
@@ -112,10 +113,24 @@ def _targets(config: dict, scenes: dict[str, Scene]) -> list[Target]:
         if key in seen:
             raise ConfigError(f"targets[{i}]: {t['scene']}.{t['response']} is targeted twice")
         seen.add(key)
-        targets.append(Target(t["scene"], t["response"], float(t["value"]),
-                              float(t.get("weight", default("targets", "weight"))),
-                              t.get("spread")))
+        value, spread = _target_value(t, i)
+        targets.append(Target(t["scene"], t["response"], value,
+                              float(t.get("weight", default("targets", "weight"))), spread))
     return targets
+
+
+def _target_value(target: dict, index: int) -> tuple[float, float | None]:
+    """The target's value and spread: as given, or the mean and standard deviation of its repeats."""
+    if "repeats" not in target:
+        if "value" not in target:
+            raise ConfigError(f"targets[{index}]: give the measured value (value: ..., optionally "
+                              f"spread: ...) or the lab test's repeats (repeats: [..., ...])")
+        return float(target["value"]), target.get("spread")
+    given = [key for key in ("value", "spread") if key in target]
+    if given:
+        raise ConfigError(f"targets[{index}].{given[0]}: given together with repeats, which "
+                          f"determine it (their mean and standard deviation); give one or the other")
+    return statistics.fmean(target["repeats"]), statistics.stdev(target["repeats"])
 
 
 def _parameters(config: dict, scenes: dict[str, Scene]) -> tuple[list[FreeParameter], dict]:

@@ -127,6 +127,19 @@ def test_missing_file_and_bad_yaml(tmp_path):
         load_study_file(bad)
 
 
+def test_a_target_from_the_lab_tests_repeats_takes_their_mean_and_standard_deviation(analytic_config):
+    analytic_config["targets"][0] = {"scene": "cylinder_lift", "response": "angle_of_repose",
+                                     "repeats": [24.0, 26.0, 25.5, 24.5]}
+    target = load_study(analytic_config).targets[0]
+    assert target.value == pytest.approx(25.0) and target.spread == pytest.approx(0.9128709)
+    analytic_config["targets"][0]["value"] = 25.0
+    with pytest.raises(ConfigError, match=r"targets\[0\].value: given together with repeats"):
+        load_study(analytic_config)
+    analytic_config["targets"][0] = {"scene": "cylinder_lift", "response": "angle_of_repose"}
+    with pytest.raises(ConfigError, match=r"targets\[0\]: give the measured value .* or the lab test's repeats"):
+        load_study(analytic_config)
+
+
 def test_duplicate_keys_non_utf8_and_directories_are_one_clear_message(tmp_path):
     twice = tmp_path / "twice.yaml"
     twice.write_text("study: a\nseed: 1\nreplicates: 2\nseed: 3\n")
