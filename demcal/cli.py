@@ -5,6 +5,7 @@
     demcal studies
     demcal stop [CONFIG]
     demcal rerun-failed [CONFIG]
+    demcal add-point [CONFIG] NAME=VALUE ...
     demcal solutions [CONFIG] [--k 2] [--samples 65536]
     demcal convergence [CONFIG] [--scene S] [--fractions F ...] [--sizes N ...] [--seeds 2]
 
@@ -18,6 +19,7 @@ import argparse
 import fcntl
 import json
 import logging
+import math
 import os
 import shutil
 import sys
@@ -26,7 +28,7 @@ from pathlib import Path
 
 from demcal.config import load_study_file
 from demcal.daemon.children import alive, child_cores, profile_settings
-from demcal.daemon.control import reopen_failed, request_stop, running_daemon
+from demcal.daemon.control import add_point, reopen_failed, request_stop, running_daemon
 from demcal.daemon.loop import Calibration
 from demcal.errors import ConfigError, DemcalError
 from demcal.files import read_json
@@ -230,6 +232,24 @@ def stop(args) -> int:
     return 0
 
 
+def add_point_command(args) -> int:
+    study = study_of(args.config)
+    lock = lock_study(study)  # noqa: F841  (no daemon may run meanwhile)
+    values = {}
+    for item in args.values:
+        name, _, text = item.partition("=")
+        try:
+            values[name] = float(text)
+        except ValueError:
+            raise ConfigError(f"{item!r}: give NAME=VALUE with a number (e.g. sliding_friction_pp=0.35)") from None
+        if not math.isfinite(values[name]):
+            raise ConfigError(f"{item!r}: the value must be a finite number")
+    evaluation = add_point(study, values)
+    print(f"demcal: point {evaluation} added to study {study.name!r}; the next 'demcal run' or "
+          f"'snakemake --profile ...' evaluates it (it counts towards the budget)")
+    return 0
+
+
 def rerun_failed(args) -> int:
     study = study_of(args.config)
     lock = lock_study(study)  # noqa: F841  (no daemon may run meanwhile)
@@ -277,6 +297,8 @@ def main(argv: list[str] | None = None) -> int:
                              ("status", status, "show the state of a calibration"),
                              ("studies", studies, "list the studies in results/ with their state"),
                              ("stop", stop, "stop a running calibration cleanly"),
+                             ("add-point", add_point_command,
+                              "add a point by hand (NAME=VALUE for every free parameter)"),
                              ("rerun-failed", rerun_failed,
                               "rerun the failed evaluations (new seeds) on the next run"),
                              ("solutions", solutions,
@@ -299,6 +321,8 @@ def main(argv: list[str] | None = None) -> int:
             sub.add_argument("--workers", type=int, help="evaluations in flight")
             # set by the workflow's calibrate rule: the daemon ends with its Snakemake
             sub.add_argument("--watch-pid", type=int, help=argparse.SUPPRESS)
+        if name == "add-point":
+            sub.add_argument("values", nargs="+", metavar="NAME=VALUE")
         if name == "solutions":
             sub.add_argument("--k", type=float, default=2.0,
                              help="tolerance in combined standard deviations (default 2)")

@@ -360,3 +360,21 @@ def test_status_and_stop_say_what_runs_and_what_stop_means(tmp_path):
     assert "nothing to stop" in finish(demcal(tmp_path, "stop", "halting"))
     listing = finish(demcal(tmp_path, "studies"))
     assert listing.startswith("halting: ended: stopped on request (demcal stop)\n  ")
+
+
+def test_a_point_added_by_hand_is_evaluated_by_the_next_run_and_joins_the_data(tmp_path):
+    config = study(tmp_path, "byhand", optimizer={"max_evaluations": 6})
+    finish(demcal(tmp_path, "run", config))
+    proc = demcal(tmp_path, "add-point", "byhand", "sliding_friction_pp=0.95", "rolling_friction_pp=0.1")
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 2 and "sliding_friction_pp=0.95 is outside its bounds [0.1, 0.9]" in err
+    out = finish(demcal(tmp_path, "add-point", "byhand", "sliding_friction_pp=0.4", "rolling_friction_pp=0.1"))
+    assert "point e0006 added to study 'byhand'" in out
+    assert not (tmp_path / "results/byhand/finished.json").exists()
+    finish(demcal(tmp_path, "run", config))
+    table = evaluations(tmp_path, "byhand")
+    row = table[table["evaluation"] == "e0006"].iloc[0]
+    assert len(table) == 7 and row["status"] == "ok"
+    assert (row["sliding_friction_pp"], row["rolling_friction_pp"]) == pytest.approx((0.4, 0.1))
+    state = json.loads((tmp_path / "results/byhand/optimizer.json").read_text())
+    assert state["records"][6]["by_hand"] and state["records"][6]["responses"]

@@ -7,9 +7,9 @@ import json
 import shutil
 
 from demcal.daemon.tables import write_evaluations_csv
-from demcal.errors import DemcalError, SimulationFailed
+from demcal.errors import ConfigError, DemcalError, SimulationFailed
 from demcal.files import atomic_write_text
-from demcal.layout import proposal_id, read_objective, read_point, write_point
+from demcal.layout import PointRecord, evaluation_id, proposal_id, read_objective, read_point, write_point
 from demcal.optimizer import Optimizer
 from demcal.study import Study
 
@@ -47,6 +47,37 @@ def reopen_failed(study: Study) -> list[str]:
     files.finished.unlink(missing_ok=True)
     write_evaluations_csv(study)
     return reopened
+
+
+def add_point(study: Study, values: dict[str, float]) -> str:
+    """Queue a point given by hand for the next run; returns its evaluation id.
+
+    Every free parameter needs a value within its bounds. The point becomes a
+    pending evaluation of the optimizer (so it counts towards the budget and
+    joins the models once simulated); finished.json goes, so the next run of
+    the same command evaluates it.
+    """
+    files = study.files
+    if not files.optimizer.exists():
+        raise DemcalError(f"study {study.name!r} has not started ({files.optimizer} missing); "
+                          f"start it first, or give the point in the initial design")
+    names = [p.name for p in study.free]
+    missing = [name for name in names if name not in values]
+    unknown = [name for name in values if name not in names]
+    if missing or unknown:
+        raise ConfigError(f"the point needs a value for every free parameter ({', '.join(names)}): "
+                          + (f"missing {', '.join(missing)}" if missing else f"unknown {', '.join(unknown)}"))
+    for p in study.free:
+        if not p.lower <= values[p.name] <= p.upper:
+            raise ConfigError(f"{p.name}={values[p.name]:g} is outside its bounds [{p.lower:g}, {p.upper:g}]")
+    optimizer = Optimizer.from_json(files.optimizer.read_text())
+    proposal = optimizer.add_point([values[name] for name in names])
+    evaluation = evaluation_id(proposal.id)
+    write_point(files.evaluation(evaluation), PointRecord(dict(zip(names, proposal.x)), proposed_by="by hand"))
+    atomic_write_text(files.optimizer, optimizer.to_json())
+    files.finished.unlink(missing_ok=True)
+    write_evaluations_csv(study)
+    return evaluation
 
 
 def request_stop(study: Study) -> None:

@@ -159,6 +159,16 @@ class Optimizer:
         self.next_id += 1
         return Proposal(record["id"], self.bounds.from_unit(unit)[0].tolist(), in_design)
 
+    def add_point(self, x: list[float]) -> Proposal:
+        """A point given by hand (a colleague's, a previous best): pending, evaluated like any other.
+
+        Raises ValueError if it lies outside the bounds. It counts towards the
+        budget and, once told, joins every model's data.
+        """
+        proposal = self._issue(self.bounds.to_unit([x])[0], in_design=False)
+        self._record(proposal.id)["by_hand"] = True
+        return proposal
+
     def _adaptive_point(self) -> np.ndarray | None:
         """The point the configured strategy chooses from the current history (None: none now)."""
         weights = WeightCycle(self.settings.weights, self.weight_index)
