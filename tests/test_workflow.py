@@ -156,11 +156,19 @@ def test_garbled_files_become_recorded_failures(tmp_path, analytic_config, monke
     assert record["status"] == "failed" and "responses.json missing" in record["reason"]
 
 
-def test_default_target_calibrates_and_reports(tmp_path, analytic_config):
-    analytic_config["optimizer"] = {"max_evaluations": 5}
-    analytic_config["calibration"] = {"workers": 2, "poll_seconds": 0.3}
-    analytic_config["replicates"] = 1
-    proc = run_snakemake(tmp_path, analytic_config, "--profile", str(ROOT / "profiles" / "local"))
+@pytest.fixture(scope="module")
+def reported(tmp_path_factory):
+    """A 5-evaluation calibration on the analytic engine through the default target (report made)."""
+    from conftest import ANALYTIC_STUDY
+
+    config = {**ANALYTIC_STUDY, "optimizer": {"max_evaluations": 5}, "replicates": 1,
+              "calibration": {"workers": 2, "poll_seconds": 0.3}}
+    workdir = tmp_path_factory.mktemp("reported")
+    return workdir, run_snakemake(workdir, config, "--profile", str(ROOT / "profiles" / "local"))
+
+
+def test_default_target_calibrates_and_reports(reported):
+    tmp_path, proc = reported
     assert proc.returncode == 0, proc.stderr[-3000:]
     study = tmp_path / "results" / "unit"
     assert "report: results/unit/report.html" in proc.stdout
@@ -177,6 +185,25 @@ def test_default_target_calibrates_and_reports(tmp_path, analytic_config):
     assert "<svg" in (study / "plots" / "evaluation_dag.svg").read_text()
     table = (study / "plots" / "best_point.csv").read_text()
     assert "cylinder_lift.angle_of_repose" in table and "objective" in table
+
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason="needs Chromium (.ci/run installs it)")
+def test_the_report_opens_with_the_answer_in_a_browser(reported):
+    """The report rendered by headless Chromium (its JavaScript builds the page): what a user sees first."""
+    tmp_path, proc = reported
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    shown = subprocess.run(
+        [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run", "--disable-quic",
+         "--disable-background-networking", "--disable-component-update", "--disable-sync",
+         f"--user-data-dir={tmp_path / 'chromium'}", "--virtual-time-budget=5000", "--dump-dom",
+         (tmp_path / "results/unit/report.html").as_uri()],
+        capture_output=True, text=True, timeout=120, stdin=subprocess.DEVNULL).stdout
+    assert "The answer" in shown and "Best parameters" in shown and "Responses against the targets" in shown
+    assert shown.index("The answer") < shown.index("How it was calibrated")
+    assert "System Message" not in shown
 
 
 def test_dag_drawing_without_graphviz_says_how_to_get_it(monkeypatch):
