@@ -25,6 +25,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from demcal.files import read_json  # noqa: E402
+from demcal.layout import proposal_id  # noqa: E402
 from demcal.resources import SNAKEFILE  # noqa: E402
 from demcal.study import Study, load_frozen  # noqa: E402
 
@@ -35,14 +36,28 @@ FIGURES = ("objective_vs_evaluation", "objective_vs_time", "parameter_traces",
 def load_table(study: Study) -> pd.DataFrame:
     """evaluations.csv with evaluation number, wall time since start and cumulative CPU time."""
     table = pd.read_csv(study.files.evaluations_csv)
-    table["number"] = np.arange(1, len(table) + 1)
+    table["number"] = table["evaluation"].map(proposal_id)  # as in the files: e0007 is 7
     start = pd.Timestamp(read_json(study.files.calibration, "calibration.json")["started_at"], unit="s", tz="UTC")
     table["ended_at"] = pd.to_datetime(table["ended_at"], utc=True, errors="coerce")
     table["cpu_s"] = pd.to_numeric(table["cpu_s"], errors="coerce").fillna(0.0)
-    table["wall_h"] = (table["ended_at"] - start).dt.total_seconds() / 3600.0
+    table["since_start_s"] = (table["ended_at"] - start).dt.total_seconds()
     order = table.sort_values("ended_at").index
-    table.loc[order, "cpu_h"] = table.loc[order, "cpu_s"].cumsum() / 3600.0
+    table.loc[order, "cpu_total_s"] = table.loc[order, "cpu_s"].cumsum()
     return table
+
+
+def time_unit(seconds: float) -> tuple[str, float]:
+    """The unit that keeps a time axis reaching ``seconds`` readable, and its size in seconds."""
+    if seconds < 180:
+        return "s", 1.0
+    return ("min", 60.0) if seconds < 3 * 3600 else ("h", 3600.0)
+
+
+def objective_label(study: Study) -> str:
+    """The objective's axis label in words, for the study's form."""
+    if study.objective_form == "precision":
+        return "mismatch with the targets\n(sum of squared errors in target spreads)"
+    return "mismatch with the targets\n(sum of squared relative errors)"
 
 
 def _save(fig, path: Path) -> None:
@@ -59,7 +74,7 @@ def _stacked(rows: int, height: float):
 
 def _finish_stack(fig, axes, path: Path) -> None:
     axes[0].legend(fontsize=7, ncol=4)
-    axes[-1].set_xlabel("evaluation number")
+    axes[-1].set_xlabel("evaluation (number as in evals/e0000...)")
     _save(fig, path)
 
 
@@ -73,28 +88,31 @@ def _mark_unfinished(ax, table: pd.DataFrame, x: str) -> None:
                     label=f"{status} ({len(rows)})", **style)
 
 
-def _objective_axes(ax, table: pd.DataFrame, x: str, xlabel: str) -> None:
+def _objective_axes(ax, table: pd.DataFrame, x: str, xlabel: str, ylabel: str) -> None:
     ok = table[table["status"] == "ok"].sort_values(x)
     ax.semilogy(ok[x], ok["objective"], "o", color="tab:blue", label="evaluated")
     ax.semilogy(ok[x], ok["objective"].cummin(), "-", color="black", label="best so far")
     _mark_unfinished(ax, table, x)
     ax.set_xlabel(xlabel)
-    ax.set_ylabel("objective (eq. 3.3)")
+    ax.set_ylabel(ylabel)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
 
 
 def plot_objective_vs_evaluation(study: Study, table: pd.DataFrame, path: Path) -> None:
     fig, ax = plt.subplots(figsize=(7, 4))
-    _objective_axes(ax, table, "number", "evaluation number")
-    ax.set_title(f"{study.name}: objective against evaluation")
+    _objective_axes(ax, table, "number", "evaluation (number as in evals/e0000...)", objective_label(study))
+    ax.set_title(f"{study.name}: mismatch with the targets, evaluation by evaluation")
     _save(fig, path)
 
 
 def plot_objective_vs_time(study: Study, table: pd.DataFrame, path: Path) -> None:
     fig, axes = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
-    _objective_axes(axes[0], table, "wall_h", "wall-clock time since start [h]")
-    _objective_axes(axes[1], table, "cpu_h", "accumulated simulation CPU time [h]")
+    for ax, column, what in ((axes[0], "since_start_s", "wall-clock time since start"),
+                             (axes[1], "cpu_total_s", "simulation CPU time spent")):
+        unit, size = time_unit(float(table[column].max()) if len(table) else 0.0)
+        scaled = table.assign(**{column: table[column] / size})
+        _objective_axes(ax, scaled, column, f"{what} [{unit}]", objective_label(study))
     fig.suptitle(f"{study.name}: error against run time")
     _save(fig, path)
 

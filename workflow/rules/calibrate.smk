@@ -36,4 +36,4 @@ rule calibrate:
     shell:
         "{params.python:q} -m demcal.cli run {input.config:q} --profile {params.profile:q}"
         " --watch-pid {params.snakemake_pid}"
-        " 2> >(tee {log:q} >&2)"
+        " 2> >(tee -a {log:q} >&2)"
