@@ -278,7 +278,7 @@ def solutions(args) -> int:
         print(f"  {verdict.sentence}")
     files = study.files
     print(f"sets: {files.solutions}; figures: {files.plots / 'solution_space.png'}, "
-          f"{files.plots / 'sensitivity.png'}")
+          f"{files.plots / 'sensitivity.png'}, {files.plots / 'objective_slices.png'}")
     return 0
 
 

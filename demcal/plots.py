@@ -4,7 +4,8 @@
 - objective against wall-clock time and against accumulated CPU time (error
   against run time);
 - each free parameter against evaluation number (traces);
-- each targeted response against evaluation number, with target and spread.
+- each targeted response against evaluation number, with target and spread;
+- parallel coordinates of the evaluated points, coloured by the objective.
 Early-stopped evaluations are marked with crosses on the lower edge, failed
 ones with red bars: they have no objective.
 """
@@ -30,7 +31,7 @@ from demcal.resources import SNAKEFILE  # noqa: E402
 from demcal.study import Study, load_frozen  # noqa: E402
 
 FIGURES = ("objective_vs_evaluation", "objective_vs_time", "parameter_traces",
-           "responses_vs_targets")
+           "responses_vs_targets", "parallel_coordinates")
 
 
 def load_table(study: Study) -> pd.DataFrame:
@@ -156,6 +157,28 @@ def plot_responses_vs_targets(study: Study, table: pd.DataFrame, best: dict | No
     _finish_stack(fig, axes, path)
 
 
+def plot_parallel_coordinates(study: Study, table: pd.DataFrame, best: dict | None, path: Path) -> None:
+    """Every finished evaluation as a line across the free parameters (each axis its bounds),
+    coloured by the objective: where the good points lie in all dimensions at once."""
+    fig, ax = plt.subplots(figsize=(max(6.0, 1.6 * len(study.free)), 4.2))
+    ok = table[table["status"] == "ok"].sort_values("objective", ascending=False)
+    scaled = np.column_stack([(ok[p.name] - p.lower) / (p.upper - p.lower) for p in study.free])
+    positions = np.arange(len(study.free))
+    if len(ok):
+        colours = plt.cm.viridis(np.linspace(0.0, 1.0, len(ok)))  # poor in dark purple, the best last, in yellow
+        for row, colour in zip(scaled, colours):
+            ax.plot(positions, row, color=colour, alpha=0.6, lw=1)
+    if best is not None:
+        ax.plot(positions, [(best["parameters"][p.name] - p.lower) / (p.upper - p.lower) for p in study.free],
+                color="red", lw=2.5, label="best point")
+        ax.legend(fontsize=8, loc="upper right")
+    ax.set_xticks(positions, [f"{p.name}\n{p.lower:g} – {p.upper:g}" for p in study.free], fontsize=8)
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_yticks([0, 1], ["lower bound", "upper bound"])
+    ax.set_title(f"{study.name}: evaluated points, dark = poor match, yellow = good match", fontsize=10)
+    _save(fig, path)
+
+
 def write_plots(study: Study, outdir: Path) -> list[Path]:
     """All figures of the calibration as PNG files in ``outdir``."""
     outdir.mkdir(parents=True, exist_ok=True)
@@ -167,6 +190,7 @@ def write_plots(study: Study, outdir: Path) -> list[Path]:
     plot_objective_vs_time(study, table, paths["objective_vs_time"])
     plot_parameter_traces(study, table, best, paths["parameter_traces"])
     plot_responses_vs_targets(study, table, best, paths["responses_vs_targets"])
+    plot_parallel_coordinates(study, table, best, paths["parallel_coordinates"])
     return list(paths.values())
 
 

@@ -12,7 +12,9 @@ optimizer's saved evaluations (the same models the optimizer used), applies
 - ``plots/solution_space.png``: corner plot of the set (pairwise scatter,
   histograms, bounds as axis limits, the best point);
 - ``plots/sensitivity.png`` and ``plots/sensitivity.csv``: Sobol indices of
-  each response per parameter.
+  each response per parameter;
+- ``plots/objective_slices.png``: contours of the predicted objective over
+  pairs of the most influential parameters through the best point.
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ from demcal.errors import DemcalError  # noqa: E402
 from demcal.files import read_json  # noqa: E402
 from demcal.objective import ResponseObjective  # noqa: E402
 from demcal.optimizer import Optimizer  # noqa: E402
-from demcal.optimizer.responses import final_means  # noqa: E402
+from demcal.optimizer.responses import ResponsePredictor, final_means  # noqa: E402
 from demcal.solutions import (  # noqa: E402
     SolutionSet,
     Verdict,
@@ -50,6 +52,7 @@ CORNER_POINTS = 3000
 
 @dataclass(frozen=True)
 class SolutionAnalysis:
+    predictor: ResponsePredictor
     solutions: SolutionSet
     verdicts: list[Verdict]
     sensitivity: list[dict]
@@ -81,7 +84,7 @@ def analyse(study: Study, k: float = 2.0, samples: int = 2**16, seed: int = 0) -
     verdicts = identifiability(solutions, names, [p.spec.unit for p in study.free],
                                np.array(optimizer.bounds.lower), np.array(optimizer.bounds.upper),
                                largest_total_index(sensitivity))
-    return SolutionAnalysis(solutions, verdicts, sensitivity, names, np.array(optimizer.bounds.lower),
+    return SolutionAnalysis(predictor, solutions, verdicts, sensitivity, names, np.array(optimizer.bounds.lower),
                             np.array(optimizer.bounds.upper))
 
 
@@ -132,6 +135,39 @@ def plot_corner(analysis: SolutionAnalysis, best: dict | None, path: Path, seed:
     plt.close(fig)
 
 
+def plot_objective_slices(analysis: SolutionAnalysis, best: dict | None, path: Path, grid: int = 60) -> None:
+    """The predicted objective over pairs of the (up to three) most influential parameters, the
+    others held at the best point: where the answer lies and how sharp its valley is."""
+    names, d = analysis.names, len(analysis.names)
+    largest = largest_total_index(analysis.sensitivity)
+    chosen = sorted(range(d), key=lambda i: -largest.get(names[i], 0.0))[:3]
+    pairs = [(a, b) for n, a in enumerate(chosen) for b in chosen[n + 1:]] or [(0, 0)]
+    centre = (np.full(d, 0.5) if best is None else
+              (np.array([best["parameters"][n] for n in names]) - analysis.lower) / (analysis.upper - analysis.lower))
+    fig, axes = plt.subplots(1, len(pairs), figsize=(4.6 * len(pairs), 4.0), squeeze=False)
+    axis = np.linspace(0.0, 1.0, grid)
+    for ax, (i, j) in zip(axes[0], pairs):
+        if i == j:
+            ax.set_axis_off()
+            ax.text(0.5, 0.5, "one free parameter: no slice", ha="center")
+            continue
+        u, v = np.meshgrid(axis, axis)
+        points = np.tile(centre, (grid * grid, 1))
+        points[:, i], points[:, j] = u.ravel(), v.ravel()
+        objective = np.maximum(analysis.predictor.objective_mean(points), 1e-12).reshape(grid, grid)
+        scale = lambda k, t: analysis.lower[k] + t * (analysis.upper[k] - analysis.lower[k])  # noqa: E731
+        filled = ax.contourf(scale(i, u), scale(j, v), np.log10(objective), levels=20, cmap="viridis_r")
+        fig.colorbar(filled, ax=ax, label="log10 predicted objective")
+        ax.plot(scale(i, centre[i]), scale(j, centre[j]), "*", color="red", markersize=12)
+        ax.set_xlabel(names[i])
+        ax.set_ylabel(names[j])
+    fig.suptitle("Predicted objective through the best point (red star), other parameters held there",
+                 fontsize="medium")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
 def plot_sensitivity(rows: list[dict], path: Path) -> None:
     """Total (light) and first-order (dark) Sobol index of each parameter, one panel per response."""
     table = pd.DataFrame(rows)
@@ -176,6 +212,7 @@ def write_solutions(study: Study, k: float = 2.0, samples: int = 2**16, seed: in
     best = read_json(files.best, "best.json") if files.best.exists() else None
     plot_corner(analysis, best, files.plots / "solution_space.png", seed)
     plot_sensitivity(analysis.sensitivity, files.plots / "sensitivity.png")
+    plot_objective_slices(analysis, best, files.plots / "objective_slices.png")
     return analysis
 
 

@@ -59,7 +59,7 @@ def test_local_calibration_reaches_the_known_optimum(tmp_path):
     truth = (np.array(list(TRUTH.values())) - [0.1, 0.02]) / [0.8, 0.28]
     assert len(sets) >= 20 and np.min(np.linalg.norm(unit - truth, axis=1)) < 0.05
     assert all(f"  {name}: " in out for name in TRUTH)
-    for figure in ("solution_space.png", "sensitivity.png", "sensitivity.csv"):
+    for figure in ("solution_space.png", "sensitivity.png", "sensitivity.csv", "objective_slices.png"):
         assert (tmp_path / "results/conv/plots" / figure).stat().st_size > 0
 
 

@@ -180,7 +180,8 @@ def test_default_target_calibrates_and_reports(reported):
     assert "cylinder_lift.angle_of_repose [deg]" in landing and "data:image/png;base64," in landing
     assert "System Message" not in landing
     for name in ("objective_vs_evaluation", "objective_vs_time", "parameter_traces",
-                 "responses_vs_targets", "solution_space", "sensitivity"):
+                 "responses_vs_targets", "parallel_coordinates", "solution_space", "sensitivity",
+                 "objective_slices"):
         assert (study / "plots" / f"{name}.png").read_bytes()[:4] == b"\x89PNG"
     assert "<svg" in (study / "plots" / "evaluation_dag.svg").read_text()
     table = (study / "plots" / "best_point.csv").read_text()

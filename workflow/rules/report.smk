@@ -18,6 +18,9 @@ rule plots:
         report(str(PLOTS / "responses_vs_targets.png"),
                caption="../report/responses_vs_targets.rst",
                category="Parameters and responses"),
+        report(str(PLOTS / "parallel_coordinates.png"),
+               caption="../report/parallel_coordinates.rst",
+               category="Parameters and responses"),
     log:
         str(FILES.logs / "plots.log"),
     localrule: True
@@ -34,6 +37,8 @@ rule solutions:
         report(str(PLOTS / "solution_space.png"), caption="../report/solution_space.rst",
                category="Solution space"),
         report(str(PLOTS / "sensitivity.png"), caption="../report/sensitivity.rst",
+               category="Solution space"),
+        report(str(PLOTS / "objective_slices.png"), caption="../report/objective_slices.rst",
                category="Solution space"),
     log:
         str(FILES.logs / "solutions.log"),
