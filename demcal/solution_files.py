@@ -99,8 +99,10 @@ def solutions_table(analysis: SolutionAnalysis) -> pd.DataFrame:
 def plot_corner(analysis: SolutionAnalysis, best: dict | None, path: Path, seed: int = 0) -> None:
     """Pairwise scatter of the solution set, a histogram per parameter, the best point in red."""
     points, names, d = analysis.points(), analysis.names, len(analysis.names)
+    supported = analysis.solutions.supported
     if len(points) > CORNER_POINTS:
-        points = points[np.random.default_rng(seed).choice(len(points), CORNER_POINTS, replace=False)]
+        keep = np.random.default_rng(seed).choice(len(points), CORNER_POINTS, replace=False)
+        points, supported = points[keep], supported[keep]
     size = max(2.2, 9.0 / d)
     fig, axes = plt.subplots(d, d, figsize=(size * d, size * d), squeeze=False)
     best_x = None if best is None else [best["parameters"][name] for name in names]
@@ -112,13 +114,16 @@ def plot_corner(analysis: SolutionAnalysis, best: dict | None, path: Path, seed:
                 continue
             if col == row:
                 if len(points):
-                    ax.hist(points[:, col], bins=30, range=(analysis.lower[col], analysis.upper[col]),
-                            color="tab:blue", alpha=0.7)
+                    ax.hist([points[supported, col], points[~supported, col]], bins=30, stacked=True,
+                            range=(analysis.lower[col], analysis.upper[col]), color=["tab:blue", "lightgrey"])
                 if best_x is not None:
                     ax.axvline(best_x[col], color="tab:red")
                 ax.set_yticks([])
             else:
-                ax.scatter(points[:, col], points[:, row], s=2, alpha=0.3, color="tab:blue", rasterized=True)
+                ax.scatter(points[~supported, col], points[~supported, row], s=2, alpha=0.3, color="lightgrey",
+                           rasterized=True)
+                ax.scatter(points[supported, col], points[supported, row], s=2, alpha=0.3, color="tab:blue",
+                           rasterized=True)
                 if best_x is not None:
                     ax.plot(best_x[col], best_x[row], marker="*", color="tab:red", markersize=12)
                 ax.set_ylim(analysis.lower[row], analysis.upper[row])
@@ -129,7 +134,8 @@ def plot_corner(analysis: SolutionAnalysis, best: dict | None, path: Path, seed:
                 ax.set_xlabel(names[col])
     s = analysis.solutions
     fig.suptitle(f"Parameter sets whose predicted responses meet every target within {s.k:g} sd\n"
-                 f"{len(s.points_unit)} of {s.sampled} sampled; best point in red", fontsize="medium")
+                 f"{len(s.points_unit)} of {s.sampled} sampled; blue: supported by the simulations, grey: where the "
+                 f"models are unsure; best point in red", fontsize="medium")
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)

@@ -79,7 +79,13 @@ def within_tolerance(targets: tuple[Target, ...], means: dict[str, np.ndarray], 
 
 @dataclass(frozen=True)
 class SolutionSet:
-    """Accepted points of the box (unit coordinates) with their predicted responses."""
+    """Accepted points of the box (unit coordinates) with their predicted responses.
+
+    ``supported``: per accepted point, whether every model is surer there
+    than the target spread and simulation noise combined, i.e. the point is
+    accepted on the simulations' evidence and not only because the models
+    cannot rule it out (an unexplored region).
+    """
 
     points_unit: np.ndarray
     means: dict[str, np.ndarray]
@@ -87,6 +93,7 @@ class SolutionSet:
     sampled: int
     k: float
     noise_sd: dict[str, float]
+    supported: np.ndarray
 
 
 def sample_solutions(predictor: ResponsePredictor, dimension: int, noise_sd: dict[str, float], k: float = 2.0,
@@ -103,8 +110,12 @@ def sample_solutions(predictor: ResponsePredictor, dimension: int, noise_sd: dic
         for key in predictor.models:
             means[key].append(mean[key][ok])
             stds[key].append(std[key][ok])
+    stds = {key: np.concatenate(v) for key, v in stds.items()}
+    supported = np.ones(sum(len(batch) for batch in kept), bool)
+    for t in predictor.objective.targets:
+        supported &= stds[t.key] <= tolerance_sd(t, noise_sd[t.key], 0.0)
     return SolutionSet(np.vstack(kept), {key: np.concatenate(v) for key, v in means.items()},
-                       {key: np.concatenate(v) for key, v in stds.items()}, len(points), k, noise_sd)
+                       stds, len(points), k, noise_sd, supported)
 
 
 @dataclass(frozen=True)
@@ -130,13 +141,24 @@ def identifiability(solutions: SolutionSet, names: list[str], units: list[str], 
                     upper: np.ndarray, total_index: dict[str, float] | None = None) -> list[Verdict]:
     """A verdict per parameter from the span of the solution set (central 95 %).
 
-    ``total_index``: per parameter, its largest total Sobol index over the
-    responses; it tells a parameter no response moves from one that trades
-    off against the others.
+    The span is taken over the points the simulations support (``supported``)
+    when there are enough of them, so that a region the calibration never
+    explored does not pass for a solution; the sentence then says how much
+    of the set lies where the models are unsure. ``total_index``: per
+    parameter, its largest total Sobol index over the responses; it tells a
+    parameter no response moves from one that trades off against the others.
     """
     lower, upper = np.asarray(lower, float), np.asarray(upper, float)
     verdicts = []
-    count = len(solutions.points_unit)
+    points = solutions.points_unit
+    unsure = 1.0 - float(np.mean(solutions.supported)) if len(points) else 0.0
+    if int(np.sum(solutions.supported)) >= MIN_SOLUTIONS and unsure > 0.0:
+        points = points[solutions.supported]
+        caveat = (f" (over the {len(points)} sets the simulations support; the other {100 * unsure:.0f} % "
+                  f"of the set lie where the models are unsure, too little explored to rule out)")
+    else:
+        caveat = ""
+    count = len(points)
     for i, (name, unit) in enumerate(zip(names, units)):
         box = f"{_fmt(lower[i])}–{_fmt(upper[i])}" + ("" if unit in ("-", "") else f" {unit}")
         if count < MIN_SOLUTIONS:
@@ -145,10 +167,10 @@ def identifiability(solutions: SolutionSet, names: list[str], units: list[str], 
             verdicts.append(Verdict(name, unit, lower[i], upper[i], math.nan, math.nan, math.nan, "no solutions",
                                     sentence))
             continue
-        low_u, high_u = np.percentile(solutions.points_unit[:, i], [2.5, 97.5])
+        low_u, high_u = np.percentile(points[:, i], [2.5, 97.5])
         low, high = lower[i] + low_u * (upper[i] - lower[i]), lower[i] + high_u * (upper[i] - lower[i])
         share = float(high_u - low_u)
-        spans = f"it spans {_fmt(low)}–{_fmt(high)} of {box} ({100 * share:.0f} %)"
+        spans = f"it spans {_fmt(low)}–{_fmt(high)} of {box} ({100 * share:.0f} %){caveat}"
         if share <= PINNED_SHARE:
             verdict, sentence = "pinned", f"{name}: pinned by these targets: {spans}"
         elif share <= NOT_IDENTIFIED_SHARE:

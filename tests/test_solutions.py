@@ -75,3 +75,24 @@ def test_the_noise_is_the_scatter_of_simulations_about_the_model():
     x = np.array([[0.1, 0.1], [0.5, 0.5], [0.9, 0.2]])
     observed = {target.key: (x, x[:, 0] + np.array([0.03, -0.03, 0.03]))}
     assert simulation_noise_sd(predictor, observed)[target.key] == pytest.approx(0.03, abs=2e-3)
+
+
+class HalfKnown:
+    """A response model that predicts the target everywhere, sure of it only where x0 < 0.5."""
+
+    def predict(self, x):
+        return np.full(len(np.atleast_2d(x)), 5.0)
+
+    def predict_std(self, x):
+        return np.where(np.atleast_2d(x)[:, 0] < 0.5, 0.0, 10.0)
+
+
+def test_sets_accepted_only_because_the_models_are_unsure_do_not_widen_the_verdict():
+    target = Target("calibration_device", "mass_flow", 5.0, spread=1.0)
+    predictor = ResponsePredictor({target.key: HalfKnown()}, ResponseObjective((target,)))
+    solutions = sample_solutions(predictor, 2, {target.key: 0.0}, samples=4096, seed=2)
+    assert len(solutions.points_unit) == 4096  # nothing can be ruled out
+    assert np.array_equal(solutions.supported, solutions.points_unit[:, 0] < 0.5)
+    pp, _ = identifiability(solutions, NAMES, UNITS, LOWER, UPPER)
+    assert pp.high < 0.2 + 0.7 * 0.5 and pp.verdict == "partly identified"
+    assert "the other 50 % of the set lie where the models are unsure" in pp.sentence
