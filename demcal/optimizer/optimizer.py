@@ -329,7 +329,7 @@ class Optimizer:
             index, chosen_by = int(np.argmin(np.maximum(observed, predicted))), "objective surrogate"
         confirmed = next((r["confirms"] for r in self.records if "confirms" in r), None)
         if confirmed is not None:  # the answer stays the point that was chosen and then confirmed
-            index = next(i for i, r in enumerate(finished) if r["id"] == confirmed)
+            index = next((i for i, r in enumerate(finished) if r["id"] == confirmed), index)
         record = finished[index]
         best = {
             "id": record["id"],
