@@ -230,8 +230,8 @@ def write_report_files(smk) -> None:
     study = load_frozen(smk.params.study_file)
     try:
         write_solutions(study)
-    except DemcalError as exc:
-        logging.info("no solution space: %s", exc)
+    except Exception as exc:  # noqa: BLE001  (the report must still be made; the figures say why)
+        logging.exception("no solution space")
         for path in smk.output:
             fig, ax = plt.subplots(figsize=(6, 1.5))
             ax.axis("off")
