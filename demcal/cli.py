@@ -19,7 +19,6 @@ import argparse
 import fcntl
 import json
 import logging
-import math
 import os
 import shutil
 import sys
@@ -36,7 +35,7 @@ from demcal.layout import RESULTS, StudyFiles, read_objective
 from demcal.optimizer import Optimizer
 from demcal.resources import PROFILES_DIR
 from demcal.study import Study, freeze, load_frozen
-from demcal.summary import confirmation_summary, evaluation_summary
+from demcal.summary import CHOSEN_BY, confirmation_summary, evaluation_summary
 
 DEFAULT_CONFIG = "config/config.yaml"
 DEFAULT_PROFILE = PROFILES_DIR / "local"
@@ -136,9 +135,7 @@ def print_best(study: Study) -> None:
         return
     best = read_json(files.best, "best.json")
     evaluation = files.evaluation(best["evaluation"])
-    how = {"response models": "lowest objective predicted from the response models",
-           "objective surrogate": "lowest of observed and surrogate-predicted objective"}
-    print(f"best point ({how.get(best.get('chosen_by'), 'lowest objective')} among the "
+    print(f"best point ({CHOSEN_BY.get(best.get('chosen_by'), 'lowest objective')} among the "
           f"evaluated points):")
     print(evaluation_summary(study, read_objective(evaluation), evaluation.dir, best))
     if best.get("predicted_responses"):
@@ -235,16 +232,7 @@ def stop(args) -> int:
 def add_point_command(args) -> int:
     study = study_of(args.config)
     lock = lock_study(study)  # noqa: F841  (no daemon may run meanwhile)
-    values = {}
-    for item in args.values:
-        name, _, text = item.partition("=")
-        try:
-            values[name] = float(text)
-        except ValueError:
-            raise ConfigError(f"{item!r}: give NAME=VALUE with a number (e.g. sliding_friction_pp=0.35)") from None
-        if not math.isfinite(values[name]):
-            raise ConfigError(f"{item!r}: the value must be a finite number")
-    evaluation = add_point(study, values)
+    evaluation = add_point(study, study.free_values(args.values, "add-point"))
     print(f"demcal: point {evaluation} added to study {study.name!r}; the next 'demcal run' or "
           f"'snakemake --profile ...' evaluates it (it counts towards the budget)")
     return 0

@@ -16,10 +16,7 @@ from pathlib import Path
 import pandas as pd
 
 from demcal.study import Study
-
-HOW_CHOSEN = {"response models": "the evaluated point with the lowest objective predicted from the response models",
-              "objective surrogate": "the evaluated point with the lowest of observed and surrogate-predicted "
-                                     "objective"}
+from demcal.summary import CHOSEN_BY, with_sd
 
 
 def _table(header: list[str], rows: list[list[str]]) -> list[str]:
@@ -27,12 +24,6 @@ def _table(header: list[str], rows: list[list[str]]) -> list[str]:
     for row in [header, *rows]:
         lines += [f"   * - {row[0]}", *(f"     - {cell}" for cell in row[1:])]
     return [*lines, ""]
-
-
-def _with_sd(value, sd) -> str:
-    if value in (None, ""):
-        return "–"
-    return f"{value:.4g}" + (f" ± {sd:.2g}" if sd else "")
 
 
 def _image(path: Path) -> list[str]:
@@ -75,7 +66,7 @@ def report_headline(study: Study) -> str:
     if best is None:
         return "\n".join([*lines, "No evaluation succeeded: the reasons are in ``evaluations.csv``.", ""])
     lines += [f"**Best parameters** (evaluation ``{best['evaluation']}``, "
-              f"{HOW_CHOSEN.get(best.get('chosen_by'), 'the lowest objective')}):", ""]
+              f"the evaluated point with the {CHOSEN_BY.get(best.get('chosen_by'), 'lowest objective')}):", ""]
     on_bounds = best.get("on_bounds", {})
     rows = []
     for p in study.free:
@@ -88,8 +79,8 @@ def report_headline(study: Study) -> str:
     for t in study.targets:
         unit = study.scenes[t.scene].responses[t.response].unit
         model = predicted.get(t.key, {})
-        rows.append([f"{t.key} [{unit}]", _with_sd(best["responses"].get(t.key), None),
-                     _with_sd(model.get("mean"), model.get("sd")), _with_sd(t.value, t.spread),
+        rows.append([f"{t.key} [{unit}]", with_sd(best["responses"].get(t.key), None),
+                     with_sd(model.get("mean"), model.get("sd")), with_sd(t.value, t.spread),
                      f"{100 * best['relative_errors'].get(t.key, float('nan')):+.1f} %"])
     lines += ["**Responses against the targets** (simulated at the best point; predicted there by the response "
               "models ± their sd; target ± its measurement spread):", ""]
@@ -100,8 +91,8 @@ def report_headline(study: Study) -> str:
         for t in study.targets:
             entry = confirmation["responses"].get(t.key)
             if entry:
-                rows.append([t.key, _with_sd(entry["mean"], entry["sd"]), str(entry["count"]),
-                             _with_sd(t.value, t.spread)])
+                rows.append([t.key, with_sd(entry["mean"], entry["sd"]), str(entry["count"]),
+                             with_sd(t.value, t.spread)])
         lines += [f"**Confirmed** by {len(confirmation['evaluations'])} more simulations of the best point "
                   f"(new seeds; mean ± sd of their responses):", ""]
         lines += _table(["response", "mean", "simulations", "target"], rows)

@@ -87,16 +87,25 @@ class Study:
     def centre_point(self, overrides: list[str] = ()) -> dict[str, float]:
         """Free values at the centre of the bounds, changed by ``NAME=VALUE`` overrides."""
         point = {p.name: 0.5 * (p.lower + p.upper) for p in self.free}
-        for item in overrides:
+        return {**point, **self.free_values(overrides, "--point")}
+
+    def free_values(self, items: list[str], option: str) -> dict[str, float]:
+        """``NAME=VALUE`` words of a command line as free-parameter values (finite numbers);
+        a ConfigError names ``option``, the word and what is wrong."""
+        names = [p.name for p in self.free]
+        values = {}
+        for item in items:
             name, _, value = item.partition("=")
-            if name not in point:
-                raise ConfigError(f"--point {item}: {name!r} is not a free parameter "
-                                  f"({', '.join(point)})")
+            if name not in names:
+                raise ConfigError(f"{option} {item}: {name!r} is not a free parameter "
+                                  f"({', '.join(names)})")
             try:
-                point[name] = float(value)
+                values[name] = float(value)
             except ValueError:
-                raise ConfigError(f"--point {item}: {value!r} is not a number") from None
-        return point
+                raise ConfigError(f"{option} {item}: {value!r} is not a number") from None
+            if not math.isfinite(values[name]):
+                raise ConfigError(f"{option} {item}: {value!r} is not a finite number")
+        return values
 
     def timestep_cost(self, free_values: dict[str, float]) -> float:
         """Squared Rayleigh time-step cost of a point, added to its objective (0 when off)."""

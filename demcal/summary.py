@@ -12,8 +12,15 @@ from demcal.objective import relative_error
 from demcal.resources import SNAKEFILE
 from demcal.study import Study
 
+#: How the best point was chosen (``Optimizer.best()["chosen_by"]``), in words.
+CHOSEN_BY = {"response models": "lowest objective predicted from the response models",
+             "objective surrogate": "lowest of observed and surrogate-predicted objective"}
 
-def _with_sd(value: float, sd: float | None) -> str:
+
+def with_sd(value: float | None, sd: float | None) -> str:
+    """A value to 4 digits with its standard deviation, or a dash when there is none."""
+    if value in (None, ""):
+        return "–"
     return f"{value:.4g}" + (f" ±{sd:.2g}" if sd else "")
 
 
@@ -45,10 +52,10 @@ def evaluation_summary(study: Study, record: dict, where: Path, best: dict | Non
         for t in study.targets:
             unit = study.scenes[t.scene].responses[t.response].unit
             line = (f"  {t.key + ' [' + unit + ']':34s} "
-                    f"{_with_sd(record['responses'][t.key], record.get('spread', {}).get(t.key)):>14s}")
+                    f"{with_sd(record['responses'][t.key], record.get('spread', {}).get(t.key)):>14s}")
             if predicted:
-                line += f" {_with_sd(predicted[t.key]['mean'], predicted[t.key]['sd']):>16s}"
-            lines.append(line + f" {_with_sd(t.value, t.spread):>14s} "
+                line += f" {with_sd(predicted[t.key]['mean'], predicted[t.key]['sd']):>16s}"
+            lines.append(line + f" {with_sd(t.value, t.spread):>14s} "
                          f"{100 * record['relative_errors'][t.key]:>+7.1f}%")
     else:
         lines.append(f"  reason: {record.get('reason', '')}")
@@ -69,8 +76,8 @@ def confirmation_summary(study: Study, best: dict) -> str | None:
         entry = confirmation["responses"].get(t.key)
         if entry:
             unit = study.scenes[t.scene].responses[t.response].unit
-            lines.append(f"  {t.key + ' [' + unit + ']':34s} mean {_with_sd(entry['mean'], entry['sd']):>16s} "
-                         f"(n = {entry['count']})  target {_with_sd(t.value, t.spread)}  "
+            lines.append(f"  {t.key + ' [' + unit + ']':34s} mean {with_sd(entry['mean'], entry['sd']):>16s} "
+                         f"(n = {entry['count']})  target {with_sd(t.value, t.spread)}  "
                          f"{100 * relative_error(entry['mean'], t.value):+.1f}%")
     return "\n".join(lines)
 
