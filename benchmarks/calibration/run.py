@@ -42,7 +42,6 @@ import time
 import traceback
 import warnings
 from datetime import UTC, datetime
-from importlib import metadata
 from pathlib import Path
 
 import numpy as np
@@ -53,6 +52,7 @@ sys.path.insert(0, str(REPOSITORY))
 sys.path.insert(0, str(HERE))
 
 from problems import PROBLEMS, Evaluator, Problem, mean_responses  # noqa: E402
+from versions import installed_versions  # noqa: E402
 
 NP1_PYTHON = Path("/work/bench-venv-np1/bin/python")
 WORKER = HERE / "worker_np1.py"
@@ -322,13 +322,8 @@ def summarise(rows: list[dict], tools: list[str]) -> list[dict]:
 
 
 def package_versions() -> dict[str, str]:
-    found = {"python": platform.python_version()}
-    for name in ("numpy", "scipy", "smt", "optuna", "torch", "pySOT", "POAP"):
-        try:
-            found[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            found[name] = "not installed"
-    return found
+    return {"python": platform.python_version(),
+            **installed_versions(("numpy", "scipy", "smt", "optuna", "torch", "pySOT", "POAP"))}
 
 
 def np1_versions(np1_python: Path) -> str:

@@ -25,7 +25,6 @@ import tempfile
 import textwrap
 import time
 import traceback
-from importlib import metadata
 from pathlib import Path
 
 import numpy as np
@@ -34,19 +33,14 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 from problems import PROBLEMS, Evaluator, Problem, mean_responses  # noqa: E402
+from versions import installed_versions  # noqa: E402
 
 GRAINLEARNING_SAMPLES = 10  # per iteration; iterations = budget // 10
 ACCES_POPULATION = 5  # per epoch; epochs = budget // 5
 
 
 def versions() -> dict[str, str]:
-    found = {}
-    for name in ("grainlearning", "coexist", "cma", "numpy", "scipy", "scikit-learn", "pandas"):
-        try:
-            found[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            found[name] = "not installed"
-    return found
+    return installed_versions(("grainlearning", "coexist", "cma", "numpy", "scipy", "scikit-learn", "pandas"))
 
 
 # ------------------------------------------------------------- GrainLearning

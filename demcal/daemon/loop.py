@@ -171,16 +171,17 @@ class Calibration:
         if reason.startswith("stopped on request"):
             return False
         proposals = self.optimizer.confirm()
+        if not proposals:
+            return False
+        of = evaluation_id(self.optimizer.confirmation()["confirms"])
         for proposal in proposals:
-            of = evaluation_id(self.optimizer.confirmation()["confirms"])
             write_point(self.files.evaluation(evaluation_id(proposal.id)),
                         PointRecord(dict(zip(self.names, proposal.x)), proposed_by=f"confirmation of {of}"))
-        if proposals:
-            self.save_state()
-            log.info("confirming the best point with %d more simulations", len(proposals))
-            for proposal in proposals:
-                self.launch(evaluation_id(proposal.id))
-        return bool(proposals)
+        self.save_state()
+        log.info("confirming the best point with %d more simulations", len(proposals))
+        for proposal in proposals:
+            self.launch(evaluation_id(proposal.id))
+        return True
 
     # -- resuming ----------------------------------------------------------------
     def resume(self) -> None:
