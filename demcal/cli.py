@@ -4,6 +4,7 @@
     demcal status [CONFIG]
     demcal studies
     demcal stop [CONFIG]
+    demcal watch [CONFIG] [--every 10]
     demcal rerun-failed [CONFIG]
     demcal add-point [CONFIG] NAME=VALUE ...
     demcal solutions [CONFIG] [--k 2] [--samples 65536]
@@ -16,19 +17,22 @@ disk are printed as one message (exit code 2), never as a traceback.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import fcntl
 import json
 import logging
 import os
-import shutil
 import sys
 import time
 from pathlib import Path
+
+import pandas as pd
 
 from demcal.config import load_study_file
 from demcal.daemon.children import alive, child_cores, profile_settings
 from demcal.daemon.control import add_point, reopen_failed, request_stop, running_daemon
 from demcal.daemon.loop import Calibration
+from demcal.daemon.progress import ProgressDisplay
 from demcal.errors import ConfigError, DemcalError
 from demcal.files import read_json
 from demcal.layout import RESULTS, StudyFiles, read_objective
@@ -91,47 +95,65 @@ def _holder_is_orphaned(path: Path) -> bool:
 
 
 def run(args) -> int:
+    with _log_file(args.log) as log:
+        try:
+            return _run(args, log)
+        except DemcalError as exc:
+            if log is not None:
+                print(f"demcal: {exc}", file=log, flush=True)
+            raise
+
+
+def _run(args, log) -> int:
     study = load_study_file(args.config)
     profile = Path(args.profile) if args.profile else None
     lock = lock_study(study, args.watch_pid)  # noqa: F841  (held until the process ends)
+    for warning in study.warnings:
+        _say(f"demcal: warning: {warning}", log)
     study = freeze(study)  # from here on: the study as the jobs read it
     logging.basicConfig(filename=study.files.daemon_log, level=logging.INFO,
                         format="%(asctime)s %(levelname)s %(message)s")
-    for warning in study.warnings:
-        print(f"demcal: warning: {warning}", file=sys.stderr)
     workers = _workers(study, profile, args.workers)
     calibration = Calibration(study, profile, workers,
                               child_cores=child_cores(profile, workers),
                               watch_pid=args.watch_pid)
-    interactive = sys.stderr.isatty()
-
-    def show(line: str) -> None:
-        if interactive:  # one line that rewrites itself: never wider than the terminal
-            width = shutil.get_terminal_size().columns - 1
-            shown = line if len(line) <= width else line[:max(width - 3, 0)] + "..."
-            print("\r\033[K" + shown, end="", file=sys.stderr, flush=True)
-        else:
-            show.count = getattr(show, "count", 0) + 1
-            if show.count % max(1, int(30 / calibration.poll_seconds)) == 1:
-                print(line, file=sys.stderr, flush=True)
-
+    display = ProgressDisplay(sys.stderr, log)
     try:
-        reason = calibration.run(show)
+        reason = calibration.run(display)
     except KeyboardInterrupt:
-        print(f"\ndemcal: interrupted; {len(calibration.children)} evaluations keep running "
-              f"and are collected by the next 'demcal run' ('demcal stop' stops them)",
-              file=sys.stderr)
+        display.close()
+        _say(f"demcal: interrupted; {len(calibration.children)} evaluations keep running "
+             f"and are collected by the next 'demcal run' ('demcal stop' stops them)", log)
         return 130
-    print(file=sys.stderr)
+    display.close()
     print(f"demcal: calibration of {study.name!r} finished: {reason}")
     print_best(study)
     return 0
 
 
+@contextlib.contextmanager
+def _log_file(path: str | None):
+    """The --log file opened for appending (None without one)."""
+    if path is None:
+        yield None
+        return
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "a") as log:
+        yield log
+
+
+def _say(message: str, log=None) -> None:
+    """A message on stderr, and in the log if there is one."""
+    for stream in (sys.stderr, log):
+        if stream is not None:
+            print(message, file=stream, flush=True)
+
+
 def print_best(study: Study) -> None:
     files = study.files
     if not files.best.exists():
-        print(f"demcal: no evaluation succeeded; see {files.evaluations_csv} for the reasons")
+        print(f"demcal: no evaluation succeeded{_commonest_failure(files)}; every reason is in "
+              f"{files.evaluations_csv}")
         return
     best = read_json(files.best, "best.json")
     evaluation = files.evaluation(best["evaluation"])
@@ -145,6 +167,18 @@ def print_best(study: Study) -> None:
     if confirmed:
         print(confirmed)
     print(f"all evaluations: {files.evaluations_csv}")
+
+
+def _commonest_failure(files: StudyFiles) -> str:
+    """", most often: REASON (n of N)" from evaluations.csv; "" when it has none."""
+    try:
+        reasons = pd.read_csv(files.evaluations_csv)["reason"].dropna()
+    except (OSError, ValueError, KeyError):
+        return ""
+    if reasons.empty:
+        return ""
+    counts = reasons.value_counts()
+    return f", most often: {counts.index[0]!r} ({counts.iloc[0]} of {len(reasons)})"
 
 
 def study_of(argument: str, check_engine: bool = False) -> Study:
@@ -213,6 +247,30 @@ def studies(args) -> int:
         answer = "" if best is None else f"; best {best['evaluation']}, objective {best['objective']:.4g}"
         print(f"{study.name}: {state}\n  {counts}{answer}")
     return 0
+
+
+def watch(args) -> int:
+    """Keep results/<study>/live.html up to date while the calibration runs."""
+    from demcal.live import write_live_page
+
+    study = study_of(args.config)
+    if args.every < 1:
+        raise ConfigError(f"--every {args.every}: give at least 1 s between updates")
+    if not study.files.optimizer.exists():
+        print(f"demcal: study {study.name!r} has not started; start it, then watch it")
+        return 0
+    print(f"demcal: live view of {study.name!r}: open {study.files.live.resolve()} in a browser "
+          f"(it reloads itself every {args.every:g} s); Ctrl-C ends the watch, not the calibration")
+    try:
+        while True:
+            state, counts = study_state(study)
+            write_live_page(study, state, counts, args.every)
+            if running_daemon(study) is None:
+                print(f"demcal: {study.name!r} is not running ({state}); the page shows its last state")
+                return 0
+            time.sleep(args.every)
+    except KeyboardInterrupt:
+        return 0
 
 
 def stop(args) -> int:
@@ -285,6 +343,8 @@ def main(argv: list[str] | None = None) -> int:
                              ("status", status, "show the state of a calibration"),
                              ("studies", studies, "list the studies in results/ with their state"),
                              ("stop", stop, "stop a running calibration cleanly"),
+                             ("watch", watch, "a live view of a running calibration "
+                                              "(results/<study>/live.html)"),
                              ("add-point", add_point_command,
                               "add a point by hand (NAME=VALUE for every free parameter)"),
                              ("rerun-failed", rerun_failed,
@@ -309,6 +369,11 @@ def main(argv: list[str] | None = None) -> int:
             sub.add_argument("--workers", type=int, help="evaluations in flight")
             # set by the workflow's calibrate rule: the daemon ends with its Snakemake
             sub.add_argument("--watch-pid", type=int, help=argparse.SUPPRESS)
+            sub.add_argument("--log", help="also append the messages and a progress line every "
+                                           "30 s to this file")
+        if name == "watch":
+            sub.add_argument("--every", type=float, default=10.0,
+                             help="seconds between updates of the page (default 10)")
         if name == "add-point":
             sub.add_argument("values", nargs="+", metavar="NAME=VALUE")
         if name == "solutions":

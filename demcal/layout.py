@@ -13,6 +13,8 @@ workflow's rules build their patterns from the same place::
         evaluations.csv     one row per evaluation (demcal.tables)
         best.json           the best point so far
         finished.json       written only when the calibration has ended, with its reason
+        early_termination.csv  estimates of running evaluations and their stopping limits
+        live.html           the live view of a running calibration (demcal watch)
         daemon.log, daemon.lock, STOP_CALIBRATION, logs/, plots/, report.html
         evals/<id>/
             params.json     the point (parameters, attempt, previous failures)
@@ -148,6 +150,14 @@ class StudyFiles:
     @property
     def finished(self) -> Path:
         return self.dir / "finished.json"
+
+    @property
+    def early_termination(self) -> Path:
+        return self.dir / "early_termination.csv"
+
+    @property
+    def live(self) -> Path:
+        return self.dir / "live.html"
 
     @property
     def solutions(self) -> Path:

@@ -5,7 +5,9 @@
   against run time);
 - each free parameter against evaluation number (traces);
 - each targeted response against evaluation number, with target and spread;
-- parallel coordinates of the evaluated points, coloured by the objective.
+- parallel coordinates of the evaluated points, coloured by the objective;
+- early termination: each watched run's objective estimate over its run
+  time against the limit it was held to (early_termination.csv).
 Early-stopped evaluations are marked with crosses on the lower edge, failed
 ones with red bars: they have no objective.
 """
@@ -31,7 +33,9 @@ from demcal.resources import SNAKEFILE  # noqa: E402
 from demcal.study import Study, load_frozen  # noqa: E402
 
 FIGURES = ("objective_vs_evaluation", "objective_vs_time", "parameter_traces",
-           "responses_vs_targets", "parallel_coordinates")
+           "responses_vs_targets", "parallel_coordinates", "early_termination")
+STATUS_COLOURS = {"ok": "tab:blue", "terminated": "tab:orange", "failed": "tab:red",
+                  "pending": "tab:green"}
 
 
 def load_table(study: Study) -> pd.DataFrame:
@@ -179,6 +183,56 @@ def plot_parallel_coordinates(study: Study, table: pd.DataFrame, best: dict | No
     _save(fig, path)
 
 
+def load_estimates(study: Study) -> pd.DataFrame:
+    """early_termination.csv (columns: demcal.daemon.watch.ESTIMATE_COLUMNS); empty if none."""
+    path = study.files.early_termination
+    if not path.exists():
+        return pd.DataFrame(columns=["elapsed_s", "evaluation", "running_s", "estimate", "limit", "stop"])
+    return pd.read_csv(path)
+
+
+def plot_early_termination(study: Study, estimates: pd.DataFrame, statuses: dict[str, str],
+                           path: Path) -> None:
+    """The objective estimates of running evaluations over the calibration's time (points,
+    joined per evaluation, coloured by how it ended) and the limit c f* they were held to
+    (thesis eq. 3.4, one step line: it applies to every run at that moment); a cross where
+    a run was stopped."""
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    if estimates.empty:
+        ax.text(0.5, 0.5, "no early estimates recorded\n(early termination off, or no run "
+                "reported an estimate before it ended)", ha="center", va="center",
+                transform=ax.transAxes)
+        ax.set_axis_off()
+        _save(fig, path)
+        return
+    unit, size = time_unit(float(estimates["elapsed_s"].max()))
+    shown = set()
+    for evaluation, rows in estimates.groupby("evaluation", sort=True):
+        status = statuses.get(evaluation, "pending")
+        label = None if status in shown else {"pending": "running"}.get(status, status)
+        shown.add(status)
+        ax.semilogy(rows["elapsed_s"] / size, rows["estimate"], "-o", color=STATUS_COLOURS.get(status, "grey"),
+                    markersize=3, lw=0.8, label=label)
+    limits = estimates.dropna(subset=["limit"]).sort_values("elapsed_s")
+    if len(limits):
+        ax.step(limits["elapsed_s"] / size, limits["limit"], where="post", color="black", lw=1.2,
+                label="limit c f* (eq. 3.4)")
+    stopped = estimates[estimates["stop"] == 1]
+    if len(stopped):
+        ax.plot(stopped["elapsed_s"] / size, stopped["estimate"], "x", color="black", markersize=9,
+                label=f"stopped ({len(stopped)})")
+    ax.set_xlabel(f"time since the calibration started [{unit}]")
+    ax.set_ylabel("estimated " + objective_label(study))
+    ax.set_title(f"{study.name}: early termination, estimates of running evaluations", fontsize=10)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+    _save(fig, path)
+
+
+def evaluation_statuses(table: pd.DataFrame) -> dict[str, str]:
+    return dict(zip(table["evaluation"], table["status"]))
+
+
 def write_plots(study: Study, outdir: Path) -> list[Path]:
     """All figures of the calibration as PNG files in ``outdir``."""
     outdir.mkdir(parents=True, exist_ok=True)
@@ -191,6 +245,8 @@ def write_plots(study: Study, outdir: Path) -> list[Path]:
     plot_parameter_traces(study, table, best, paths["parameter_traces"])
     plot_responses_vs_targets(study, table, best, paths["responses_vs_targets"])
     plot_parallel_coordinates(study, table, best, paths["parallel_coordinates"])
+    plot_early_termination(study, load_estimates(study), evaluation_statuses(table),
+                           paths["early_termination"])
     return list(paths.values())
 
 

@@ -140,6 +140,19 @@ def test_early_termination_stops_hopeless_runs_and_saves_time(tmp_path):
     # stopped runs teach the response models: no region is proposed and stopped again and again
     consecutive = [len(list(run)) for status, run in itertools.groupby(table["status"]) if status == "terminated"]
     assert max(consecutive) <= 3, table["status"].tolist()
+    # the estimates and limits over time are kept; every stopped run has the row that stopped it
+    trace = pd.read_csv(tmp_path / "results/et/early_termination.csv")
+    stopping = trace[trace["stop"] == 1]
+    assert set(stopped["evaluation"]) <= set(stopping["evaluation"])
+    assert (stopping["estimate"] > stopping["limit"]).all()
+    held = trace[(trace["stop"] == 0) & trace["limit"].notna()]  # the initial design has no limit
+    assert len(held) and (held["estimate"] <= held["limit"]).all()
+    assert trace.loc[trace["evaluation"].map(lambda e: int(e[1:])) < state["initial_size"], "limit"].isna().all()
+    # the live view of the (now ended) study: state, both figures, and it says it is not running
+    watched = finish(demcal(tmp_path, "watch", "et", "--every", "1"))
+    assert "is not running (ended: evaluation budget reached" in watched
+    page = (tmp_path / "results/et/live.html").read_text()
+    assert 'http-equiv="refresh"' in page and page.count("data:image/png;base64,") == 2
 
 
 def test_second_daemon_on_the_same_study_is_refused(tmp_path):

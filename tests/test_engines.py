@@ -98,6 +98,12 @@ SIMULATOR = textwrap.dedent("""
         f.write("progress,response,value\\n0.5,bulk_density,%g\\n" % (1400 + mu))
     if mode == "crash":
         sys.exit("solver diverged")
+    if mode.startswith("detach"):  # a process of its own session, as with setsid or a double fork
+        import subprocess
+        sleeper = subprocess.Popen(["sleep", "300"], start_new_session=True)
+        open("detached.pid", "w").write(str(sleeper.pid))
+        if mode == "detach_hang":
+            time.sleep(30)
     if mode == "slow":
         time.sleep(30)
     if mode == "flood":
@@ -157,6 +163,19 @@ def test_command_engine_stop_terminates_the_process(tmp_path):
     assert result.status == TERMINATED
     assert time.monotonic() - start < 10.0
     assert any(r["response"] == "bulk_density" for r in read_partial(job.partial_file))
+
+
+@pytest.mark.parametrize("mode", ["detach_hang", "detach_ok"])
+def test_processes_a_simulator_detaches_end_with_it(tmp_path, mode):
+    """A timeout kill, or a normal end, leaves no process of the simulator running, not even
+    one in a session of its own (setsid)."""
+    engine = command_engine(tmp_path, mode)
+    engine.settings["timeout"] = 2.0
+    job = make_job(tmp_path)
+    result = run(engine, job)
+    assert result.status == (FAILED if mode == "detach_hang" else OK), result.reason
+    detached = int((Path(job.workdir) / "detached.pid").read_text())
+    assert not Path(f"/proc/{detached}").exists()  # ended and reaped
 
 
 def test_command_words_are_not_shell_expanded():

@@ -1,6 +1,7 @@
 """The per-evaluation Snakemake DAG end to end, on the analytic engine."""
 
 import json
+import re
 import shutil
 import subprocess
 import sys
@@ -180,7 +181,8 @@ def test_default_target_calibrates_and_reports(reported):
     assert "cylinder_lift.angle_of_repose [deg]" in landing and "data:image/png;base64," in landing
     assert "System Message" not in landing
     for name in ("objective_vs_evaluation", "objective_vs_time", "parameter_traces",
-                 "responses_vs_targets", "parallel_coordinates", "solution_space", "sensitivity",
+                 "responses_vs_targets", "parallel_coordinates", "early_termination", "solution_space",
+                 "sensitivity",
                  "objective_slices"):
         assert (study / "plots" / f"{name}.png").read_bytes()[:4] == b"\x89PNG"
     assert "<svg" in (study / "plots" / "evaluation_dag.svg").read_text()
@@ -280,3 +282,23 @@ def test_the_readme_analytic_command_prints_a_short_terminal_story(tmp_path):
     text = "\n".join(lines)
     assert "finished: evaluation budget reached (8 of 8)" in text and "cylinder_lift.bulk_density [kg/m^3]" in text
     assert "report: results/analytic-demo/report.html" in text
+
+
+def test_when_every_evaluation_fails_the_run_ends_with_the_commonest_reason(tmp_path):
+    """No Snakemake 'missing output / filesystem latency' story: the calibration ends, says that
+    nothing succeeded and why, and still makes its report."""
+    example = yaml.safe_load((ROOT / "config/examples/analytic.yaml").read_text())
+    example["engine"].update(duration=0.2, failures=[{"when": {"sliding_friction_pp": [0.0, 1.0]},
+                                                      "reason": "solver diverged"}])
+    example["optimizer"]["max_evaluations"] = 3
+    example["calibration"] = {"retries": 0, "poll_seconds": 0.3}
+    (tmp_path / "failing.yaml").write_text(yaml.safe_dump(example))
+    proc = subprocess.run([*SNAKEMAKE, "-s", str(ROOT / "Snakefile"), "--profile", str(ROOT / "profiles/local"),
+                           "--configfile=failing.yaml"], cwd=tmp_path, capture_output=True, text=True,
+                          timeout=600, stdin=subprocess.DEVNULL)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    text = proc.stdout + proc.stderr
+    assert re.search(r"no evaluation succeeded, most often: 'cylinder_lift rep0: solver diverged[^']*' \(3 of 3\)",
+                     text), text
+    assert "latency" not in text and "Traceback" not in text and "Exception" not in text
+    assert (tmp_path / "results/analytic-demo/report.html").exists()

@@ -21,11 +21,18 @@ import dataclasses
 import logging
 import shutil
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from demcal.daemon.children import Child, alive, child_command, is_snakemake_for, start_child
+from demcal.daemon.progress import Progress
 from demcal.daemon.tables import write_best, write_evaluations_csv
-from demcal.daemon.watch import evaluations_to_stop, latest_estimates, partial_responses
+from demcal.daemon.watch import (
+    append_estimates,
+    early_termination_decisions,
+    latest_estimates,
+    partial_responses,
+)
 from demcal.errors import DemcalError, SimulationFailed
 from demcal.evaluation import objective, response_paths
 from demcal.files import atomic_write_text, log_tail, read_json, write_json
@@ -66,6 +73,8 @@ class Calibration:
         self.optimizer = self._load_or_create_optimizer()
         self.started_at = self._load_start_time()
         self.stop_requested: set[str] = set()
+        #: (estimate, limit) last written to early_termination.csv, per evaluation
+        self.recorded_estimates: dict[str, tuple] = {}
         self.rescore()
 
     # -- state ------------------------------------------------------------------
@@ -192,10 +201,12 @@ class Calibration:
             if not files.params.exists():
                 raise DemcalError(f"{files.params} is missing for a pending evaluation; "
                                   f"the results directory was changed by hand")
-            running = int(read_launch(files).get("pid", -1))
+            launch = read_launch(files)
+            running = int(launch.get("pid", -1))
             if running > 0 and alive(running) and is_snakemake_for(running,
                                                                     self.target(evaluation)):
-                self.children[evaluation] = Child(evaluation, running, None, time.time())
+                started = float(launch.get("started_at", time.time()))
+                self.children[evaluation] = Child(evaluation, running, None, started)
                 log.info("re-attached %s (pid %d)", evaluation, running)
                 continue
             if files.objective.exists():
@@ -269,17 +280,29 @@ class Calibration:
 
     # -- early termination ---------------------------------------------------------
     def watch_running(self) -> None:
-        """Stop running evaluations whose partial objective is hopeless (thesis sec. 2.6)."""
+        """Stop running evaluations whose partial objective is hopeless (thesis sec. 2.6);
+        record each new estimate with its limit in early_termination.csv."""
         if self.optimizer.best_observed is None:
             return
         watched = {evaluation: self._estimate(evaluation) for evaluation in self.children
                    if evaluation not in self.stop_requested}
         decide = lambda evaluation, estimate: self.optimizer.early_termination(  # noqa: E731
             proposal_id(evaluation), estimate)
-        for evaluation, reason in evaluations_to_stop(watched, decide).items():
-            self.files.evaluation(evaluation).stop.touch()
-            self.stop_requested.add(evaluation)
-            log.info("%s: early stop: %s", evaluation, reason)
+        decisions = early_termination_decisions(watched, decide)
+        now, rows = time.time(), []
+        for evaluation, decision in decisions.items():
+            if self.recorded_estimates.get(evaluation) != (watched[evaluation], decision.limit):
+                self.recorded_estimates[evaluation] = (watched[evaluation], decision.limit)
+                rows.append((f"{now - self.started_at:.1f}", evaluation,
+                             f"{now - self.children[evaluation].started:.1f}",
+                             f"{watched[evaluation]:.7g}",
+                             "" if decision.limit is None else f"{decision.limit:.7g}",
+                             int(decision.stop)))
+            if decision.stop:
+                self.files.evaluation(evaluation).stop.touch()
+                self.stop_requested.add(evaluation)
+                log.info("%s: early stop: %s", evaluation, decision.reason)
+        append_estimates(self.files.early_termination, rows)
 
     def _estimate(self, evaluation: str) -> float | None:
         """Objective estimate of a running evaluation from its replicates' early estimates."""
@@ -302,10 +325,9 @@ class Calibration:
         if best is not None:
             write_best(self.study, best, self.optimizer.confirmation(), stop_reason)
 
-    def progress_line(self) -> str:
+    def progress(self) -> Progress:
         records = [r["status"] for r in self.optimizer.records]
-        done = sum(s == "ok" for s in records)
-        failed = sum(s == "failed" for s in records)
+        done, failed = sum(s == "ok" for s in records), sum(s == "failed" for s in records)
         stopped = sum(s == "terminated" for s in records)
         budget = self.optimizer.settings.max_evaluations
         best = self.optimizer.best()
@@ -314,18 +336,17 @@ class Calibration:
                 f"{n}={v:.3g}" for n, v in zip(self.names, best["x"])))
         elapsed = self.elapsed()
         finished = done + failed + stopped
-        eta = ""
         s = self.optimizer.settings
         # "to budget" only when the budget is the stop to expect: no other rule may end the run first
-        if finished and finished < budget and not (s.max_seconds or s.target_objective is not None
-                                                   or s.no_improvement_evaluations):
-            eta = f", ~{_clock((budget - finished) * elapsed / finished)} to budget"
-        return (f"[demcal {self.study.name}] {finished}/{budget} done ({failed} failed, "
-                f"{stopped} stopped early), {len(self.children)} running | {best_text} | "
-                f"{_clock(elapsed)} elapsed{eta}")
+        budget_rules = not (s.max_seconds or s.target_objective is not None
+                            or s.no_improvement_evaluations)
+        to_budget = ((budget - finished) * elapsed / finished
+                     if budget_rules and 0 < finished < budget else None)
+        return Progress(self.study.name, finished, budget, failed, stopped, len(self.children),
+                        best_text, elapsed, to_budget)
 
     # -- the loop ------------------------------------------------------------------
-    def run(self, show_progress=print) -> str:
+    def run(self, show_progress: Callable[[Progress], None] = lambda p: print(p.line())) -> str:
         """Calibrate until a stopping rule holds and nothing is running; return the reason.
 
         Only a loop that ends so writes ``finished.json``; a daemon that dies
@@ -348,10 +369,10 @@ class Calibration:
                     reason = self.optimizer.stop_reason(self.elapsed()) or "no more points to evaluate"
             if reason is not None and not self.children and not self.confirm_best(reason):
                 break
-            show_progress(self.progress_line())
+            show_progress(self.progress())
             time.sleep(self.poll_seconds)
         self.write_tables(reason)
-        show_progress(self.progress_line())
+        show_progress(self.progress())
         counts = {}
         for record in self.optimizer.records:
             counts[record["status"]] = counts.get(record["status"], 0) + 1
@@ -374,7 +395,3 @@ class Calibration:
                 f"the daemon ends too; {len(self.children)} running evaluations go on and are "
                 f"collected when the same command runs again")
 
-
-def _clock(seconds: float) -> str:
-    seconds = int(max(seconds, 0))
-    return f"{seconds // 3600}:{seconds // 60 % 60:02d}:{seconds % 60:02d}"

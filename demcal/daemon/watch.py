@@ -2,14 +2,17 @@
 
 ``latest_estimates`` reads what running simulations have reported so far
 (``partial_responses`` the same as the optimizer is told it for a stopped run);
-``evaluations_to_stop`` is the decision itself, a pure function of the
-objective estimates and the optimizer's rule, so the loop feeds it and acts
-on its answer.
+``early_termination_decisions`` applies the optimizer's rule to the objective
+estimates, so the loop feeds it and acts on its answer; ``append_estimates``
+keeps the estimates and limits over time in ``early_termination.csv`` (the
+live view and the report draw them).
 """
 
 from __future__ import annotations
 
+import csv
 from collections.abc import Callable
+from pathlib import Path
 
 from demcal.files import read_partial
 from demcal.layout import EvaluationFiles
@@ -46,20 +49,30 @@ def partial_responses(files: EvaluationFiles, scenes: list[str], replicates: int
             for key, reports in _latest(files, scenes, replicates).items()}
 
 
-def evaluations_to_stop(estimates: dict[str, float | None],
-                        decide: Callable[[str, float], EarlyTerminationDecision]
-                        ) -> dict[str, str]:
-    """Running evaluations to stop, with the reason: those whose estimate the rule finds hopeless.
+def early_termination_decisions(estimates: dict[str, float | None],
+                                 decide: Callable[[str, float], EarlyTerminationDecision]
+                                 ) -> dict[str, EarlyTerminationDecision]:
+    """The rule's decision for every watched evaluation that has an objective estimate.
 
     ``estimates`` maps each watched evaluation to its objective estimate
     (None: nothing estimated yet); ``decide(evaluation, estimate)`` is the
     optimizer's early-termination rule.
     """
-    stops = {}
-    for evaluation, estimate in estimates.items():
-        if estimate is None:
-            continue
-        decision = decide(evaluation, estimate)
-        if decision.stop:
-            stops[evaluation] = decision.reason
-    return stops
+    return {evaluation: decide(evaluation, estimate)
+            for evaluation, estimate in estimates.items() if estimate is not None}
+
+
+#: Columns of early_termination.csv: one row each time a running evaluation's estimate changes.
+ESTIMATE_COLUMNS = ("elapsed_s", "evaluation", "running_s", "estimate", "limit", "stop")
+
+
+def append_estimates(path: Path, rows: list[tuple]) -> None:
+    """Append rows (``ESTIMATE_COLUMNS``) to the study's early-termination trace."""
+    if not rows:
+        return
+    new = not path.exists()
+    with open(path, "a", newline="") as handle:
+        writer = csv.writer(handle)
+        if new:
+            writer.writerow(ESTIMATE_COLUMNS)
+        writer.writerows(rows)

@@ -14,6 +14,7 @@ up (``Scene.driver(engine.name)``) and hands it over.
 
 from __future__ import annotations
 
+import ctypes
 import os
 import signal
 import subprocess
@@ -80,6 +81,64 @@ def stop_process_group(proc: subprocess.Popen) -> None:
     except subprocess.TimeoutExpired:
         os.killpg(proc.pid, signal.SIGKILL)
         proc.wait()
+
+
+#: prctl option that makes a process the reaper of its orphaned descendants (linux/prctl.h)
+PR_SET_CHILD_SUBREAPER = 36
+
+
+def adopt_orphans() -> None:
+    """Become the reaper of this process's orphaned descendants (Linux), so that a simulator's
+    process that detaches (``setsid``, a double fork) is re-parented here, not to init, and
+    ``end_descendants`` still finds it. Elsewhere nothing changes."""
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0)
+    except (OSError, AttributeError):
+        pass
+
+
+def descendants(pid: int) -> set[int]:
+    """The live processes below ``pid`` in the process tree (from /proc; empty elsewhere)."""
+    children: dict[int, list[int]] = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            state, parent = stat.read_text().rsplit(")", 1)[1].split()[:2]
+        except (OSError, ValueError):
+            continue  # ended meanwhile
+        if state != "Z":
+            children.setdefault(int(parent), []).append(int(stat.parent.name))
+    found, queue = set(), [pid]
+    while queue:
+        for child in children.get(queue.pop(), []):
+            found.add(child)
+            queue.append(child)
+    return found
+
+
+def end_processes(pids: set[int], grace: float = GRACE_SECONDS) -> None:
+    """SIGTERM ``pids``, SIGKILL those still alive after ``grace`` seconds; reap our children."""
+    def signal_all(signum: int) -> None:
+        for pid in pids:
+            try:
+                os.kill(pid, signum)
+            except ProcessLookupError:
+                pass
+
+    def reap() -> None:  # our children among them (adopted orphans) would stay zombies
+        for pid in pids:
+            try:
+                os.waitpid(pid, os.WNOHANG)
+            except ChildProcessError:
+                pass  # not our child: its own parent reaps it
+
+    signal_all(signal.SIGTERM)
+    deadline = time.monotonic() + grace
+    while pids & descendants(os.getpid()) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    if pids & descendants(os.getpid()):
+        signal_all(signal.SIGKILL)
+        time.sleep(0.1)
+    reap()
 
 
 class RunMonitor:

@@ -33,6 +33,9 @@ from demcal.engines.base import (
     RunMonitor,
     RunResult,
     SimulationJob,
+    adopt_orphans,
+    descendants,
+    end_processes,
     signal_name,
     stop_process_group,
 )
@@ -181,6 +184,8 @@ class CommandEngine(Engine):
         partial = workdir / self.settings["partial_file"] if "partial_file" in self.settings else None
         timeout = float(self.settings.get("timeout", float("inf")))
         start, cpu_before = time.monotonic(), os.times()
+        adopt_orphans()
+        ours_before = descendants(os.getpid())
         with open(workdir / LOG_FILE, "w") as log:
             try:
                 proc = subprocess.Popen(command_words(self.settings["command"], fields),
@@ -189,6 +194,8 @@ class CommandEngine(Engine):
             except OSError as exc:
                 return RunResult(FAILED, f"cannot start the simulator: {exc}")
             outcome = self._watch(proc, monitor, partial, start, timeout)
+        # what the simulator left running (detached with setsid or a double fork) ends with it
+        end_processes(descendants(os.getpid()) - ours_before)
         cpu_after = os.times()
         cost = {"wall_s": time.monotonic() - start,
                 "cpu_s": (cpu_after.children_user - cpu_before.children_user)

@@ -18,11 +18,13 @@ from dataclasses import dataclass
 
 @dataclass(frozen=True)
 class EarlyTerminationDecision:
-    """``stop`` is the verdict; ``factor`` the c used (None if not applied); ``reason`` explains it."""
+    """``stop`` is the verdict; ``factor`` the c used and ``limit`` = c f* (None if not applied);
+    ``reason`` explains it."""
 
     stop: bool
     factor: float | None
     reason: str
+    limit: float | None = None
 
 
 def termination_factor(
@@ -65,8 +67,8 @@ def early_termination_decision(
     limit = factor * best_value
     if partial_estimate > limit:
         return EarlyTerminationDecision(
-            True, factor, f"partial estimate {partial_estimate:g} > {factor:g} x best {best_value:g}"
-        )
+            True, factor, f"partial estimate {partial_estimate:g} > {factor:g} x best {best_value:g}",
+            limit)
     return EarlyTerminationDecision(
-        False, factor, f"partial estimate {partial_estimate:g} <= {factor:g} x best {best_value:g}"
-    )
+        False, factor, f"partial estimate {partial_estimate:g} <= {factor:g} x best {best_value:g}",
+        limit)

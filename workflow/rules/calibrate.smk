@@ -35,5 +35,4 @@ rule calibrate:
         snakemake_pid=os.getpid(),
     shell:
         "{params.python:q} -m demcal.cli run {input.config:q} --profile {params.profile:q}"
-        " --watch-pid {params.snakemake_pid}"
-        " 2> >(tee -a {log:q} >&2)"
+        " --watch-pid {params.snakemake_pid} --log {log:q}"

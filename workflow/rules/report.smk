@@ -21,6 +21,8 @@ rule plots:
         report(str(PLOTS / "parallel_coordinates.png"),
                caption="../report/parallel_coordinates.rst",
                category="Parameters and responses"),
+        report(str(PLOTS / "early_termination.png"), caption="../report/early_termination.rst",
+               category="Convergence"),
     log:
         str(FILES.logs / "plots.log"),
     localrule: True
