@@ -98,7 +98,7 @@ def run(args) -> int:
     with _log_file(args.log) as log:
         try:
             return _run(args, log)
-        except DemcalError as exc:
+        except (DemcalError, OSError) as exc:  # main() prints it; the log keeps it too
             if log is not None:
                 print(f"demcal: {exc}", file=log, flush=True)
             raise
@@ -181,12 +181,14 @@ def _commonest_failure(files: StudyFiles) -> str:
     return f", most often: {counts.index[0]!r} ({counts.iloc[0]} of {len(reasons)})"
 
 
-def study_of(argument: str, check_engine: bool = False) -> Study:
-    """The study named by a YAML file, or by its name when results/<name>/study.json exists."""
+def study_of(argument: str) -> Study:
+    """The study named by its YAML file or its name: as it ran (its results/<name>/study.json)
+    once it has run, else as the YAML file gives it."""
     frozen = StudyFiles.of(argument).study
     if not Path(argument).is_file() and "/" not in argument and frozen.is_file():
         return load_frozen(frozen)
-    return load_study_file(argument, check_engine=check_engine)
+    study = load_study_file(argument, check_engine=False)
+    return load_frozen(study.files.study) if study.files.study.is_file() else study
 
 
 STATUS_WORDS = {"ok": "ok", "failed": "failed", "terminated": "stopped early", "pending": "pending"}
@@ -312,8 +314,6 @@ def solutions(args) -> int:
     from demcal.solution_files import write_solutions
 
     study = study_of(args.config)
-    if study.files.study.exists():
-        study = load_frozen(study.files.study)
     if not (args.k > 0 and args.samples >= 64):
         raise ConfigError(f"--k {args.k} must be > 0 and --samples {args.samples} at least 64")
     analysis = write_solutions(study, args.k, args.samples)

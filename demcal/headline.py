@@ -16,7 +16,7 @@ from pathlib import Path
 import pandas as pd
 
 from demcal.study import Study
-from demcal.summary import CHOSEN_BY, with_sd
+from demcal.summary import CHOSEN_BY, duration, with_sd
 
 
 def _table(header: list[str], rows: list[list[str]]) -> list[str]:
@@ -33,12 +33,6 @@ def _image(path: Path) -> list[str]:
     # docutils limits a line to 10000 characters; a URI may continue on indented lines (joined)
     return [".. image::", *(f"   {data[i:i + 76]}" if i else f"   data:image/png;base64,{data[:76]}"
                             for i in range(0, len(data), 76)), "   :width: 100%", ""]
-
-
-def _duration(seconds: float) -> str:
-    if seconds < 60:
-        return f"{seconds:.0f} s" if seconds >= 1 else "under 1 s"
-    return f"{seconds / 60:.0f} min" if seconds < 5400 else f"{seconds / 3600:.1f} h"
 
 
 def _read(path: Path) -> dict | None:
@@ -59,7 +53,7 @@ def report_headline(study: Study) -> str:
     spent = ""
     if files.evaluations_csv.exists():
         cpu = pd.to_numeric(pd.read_csv(files.evaluations_csv)["cpu_s"], errors="coerce").sum()
-        spent = f"; simulation CPU time {_duration(cpu)}"
+        spent = f"; simulation CPU time {duration(cpu)}"
     lines += [f"**Ended:** {finished.get('reason', 'unknown')}. **Evaluations:** "
               f"{sum(counts.values())} ({counts.get('ok', 0)} ok, {counts.get('failed', 0)} failed, "
               f"{counts.get('terminated', 0)} stopped early){spent}.", ""]

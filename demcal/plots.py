@@ -31,6 +31,7 @@ from demcal.files import read_json  # noqa: E402
 from demcal.layout import proposal_id  # noqa: E402
 from demcal.resources import SNAKEFILE  # noqa: E402
 from demcal.study import Study, load_frozen  # noqa: E402
+from demcal.summary import time_unit  # noqa: E402
 
 FIGURES = ("objective_vs_evaluation", "objective_vs_time", "parameter_traces",
            "responses_vs_targets", "parallel_coordinates", "early_termination")
@@ -49,13 +50,6 @@ def load_table(study: Study) -> pd.DataFrame:
     order = table.sort_values("ended_at").index
     table.loc[order, "cpu_total_s"] = table.loc[order, "cpu_s"].cumsum()
     return table
-
-
-def time_unit(seconds: float) -> tuple[str, float]:
-    """The unit that keeps a time axis reaching ``seconds`` readable, and its size in seconds."""
-    if seconds < 180:
-        return "s", 1.0
-    return ("min", 60.0) if seconds < 3 * 3600 else ("h", 3600.0)
 
 
 def objective_label(study: Study) -> str:

@@ -12,6 +12,19 @@ from demcal.objective import relative_error
 from demcal.resources import SNAKEFILE
 from demcal.study import Study
 
+
+def time_unit(seconds: float) -> tuple[str, float]:
+    """The unit that keeps a time reaching ``seconds`` readable (text or axis), and its size in s."""
+    if seconds < 180:
+        return "s", 1.0
+    return ("min", 60.0) if seconds < 3 * 3600 else ("h", 3600.0)
+
+
+def duration(seconds: float) -> str:
+    """A time in words with its readable unit: 45 s, 22 min, 5.6 h."""
+    unit, size = time_unit(seconds)
+    return f"{seconds / size:.2g} {unit}" if seconds / size < 10 else f"{seconds / size:.0f} {unit}"
+
 #: How the best point was chosen (``Optimizer.best()["chosen_by"]``), in words.
 CHOSEN_BY = {"response models": "lowest objective predicted from the response models",
              "objective surrogate": "lowest of observed and surrogate-predicted objective"}

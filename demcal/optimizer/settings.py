@@ -13,12 +13,14 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from .designs import DESIGNS
 from .registry import STRATEGIES
+from .surrogates import SURROGATE_MODELS
 
-SURROGATES = ("cubic_rbf", "kriging", "smt_rbf")
+SURROGATES = tuple(SURROGATE_MODELS)
 #: Models of each response for the response strategies and the best point (demcal.optimizer.responses)
 RESPONSE_MODELS = ("kriging", "cubic_rbf")
-INITIAL_DESIGNS = ("symmetric_latin_hypercube", "latin_hypercube", "sobol")
+INITIAL_DESIGNS = tuple(DESIGNS)
 
 
 @dataclass(frozen=True)

@@ -294,12 +294,15 @@ class SMTRadialBasis(Surrogate):
         return self.model.predict_values(x).ravel()
 
 
+#: The scalar surrogates by their settings name: (duplicate_tolerance, restarts, seed) -> model.
+SURROGATE_MODELS = {
+    "cubic_rbf": lambda tolerance, restarts, seed: CubicRBF(tolerance),
+    "kriging": lambda tolerance, restarts, seed: KrigingSurrogate(tolerance, restarts=restarts,
+                                                                  seed=seed),
+    "smt_rbf": lambda tolerance, restarts, seed: SMTRadialBasis(tolerance),
+}
+
+
 def make_surrogate(name: str, duplicate_tolerance: float, restarts: int = 5, seed: int = 0) -> Surrogate:
-    """The surrogate named in the settings (``cubic_rbf``, ``kriging``, ``smt_rbf``)."""
-    if name == "cubic_rbf":
-        return CubicRBF(duplicate_tolerance)
-    if name == "kriging":
-        return KrigingSurrogate(duplicate_tolerance, restarts=restarts, seed=seed)
-    if name == "smt_rbf":
-        return SMTRadialBasis(duplicate_tolerance)
-    raise ValueError(f"unknown surrogate {name!r}")
+    """The surrogate named in the settings (a key of ``SURROGATE_MODELS``)."""
+    return SURROGATE_MODELS[name](duplicate_tolerance, restarts, seed)
