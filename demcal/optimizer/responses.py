@@ -92,18 +92,17 @@ class ResponseRBF(CubicRBF):
         return np.full(len(x), self.data.scale * self.loo_rms)
 
 
-#: A Kriging response model is refitted from the last length scales with one
-#: start; every this many refits, and whenever the data grew by a quarter,
-#: with all ``kriging_restarts`` starts again.
+#: A Kriging response model is refitted from the last fit's length scales and
+#: nugget with one start; every this many refits, whenever the data grew by a
+#: quarter, and after a degenerate fit, with all ``kriging_restarts`` starts.
 FULL_REFIT_EVERY = 8
 
 
 def make_response_model(kind: str, duplicate_tolerance: float, restarts: int, seed: int,
-                        warm_start: Surrogate | None = None) -> Surrogate:
+                        warm_start: tuple[np.ndarray, float] | None = None) -> Surrogate:
     if kind == "kriging":
-        theta0 = getattr(warm_start, "length_scales", None)
-        return KrigingSurrogate(duplicate_tolerance, restarts=1 if theta0 is not None else restarts,
-                                seed=seed, theta0=theta0)
+        return KrigingSurrogate(duplicate_tolerance, restarts=1 if warm_start is not None else restarts,
+                                seed=seed, warm_start=warm_start)
     if kind == "cubic_rbf":
         return ResponseRBF(duplicate_tolerance)
     raise ValueError(f"unknown response model {kind!r}")
@@ -130,11 +129,12 @@ class ResponseModels:
             cached = self._fitted.get(key)
             if cached is None or cached[0] != signature:
                 refits, size = self._since_full.get(key, (0, 0))
-                full = cached is None or refits + 1 >= FULL_REFIT_EVERY or len(y) > 1.25 * size
+                due = cached is None or refits + 1 >= FULL_REFIT_EVERY or len(y) > 1.25 * size
+                start = None if due else getattr(cached[1], "warm_start", None)
                 model = make_response_model(self.kind, self.duplicate_tolerance, self.restarts, self.seed,
-                                            warm_start=None if full else cached[1])
+                                            warm_start=start)
                 self._fitted[key] = (signature, model.fit(x, y, variance))
-                self._since_full[key] = (0, len(y)) if full else (refits + 1, size)
+                self._since_full[key] = (0, len(y)) if start is None else (refits + 1, size)
             models[key] = self._fitted[key][1]
         return models
 

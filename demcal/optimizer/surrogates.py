@@ -218,6 +218,12 @@ class CubicRBF(Surrogate):
         return kernel @ self.weights + x @ self.tail[:-1] + self.tail[-1]
 
 
+#: A Kriging nugget (relative to the process variance) this large leaves only the trend.
+DEGENERATE_NUGGET = 1e6
+#: The nugget search starts at least here (a start at ~0 stays at an interpolating fit).
+NUGGET_START_MIN = 1e-6
+
+
 class KrigingSurrogate(Surrogate):
     """Universal Kriging (Rackl & Hanley 2017): SMT KRG, Matérn 5/2, linear drift, nugget.
 
@@ -228,12 +234,12 @@ class KrigingSurrogate(Surrogate):
     caps_large_values = False  # capping plus a nugget made the fit mostly trend and noise
 
     def __init__(self, duplicate_tolerance: float = 1e-7, restarts: int = 5, seed: int = 0,
-                 theta0: np.ndarray | None = None):
+                 warm_start: tuple[np.ndarray, float] | None = None):
         super().__init__(duplicate_tolerance)
         self.restarts = restarts
         self.seed = seed
-        #: start of the length-scale search (a previous fit's optimum: a warm start)
-        self.theta0 = theta0
+        #: start of the hyperparameter search, (length scales, nugget): a previous fit's optimum
+        self.start = warm_start
 
     def _fit_standardised(self, data: TrainingData) -> None:
         from smt.surrogate_models import KRG
@@ -244,12 +250,12 @@ class KrigingSurrogate(Surrogate):
             corr="matern52",
             poly=trend,
             eval_noise=True,
-            noise0=[float(max(np.mean(data.noise), 1e-6))],
+            noise0=[max(float(np.mean(data.noise)) if self.start is None else self.start[1], NUGGET_START_MIN)],
             hyper_opt="Cobyla",
             n_start=self.restarts,
             seed=self.seed,
             print_global=False,
-            **({} if self.theta0 is None or len(self.theta0) != d else {"theta0": list(self.theta0)}),
+            **({} if self.start is None or len(self.start[0]) != d else {"theta0": list(self.start[0])}),
         )
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -262,9 +268,16 @@ class KrigingSurrogate(Surrogate):
             return self.model.predict_values(x).ravel()
 
     @property
-    def length_scales(self) -> np.ndarray | None:
-        """The fitted correlation parameters (theta), for a warm start of the next fit."""
-        return None if self.constant else np.asarray(self.model.optimal_theta, float)
+    def warm_start(self) -> tuple[np.ndarray, float] | None:
+        """(length scales, nugget) of this fit, to start the next fit from; None when there is
+        nothing to start from or the fit is degenerate (a nugget so large that only the trend
+        is left: a start there stays there)."""
+        if self.constant:
+            return None
+        nugget = float(np.ravel(self.model.optimal_noise)[0])
+        if nugget >= DEGENERATE_NUGGET:
+            return None
+        return np.asarray(self.model.optimal_theta, float), nugget
 
     def predict_std(self, x) -> np.ndarray:
         x = np.atleast_2d(np.asarray(x, float))

@@ -67,6 +67,30 @@ def test_models_are_refitted_only_on_new_data():
     assert all(first[k] is again[k] for k in first)
 
 
+def test_a_refit_starts_from_the_last_length_scales_and_nugget_unless_that_fit_was_degenerate():
+    """A warm start of the length scales alone restarted the nugget near 0 and the single start
+    stayed there, or ran off to a nugget of 1e10 (only the trend left, the early-termination
+    limit 9 times too lax in the quickstart's replay): the nugget is carried over too, and a
+    degenerate fit is followed by a full refit."""
+    rng = np.random.default_rng(4)
+    opt = optimizer()
+    for proposal in opt.ask(8):
+        noisy = {k: [v * (1.0 + 0.01 * rng.standard_normal())] for k, v in lift(proposal.x).items()}
+        opt.tell(proposal.id, responses=noisy)
+    models = ResponseModels("kriging", 1e-7, 3, 0)
+    first = models.fit(opt.records, ["lift.density"], 2)["lift.density"]
+    theta, nugget = first.warm_start
+    assert nugget == pytest.approx(float(np.ravel(first.model.optimal_noise)[0]))
+    opt.tell(opt.ask(1)[0].id, responses={k: [v] for k, v in lift((0.5, 0.2)).items()})
+    warm = models.fit(opt.records, ["lift.density"], 2)["lift.density"]
+    assert warm.restarts == 1 and warm.start[1] == pytest.approx(max(nugget, 1e-6))
+    warm.model.optimal_noise = np.array([1e10])  # as the degenerate fit left it
+    assert warm.warm_start is None
+    opt.tell(opt.ask(1)[0].id, responses={k: [v] for k, v in lift((0.3, 0.1)).items()})
+    after = models.fit(opt.records, ["lift.density"], 2)["lift.density"]
+    assert after.restarts == 3 and after.start is None
+
+
 def test_best_is_the_evaluated_point_with_the_lowest_predicted_objective():
     rng = np.random.default_rng(0)
     opt = optimizer(strategy="dycors")
