@@ -20,7 +20,7 @@ import pandas as pd
 
 from demcal.daemon.progress import clock
 from demcal.files import atomic_write_text, read_partial
-from demcal.layout import read_launch
+from demcal.layout import evaluation_id, read_launch
 from demcal.optimizer import Optimizer
 from demcal.plots import (
     evaluation_statuses,
@@ -33,7 +33,7 @@ from demcal.study import Study
 
 
 def _png(draw) -> str:
-    """An <img> of the figure ``draw(path)`` saves, embedded as a data URI."""
+    """An <img> of the figure that ``draw(out)`` saves to ``out``, embedded as a data URI."""
     buffer = io.BytesIO()
     draw(buffer)
     plt.close("all")
@@ -70,7 +70,7 @@ def live_page(study: Study, state: str, counts: str, refresh_s: float) -> str:
     """The page as HTML: state, running evaluations and the two live figures."""
     files = study.files
     optimizer = Optimizer.from_json(files.optimizer.read_text())
-    pending = [f"e{r['id']:04d}" for r in optimizer.records if r["status"] == "pending"]
+    pending = [evaluation_id(r["id"]) for r in optimizer.records if r["status"] == "pending"]
     estimates = load_estimates(study)
     parts = [f"<h1>demcal: {html.escape(study.name)}</h1>",
              f"<p><b>{html.escape(state)}</b><br>{html.escape(counts)}<br>"
