@@ -90,7 +90,7 @@ PR_SET_CHILD_SUBREAPER = 36
 def adopt_orphans() -> None:
     """Become the reaper of this process's orphaned descendants (Linux), so that a simulator's
     process that detaches (``setsid``, a double fork) is re-parented here, not to init, and
-    ``end_descendants`` still finds it. Elsewhere nothing changes."""
+    ``descendants`` still finds it for ``end_processes``. Elsewhere nothing changes."""
     try:
         ctypes.CDLL(None, use_errno=True).prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0)
     except (OSError, AttributeError):

@@ -228,7 +228,8 @@ class KrigingSurrogate(Surrogate):
     """Universal Kriging (Rackl & Hanley 2017): SMT KRG, Matérn 5/2, linear drift, nugget.
 
     The nugget (``eval_noise``) is estimated by maximum likelihood; the mean
-    replicate variance, when given, is its starting value.
+    replicate variance, when given, is its starting value. A ``warm_start``
+    (length scales, nugget) of a previous fit starts the search there instead.
     """
 
     caps_large_values = False  # capping plus a nugget made the fit mostly trend and noise
