@@ -256,8 +256,8 @@ def watch(args) -> int:
     from demcal.live import write_live_page
 
     study = study_of(args.config)
-    if args.every < 1:
-        raise ConfigError(f"--every {args.every}: give at least 1 s between updates")
+    if not 1 <= args.every <= 3600:  # NaN fails too
+        raise ConfigError(f"--every {args.every}: give 1 to 3600 s between updates")
     if not study.files.optimizer.exists():
         print(f"demcal: study {study.name!r} has not started; start it, then watch it")
         return 0

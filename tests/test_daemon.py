@@ -178,6 +178,11 @@ def test_bad_config_is_one_message(tmp_path):
     proc = demcal(tmp_path, "run", study(tmp_path, "good"), "--workers", "-1")
     _, err = proc.communicate(timeout=60)
     assert (proc.returncode, err.strip()) == (2, "demcal: --workers -1: give at least 1 (evaluations in flight)")
+    for every in ("nan", "inf", "0"):
+        proc = demcal(tmp_path, "watch", study(tmp_path, "good"), "--every", every)
+        _, err = proc.communicate(timeout=60)
+        assert (proc.returncode, err.strip()) == (
+            2, f"demcal: --every {float(every)}: give 1 to 3600 s between updates")
 
 
 def test_resume_with_a_changed_study_is_refused_but_budget_may_grow(tmp_path):
