@@ -18,8 +18,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import fcntl
-import json
 import logging
 import os
 import sys
@@ -29,8 +27,8 @@ from pathlib import Path
 import pandas as pd
 
 from demcal.config import load_study_file
-from demcal.daemon.children import alive, child_cores, profile_settings
-from demcal.daemon.control import add_point, reopen_failed, request_stop, running_daemon
+from demcal.daemon.children import child_cores, profile_settings
+from demcal.daemon.control import add_point, lock_study, reopen_failed, request_stop, running_daemon
 from demcal.daemon.loop import Calibration
 from demcal.daemon.progress import ProgressDisplay
 from demcal.errors import ConfigError, DemcalError
@@ -53,45 +51,6 @@ def _workers(study: Study, profile: Path | None, given: int | None) -> int:
         raise ConfigError(f"--workers {given}: give at least 1 (evaluations in flight)")
     return int(given or study.calibration.get("workers")
                or profile_settings(profile).get("jobs", DEFAULT_WORKERS))
-
-
-#: Seconds to wait for the lock of a daemon whose Snakemake is gone (it ends within a poll).
-ORPHAN_WAIT_SECONDS = 60.0
-
-
-def lock_study(study: Study, watch_pid: int | None = None):
-    """Hold the study's daemon lock (released when the process ends, even by kill -9).
-
-    The lock file names its holder and the Snakemake the holder watches. A
-    holder whose Snakemake is gone is ending (``Calibration.check_parent``),
-    so its lock is waited for; any other holder is a running calibration.
-    """
-    study.files.dir.mkdir(parents=True, exist_ok=True)
-    path = study.files.daemon_lock
-    lock = open(path, "a+")
-    deadline = time.monotonic() + ORPHAN_WAIT_SECONDS
-    while True:
-        try:
-            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            break
-        except BlockingIOError:
-            if not _holder_is_orphaned(path) or time.monotonic() > deadline:
-                raise DemcalError(f"another demcal daemon is running study {study.name!r} "
-                                  f"(lock {path}); 'demcal stop' ends it") from None
-            time.sleep(0.5)
-    lock.truncate(0)
-    lock.write(json.dumps({"pid": os.getpid(), "watch_pid": watch_pid}))
-    lock.flush()
-    return lock
-
-
-def _holder_is_orphaned(path: Path) -> bool:
-    """True if the lock's holder watches a Snakemake that is no longer alive."""
-    try:
-        holder = json.loads(path.read_text() or "{}")
-    except (OSError, ValueError):
-        return False
-    return holder.get("watch_pid") is not None and not alive(int(holder["watch_pid"]))
 
 
 def run(args) -> int:
@@ -197,9 +156,7 @@ STATUS_WORDS = {"ok": "ok", "failed": "failed", "terminated": "stopped early", "
 def study_state(study: Study) -> tuple[str, str]:
     """Whether the study runs, ended (and why) or was interrupted; and its evaluation counts."""
     optimizer = Optimizer.from_json(study.files.optimizer.read_text())
-    counts = {}
-    for record in optimizer.records:
-        counts[record["status"]] = counts.get(record["status"], 0) + 1
+    counts = optimizer.status_counts()
     daemon = running_daemon(study)
     finished = read_json(study.files.finished, "finished.json") if study.files.finished.exists() else None
     if daemon is not None:

@@ -70,7 +70,7 @@ def live_page(study: Study, state: str, counts: str, refresh_s: float) -> str:
     """The page as HTML: state, running evaluations and the two live figures."""
     files = study.files
     optimizer = Optimizer.from_json(files.optimizer.read_text())
-    pending = [evaluation_id(r["id"]) for r in optimizer.records if r["status"] == "pending"]
+    pending = [evaluation_id(i) for i in optimizer.pending()]
     estimates = load_estimates(study)
     parts = [f"<h1>demcal: {html.escape(study.name)}</h1>",
              f"<p><b>{html.escape(state)}</b><br>{html.escape(counts)}<br>"

@@ -25,6 +25,7 @@ def duration(seconds: float) -> str:
     unit, size = time_unit(seconds)
     return f"{seconds / size:.2g} {unit}" if seconds / size < 10 else f"{seconds / size:.0f} {unit}"
 
+
 #: How the best point was chosen (``Optimizer.best()["chosen_by"]``), in words.
 CHOSEN_BY = {"response models": "lowest objective predicted from the response models",
              "objective surrogate": "lowest of observed and surrogate-predicted objective"}

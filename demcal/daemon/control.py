@@ -1,11 +1,16 @@
-"""Acting on a calibration from outside its loop: stop it, send failed evaluations back."""
+"""Acting on a calibration from outside its loop: the daemon lock (who runs it), stop it, send
+failed evaluations back, add a point by hand."""
 
 from __future__ import annotations
 
 import fcntl
 import json
+import os
 import shutil
+import time
+from pathlib import Path
 
+from demcal.daemon.children import alive
 from demcal.daemon.tables import write_evaluations_csv
 from demcal.errors import ConfigError, DemcalError, SimulationFailed
 from demcal.files import atomic_write_text
@@ -91,8 +96,49 @@ def request_stop(study: Study) -> None:
             evaluation_files.stop.touch()
 
 
+#: Seconds to wait for the lock of a daemon whose Snakemake is gone (it ends within a poll).
+ORPHAN_WAIT_SECONDS = 60.0
+
+
+def lock_study(study: Study, watch_pid: int | None = None):
+    """Hold the study's daemon lock (released when the process ends, even by kill -9).
+
+    The lock file names its holder and the Snakemake the holder watches. A
+    holder whose Snakemake is gone is ending (``Calibration.check_parent``),
+    so its lock is waited for; any other holder is a running calibration.
+    """
+    study.files.dir.mkdir(parents=True, exist_ok=True)
+    path = study.files.daemon_lock
+    lock = open(path, "a+")
+    deadline = time.monotonic() + ORPHAN_WAIT_SECONDS
+    while True:
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            break
+        except BlockingIOError:
+            watched = _lock_holder(path).get("watch_pid")
+            if watched is None or alive(int(watched)) or time.monotonic() > deadline:
+                raise DemcalError(f"another demcal daemon is running study {study.name!r} "
+                                  f"(lock {path}); 'demcal stop' ends it") from None
+            time.sleep(0.5)
+    lock.truncate(0)
+    lock.write(json.dumps({"pid": os.getpid(), "watch_pid": watch_pid}))
+    lock.flush()
+    return lock
+
+
+def _lock_holder(path: Path) -> dict:
+    """What the lock file says of its holder: pid and watched Snakemake ({} if unreadable)."""
+    try:
+        holder = json.loads(path.read_text() or "{}")
+    except (OSError, ValueError):
+        return {}
+    return holder if isinstance(holder, dict) else {}
+
+
 def running_daemon(study: Study) -> int | None:
-    """The pid of the daemon that holds the study's lock now, or None when none runs."""
+    """The pid of the daemon that holds the study's lock now (-1 if the file does not say),
+    or None when none runs."""
     path = study.files.daemon_lock
     if not path.exists():
         return None
@@ -101,8 +147,8 @@ def running_daemon(study: Study) -> int | None:
             fcntl.flock(lock, fcntl.LOCK_SH | fcntl.LOCK_NB)
         except BlockingIOError:
             try:
-                return int(json.loads(path.read_text() or "{}").get("pid", 0)) or -1
-            except ValueError:
+                return int(_lock_holder(path).get("pid", 0)) or -1
+            except (TypeError, ValueError):
                 return -1
         fcntl.flock(lock, fcntl.LOCK_UN)
     return None

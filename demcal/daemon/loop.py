@@ -326,16 +326,15 @@ class Calibration:
             write_best(self.study, best, self.optimizer.confirmation(), stop_reason)
 
     def progress(self) -> Progress:
-        records = [r["status"] for r in self.optimizer.records]
-        done, failed = sum(s == "ok" for s in records), sum(s == "failed" for s in records)
-        stopped = sum(s == "terminated" for s in records)
+        counts = self.optimizer.status_counts()
+        failed, stopped = counts.get("failed", 0), counts.get("terminated", 0)
         budget = self.optimizer.settings.max_evaluations
         best = self.optimizer.best()
         best_text = "no result yet" if best is None else (
             f"best {best['value']:.4g} at " + ", ".join(
                 f"{n}={v:.3g}" for n, v in zip(self.names, best["x"])))
         elapsed = self.elapsed()
-        finished = done + failed + stopped
+        finished = self.optimizer.completed_evaluations()
         s = self.optimizer.settings
         # "to budget" only when the budget is the stop to expect: no other rule may end the run first
         budget_rules = not (s.max_seconds or s.target_objective is not None
@@ -373,11 +372,8 @@ class Calibration:
             time.sleep(self.poll_seconds)
         self.write_tables(reason)
         show_progress(self.progress())
-        counts = {}
-        for record in self.optimizer.records:
-            counts[record["status"]] = counts.get(record["status"], 0) + 1
         write_json(self.files.finished, {"reason": reason, "ended_at": time.time(),
-                                         "evaluations": counts})
+                                         "evaluations": self.optimizer.status_counts()})
         log.info("calibration finished: %s", reason)
         return reason
 

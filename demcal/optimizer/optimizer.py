@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections import Counter
 from dataclasses import dataclass
 
 import numpy as np
@@ -291,6 +292,10 @@ class Optimizer:
     def completed_evaluations(self) -> int:
         """Evaluations told so far (ok, failed and terminated)."""
         return sum(1 for r in self.records if r["status"] != "pending")
+
+    def status_counts(self) -> dict[str, int]:
+        """How many evaluations are ok, failed, terminated and pending (only those that occur)."""
+        return dict(Counter(r["status"] for r in self.records))
 
     def pending(self) -> list[int]:
         """Ids handed out and not yet told."""
