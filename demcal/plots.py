@@ -27,6 +27,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from demcal.daemon.watch import ESTIMATE_COLUMNS  # noqa: E402
 from demcal.files import read_json  # noqa: E402
 from demcal.layout import proposal_id  # noqa: E402
 from demcal.resources import SNAKEFILE  # noqa: E402
@@ -178,10 +179,10 @@ def plot_parallel_coordinates(study: Study, table: pd.DataFrame, best: dict | No
 
 
 def load_estimates(study: Study) -> pd.DataFrame:
-    """early_termination.csv (columns: demcal.daemon.watch.ESTIMATE_COLUMNS); empty if none."""
+    """early_termination.csv (columns: ESTIMATE_COLUMNS); empty if none."""
     path = study.files.early_termination
     if not path.exists():
-        return pd.DataFrame(columns=["elapsed_s", "evaluation", "running_s", "estimate", "limit", "stop"])
+        return pd.DataFrame(columns=list(ESTIMATE_COLUMNS))
     return pd.read_csv(path)
 
 
