@@ -16,7 +16,8 @@ PROJECT_FILES = {
 }
 
 setup(
-    packages=find_packages(include=["demcal*"]) + list(PROJECT_FILES),
+    # snakemake_logger_plugin_demcal: the profiles' logger (Snakemake finds loggers by that name)
+    packages=find_packages(include=["demcal*", "snakemake_logger_plugin_demcal"]) + list(PROJECT_FILES),
     package_dir={name: folder for name, (folder, _) in PROJECT_FILES.items()},
     package_data={name: patterns for name, (_, patterns) in PROJECT_FILES.items()},
 )

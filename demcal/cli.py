@@ -22,6 +22,7 @@ import logging
 import os
 import sys
 import time
+import traceback
 from pathlib import Path
 
 import pandas as pd
@@ -362,9 +363,16 @@ def main(argv: list[str] | None = None) -> int:
               f"are kept)", file=sys.stderr)
         return 2
     except Exception as exc:  # a bug: say where the details are, keep the terminal clean
-        logging.getLogger("demcal").exception("internal error")
-        print(f"demcal: internal error: {type(exc).__name__}: {exc} (traceback in the "
-              f"study's daemon.log; please report it)", file=sys.stderr)
+        logs = [h.baseFilename for h in logging.getLogger().handlers
+                if isinstance(h, logging.FileHandler) and h.baseFilename != os.devnull]
+        if logs:
+            logging.getLogger("demcal").exception("internal error")
+            where = f"traceback in {logs[0]}"
+        else:  # before the study's log exists: the traceback is all there is to report
+            traceback.print_exc()
+            where = "traceback above"
+        print(f"demcal: internal error: {type(exc).__name__}: {exc} ({where}; please report it)",
+              file=sys.stderr)
         return 3
 
 

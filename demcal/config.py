@@ -55,7 +55,15 @@ def _schema_message(error: jsonschema.ValidationError, schema: dict) -> str:
         words = {"minimum": ">=", "maximum": "<=", "exclusiveMinimum": ">",
                  "exclusiveMaximum": "<"}
         return f"{where}: {value!r} must be {words[kind]} {error.validator_value}"
+    if kind in ("minItems", "minProperties"):
+        given = len(value)
+        return (f"{where}: {given or 'none'} given; give at least {error.validator_value}"
+                + (" (their standard deviation is the spread)" if where.endswith("repeats") else ""))
     if kind == "type":
+        wanted = error.validator_value if isinstance(error.validator_value, list) else [error.validator_value]
+        if isinstance(value, str) and {"number", "integer"} & set(wanted):
+            return (f"{where}: {value!r} is text, not a number ({' or '.join(wanted)}); "
+                    f"write it without quotes")
         return f"{where}: {value!r} is not of type {error.validator_value}"
     return f"{where}: {error.message}"
 
@@ -114,6 +122,11 @@ def _targets(config: dict, scenes: dict[str, Scene]) -> list[Target]:
             raise ConfigError(f"targets[{i}]: {t['scene']}.{t['response']} is targeted twice")
         seen.add(key)
         value, spread = _target_value(t, i)
+        response = scene.responses[t["response"]]
+        if not response.lower <= value <= response.upper:
+            raise ConfigError(f"targets[{i}]{'' if 'repeats' in t else '.value'}: {value:g} "
+                              f"{unit} is not a possible {t['response']}; it lies in "
+                              f"[{response.lower:g}, {response.upper:g}] {unit}")
         targets.append(Target(t["scene"], t["response"], value,
                               float(t.get("weight", default("targets", "weight"))), spread))
     return targets
@@ -130,7 +143,16 @@ def _target_value(target: dict, index: int) -> tuple[float, float | None]:
     if given:
         raise ConfigError(f"targets[{index}].{given[0]}: given together with repeats, which "
                           f"determine it (their mean and standard deviation); give one or the other")
-    return statistics.fmean(target["repeats"]), statistics.stdev(target["repeats"])
+    repeats = target["repeats"]
+    try:  # exact arithmetic: a float sum of large repeats would overflow where their mean does not
+        value, spread = float(statistics.mean(repeats)), float(statistics.stdev(repeats))
+    except OverflowError:
+        value, spread = math.inf, math.inf
+    if not math.isfinite(spread):
+        raise ConfigError(f"targets[{index}].repeats: their standard deviation is beyond the "
+                          f"largest float ({max(repeats, key=abs):g} among them); give the repeats "
+                          f"in the response's unit")
+    return value, spread
 
 
 def _parameters(config: dict, scenes: dict[str, Scene]) -> tuple[list[FreeParameter], dict]:
@@ -172,24 +194,6 @@ def _parameters(config: dict, scenes: dict[str, Scene]) -> tuple[list[FreeParame
     return free, {**defaults, **fixed}
 
 
-_YAML12_FLOAT = re.compile(r"^[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)([eE][-+]?[0-9]+)?$")
-
-
-def yaml12_numbers(value):
-    """Read strings such as '5.0e6' as numbers.
-
-    PyYAML follows YAML 1.1, where an exponent needs a sign and a dot
-    (5.0e+6), so 5e6 arrives as text; YAML 1.2 and users read it as a number.
-    """
-    if isinstance(value, dict):
-        return {k: yaml12_numbers(v) for k, v in value.items()}
-    if isinstance(value, list):
-        return [yaml12_numbers(v) for v in value]
-    if isinstance(value, str) and _YAML12_FLOAT.match(value):
-        return float(value)
-    return value
-
-
 def refuse_non_finite(value, where: str = "") -> None:
     """Raise ConfigError naming the first NaN or infinite number in a config mapping.
 
@@ -212,7 +216,6 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
     """Validate a study configuration (mapping from YAML) and resolve it into a ``Study``."""
     if not isinstance(config, dict):
         raise ConfigError("the configuration must be a mapping of fields (YAML object)")
-    config = yaml12_numbers(config)
     refuse_non_finite(config)
     validate_schema(config)
     scenes = _scenes_of(config)
@@ -265,8 +268,19 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
                  warnings=[warning] if warning else [])
 
 
+#: Largest study file demcal reads (bytes); a study is a few hundred lines.
+MAX_STUDY_FILE_BYTES = 1_000_000
+#: Most values a study file may hold once its YAML aliases are expanded.
+MAX_STUDY_VALUES = 100_000
+
+
 class StrictLoader(yaml.SafeLoader):
-    """YAML's safe loader that refuses a key given twice in one mapping (YAML keeps the last)."""
+    """YAML's safe loader, strict where a study file needs it.
+
+    A key given twice in one mapping is refused (YAML keeps the last), and
+    plain scalars such as 5e6 are numbers as in YAML 1.2 (PyYAML follows
+    YAML 1.1, where an exponent needs a dot and a sign); quoted text stays text.
+    """
 
     def construct_mapping(self, node, deep=False):
         seen = set()
@@ -279,23 +293,84 @@ class StrictLoader(yaml.SafeLoader):
         return super().construct_mapping(node, deep=deep)
 
 
+StrictLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)[eE][-+]?[0-9]+$"), list("-+0123456789."))
+
+
+def expanded_size(node: yaml.Node, limit: int) -> int:
+    """Values in a composed YAML document with every alias expanded, counted up to ``limit``.
+
+    Aliases share their node, so composing costs nothing; a few hundred bytes
+    of nested aliases (a "billion laughs" file) would expand into billions of
+    values when the study is read, and a node that contains itself forever.
+    """
+    sizes: dict[int, int] = {}
+
+    def size(item: yaml.Node, inside: frozenset) -> int:
+        if id(item) in sizes:
+            return sizes[id(item)]
+        if id(item) in inside:
+            raise ConfigError("a YAML alias refers to the node that contains it")
+        children = ([part for pair in item.value for part in pair] if isinstance(item, yaml.MappingNode)
+                    else item.value if isinstance(item, yaml.SequenceNode) else [])
+        total = 1
+        for child in children:
+            total += size(child, inside | {id(item)})
+            if total > limit:
+                break
+        sizes[id(item)] = total
+        return total
+
+    return size(node, frozenset())
+
+
+def _yaml_problem(error: yaml.YAMLError) -> str:
+    """PyYAML's several-line message as one clause: where, then what."""
+    mark = getattr(error, "problem_mark", None)
+    where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+    problem = getattr(error, "problem", None) or str(error)
+    return f"{where}: {' '.join(problem.split())}"
+
+
 def read_study_yaml(path: str | Path) -> dict:
     """The mapping of a YAML study file, read strictly; every problem is a ConfigError naming the file."""
     path = Path(path)
     try:
-        config = yaml.load(path.read_text(encoding="utf-8"), Loader=StrictLoader)
+        with path.open("rb") as stream:
+            raw = stream.read(MAX_STUDY_FILE_BYTES + 1)
+        if len(raw) > MAX_STUDY_FILE_BYTES:
+            raise ConfigError(f"larger than {MAX_STUDY_FILE_BYTES // 1000} kB; a study file is a "
+                              f"few hundred lines of YAML")
+        loader = StrictLoader(raw.decode("utf-8"))
+        try:
+            document = loader.get_single_node()
+            if document is not None and expanded_size(document, MAX_STUDY_VALUES) > MAX_STUDY_VALUES:
+                raise ConfigError(f"its YAML aliases expand to more than {MAX_STUDY_VALUES} values "
+                                  f"(nested aliases, a 'billion laughs' file?); write the study "
+                                  f"out without them")
+            config = loader.construct_document(document) if document is not None else None
+        finally:
+            loader.dispose()
     except FileNotFoundError:
         raise ConfigError(f"configuration file not found: {path}") from None
     except IsADirectoryError:
         raise ConfigError(f"{path} is a directory; give the study's YAML file") from None
     except UnicodeDecodeError as exc:
         raise ConfigError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+    except PermissionError:
+        raise ConfigError(f"{path}: not readable (permission denied)") from None
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc}") from None
     except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: not valid YAML: {exc}") from None
+        raise ConfigError(f"{path}: not valid YAML{_yaml_problem(exc)}") from None
+    except RecursionError:
+        raise ConfigError(f"{path}: nested too deeply to be a study file") from None
     if not isinstance(config, dict):
         raise ConfigError(f"{path}: a study file is a YAML mapping (study:, engine:, parameters:, ...)")
+    if "__use_yte__" in config:  # refused before Snakemake would render it (and run its code)
+        raise ConfigError(f"{path}: __use_yte__: a study file is data, not a YTE template "
+                          f"(whose Python expressions Snakemake would run); write the values out")
     return config
 
 

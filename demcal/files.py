@@ -12,7 +12,9 @@ import json
 import math
 import os
 import tempfile
+from itertools import zip_longest
 from pathlib import Path
+from stat import S_ISREG
 
 from demcal.errors import SimulationFailed
 
@@ -62,11 +64,23 @@ def write_json(path: Path, record: dict) -> None:
     atomic_write_text(path, json.dumps(_finite_or_none(record), indent=2, sort_keys=True) + "\n")
 
 
-def read_json(path: Path, what: str) -> dict:
-    """Read a JSON object; a missing, truncated or garbled file raises SimulationFailed."""
+def byte_size(count: int) -> str:
+    """A size for a message: in bytes below a megabyte, else in MB."""
+    return f"{count} bytes" if count < 2**20 else f"{count / 2**20:.3g} MB"
+
+
+def read_json(path: Path, what: str, limit: int | None = None) -> dict:
+    """Read a JSON object; a missing, truncated or garbled file, or one of more than ``limit``
+    bytes (read no further), raises SimulationFailed."""
     path = Path(path)
     try:
-        record = json.loads(path.read_text())
+        with open(path, "rb") as handle:
+            text = handle.read(-1 if limit is None else limit + 1)
+            if limit is not None and len(text) > limit:
+                size = os.fstat(handle.fileno()).st_size
+                raise SimulationFailed(f"{what} {path} is {byte_size(size)}, more than the limit "
+                                       f"of {byte_size(limit)}")
+        record = json.loads(text)
     except FileNotFoundError:
         raise SimulationFailed(f"{what} missing: {path}") from None
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
@@ -104,26 +118,99 @@ class PartialWriter:
                 writer.writerow((wall, f"{progress:.4f}", stage, response, value, is_final))
 
 
+def partial_row(row: dict) -> dict | None:
+    """One row of a partial.csv (a dict by its header) with its numbers read; None if damaged."""
+    try:
+        return {"wall_s": float(row["wall_s"]),
+                "progress": float(row["progress"]),
+                "stage": row["stage"],
+                "response": row["response"] or None,
+                "value": float(row["value"]) if row["value"] else None,
+                "final": row.get("final") == "1"}
+    except (KeyError, TypeError, ValueError):
+        return None
+
+
 def read_partial(path: Path) -> list[dict]:
     """Rows of a partial.csv as dicts; a torn last line (run still writing) is skipped."""
-    rows = []
     try:
         with open(path, newline="") as handle:
-            for row in csv.DictReader(handle):
-                try:
-                    rows.append({
-                        "wall_s": float(row["wall_s"]),
-                        "progress": float(row["progress"]),
-                        "stage": row["stage"],
-                        "response": row["response"] or None,
-                        "value": float(row["value"]) if row["value"] else None,
-                        "final": row.get("final") == "1",
-                    })
-                except (KeyError, TypeError, ValueError):
-                    continue
+            return [row for row in map(partial_row, csv.DictReader(handle)) if row is not None]
     except FileNotFoundError:
         return []
-    return rows
+
+
+#: Bytes a GrowingCsv reads at a time, and of the end of what it read (checked unchanged).
+CHUNK_BYTES, MARK_BYTES = 2**20, 256
+
+
+class GrowingCsv:
+    """A CSV file that another process appends to, read on from where the last read stopped.
+
+    ``read_on`` hands each row completed since the last call to ``take`` (a
+    dict by the header's names); a last line without its newline waits until
+    it is complete. A file truncated, rewritten or replaced is read again from
+    its start, after ``forget`` drops what was learnt from the old one. Only
+    new bytes are read, a chunk at a time; a file of more than ``limit`` bytes
+    raises SimulationFailed. Subclasses say what a row means.
+    """
+
+    def __init__(self, path: Path, what: str, limit: int | None = None):
+        self.path, self.what, self.limit = Path(path), what, limit
+        self._start(None)
+
+    def forget(self) -> None:
+        """Drop what was learnt from the rows read so far."""
+
+    def take(self, row: dict) -> None:
+        """Learn from one row."""
+
+    def _start(self, identity: tuple | None) -> None:
+        self.identity, self.offset, self.mark, self.columns = identity, 0, b"", None
+        self.forget()
+
+    def read_on(self) -> None:
+        """Read the rows completed since the last call (none while the file is missing)."""
+        try:  # without blocking: a FIFO in the file's place would wait for a writer
+            with open(os.open(self.path, os.O_RDONLY | os.O_NONBLOCK), "rb") as handle:
+                self._read_on(handle)
+        except OSError:
+            return  # not written yet, or unreadable: nothing new
+
+    def _read_on(self, handle) -> None:
+        stat = os.fstat(handle.fileno())
+        if not S_ISREG(stat.st_mode):
+            return
+        if self.limit is not None and stat.st_size > self.limit:
+            raise SimulationFailed(f"{self.what} grew beyond {byte_size(self.limit)}")
+        identity = (stat.st_dev, stat.st_ino)
+        before = os.pread(handle.fileno(), len(self.mark), self.offset - len(self.mark))
+        if identity != self.identity or stat.st_size < self.offset or before != self.mark:
+            self._start(identity)
+        handle.seek(self.offset)
+        remaining, pending = stat.st_size - self.offset, b""
+        while remaining > 0 and (chunk := handle.read(min(CHUNK_BYTES, remaining))):
+            remaining -= len(chunk)
+            pending += chunk
+            end = pending.rfind(b"\n") + 1
+            if end:
+                self._take_lines(pending[:end])
+                pending = pending[end:]
+
+    def _take_lines(self, lines: bytes) -> None:
+        self.offset += len(lines)
+        self.mark = (self.mark + lines[-MARK_BYTES:])[-MARK_BYTES:]
+        for line in lines.decode(errors="replace").split("\n"):
+            try:
+                fields = next(csv.reader([line]), [])
+            except csv.Error:
+                continue
+            if not fields:
+                continue
+            if self.columns is None:
+                self.columns = fields
+            else:
+                self.take(dict(zip_longest(self.columns, fields)))
 
 
 #: Longest log line quoted in a reason (its end: where errors are); bytes read from a log's end.

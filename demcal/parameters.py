@@ -24,7 +24,7 @@ class ParameterSpec:
 
     def allowed(self) -> str:
         """The allowed range as text for error messages."""
-        return f"[{self.lower:g}, {self.upper:g}] {self.unit}".rstrip()
+        return f"[{self.lower:g}, {self.upper:g}] {'' if self.unit == '-' else self.unit}".rstrip()
 
     def contains(self, value: float) -> bool:
         return self.lower <= value <= self.upper

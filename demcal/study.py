@@ -128,9 +128,12 @@ class Study:
                               f"{[p.name for p in self.free]}")
         for p in self.free:
             value = free_values[p.name]
-            if not isinstance(value, (int, float)) or not math.isfinite(value) or not (
-                    p.spec.lower <= value <= p.spec.upper):
-                raise ConfigError(f"params.json: {p.name} = {value!r} is outside the allowed "
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise ConfigError(f"params.json: {p.name} = {value!r} is not a number")
+            if not math.isfinite(value):
+                raise ConfigError(f"params.json: {p.name} = {value} is not a finite number")
+            if not p.spec.contains(value):
+                raise ConfigError(f"params.json: {p.name} = {value:g} is outside the allowed "
                                   f"range {p.spec.allowed()}")
         return {**self.fixed, **{k: float(v) for k, v in free_values.items()}}
 

@@ -38,6 +38,13 @@ def with_sd(value: float | None, sd: float | None) -> str:
     return f"{value:.4g}" + (f" ±{sd:.2g}" if sd else "")
 
 
+def _given(value) -> str:
+    """A parameter value as recorded: a number to 4 digits, anything else (a hand-written
+    params.json's text) as it was given."""
+    is_number = isinstance(value, (int, float)) and not isinstance(value, bool)
+    return f"{value:.4g}" if is_number else repr(value)
+
+
 def evaluation_summary(study: Study, record: dict, where: Path, best: dict | None = None) -> str:
     """Status, parameters, responses against targets and objective of one evaluation.
 
@@ -50,8 +57,9 @@ def evaluation_summary(study: Study, record: dict, where: Path, best: dict | Non
              + (f", objective {record['objective']:.4g}" if "objective" in record else "")]
     params = record.get("parameters", {})
     units = {p.name: p.spec.unit for p in study.free if p.spec.unit != "-"}
-    lines.append("  parameters: " + ", ".join(
-        f"{k} = {v:.4g} {units.get(k, '')}".rstrip() for k, v in params.items()))
+    lines.append("  parameters: " + (", ".join(
+        f"{k} = {_given(v)} {units.get(k, '')}".rstrip() for k, v in params.items())
+        or "none recorded (see the reason)"))
     for name, side in (best or {}).get("on_bounds", {}).items():
         bound = next(p for p in study.free if p.name == name)
         lines.append(f"  warning: {name} lies on its {side} bound "

@@ -2,21 +2,27 @@
 
 import ast
 import importlib.util
+import os
 import re
 import subprocess
 import sys
 import textwrap
 import threading
 import time
+import tracemalloc
 from pathlib import Path
 
 import pytest
 
+from demcal.daemon.watch import latest_estimates
+from demcal.engines import command
 from demcal.engines.analytic import AnalyticEngine
 from demcal.engines.base import FAILED, OK, TERMINATED, RunMonitor, SimulationJob
-from demcal.engines.command import CommandEngine, command_words
+from demcal.engines.command import CommandEngine, SimulatorProgress, command_words
 from demcal.engines.lammps import LammpsEngine
+from demcal.errors import ConfigError
 from demcal.files import read_partial
+from demcal.layout import EvaluationFiles
 from demcal.parameters import CATALOG
 from demcal.scenes import SCENES
 
@@ -92,12 +98,22 @@ def test_analytic_failure_injection_always_and_once(tmp_path):
 
 
 SIMULATOR = textwrap.dedent("""
-    import json, sys, time
+    import json, os, signal, sys, time
     mu, seed, mode = float(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
     with open("progress.csv", "w") as f:
         f.write("progress,response,value\\n0.5,bulk_density,%g\\n" % (1400 + mu))
     if mode == "crash":
         sys.exit("solver diverged")
+    if mode == "segv":
+        os.kill(os.getpid(), signal.SIGSEGV)
+    if mode == "flood_partial":  # 3 MB of estimates of responses nobody asked for, then a hang
+        with open("progress.csv", "a") as f:
+            for i in range(120_000):
+                f.write("0.6,made_up_%d,%d\\n" % (i, i))
+                if i % 4000 == 0:
+                    f.flush()
+                    time.sleep(0.05)
+        time.sleep(30)
     if mode.startswith("detach"):  # a process of its own session, as with setsid or a double fork
         import subprocess
         sleeper = subprocess.Popen(["sleep", "300"], start_new_session=True)
@@ -114,6 +130,9 @@ SIMULATOR = textwrap.dedent("""
         json.dump({"bulk_density": lies[mode], "angle_of_repose": 20 + mu}, open("out.json", "w"))
     elif mode == "array":
         json.dump([1400, 20], open("out.json", "w"))
+    elif mode == "huge":
+        json.dump({"bulk_density": 1400, "angle_of_repose": 20, "log": "x" * 2_000_000},
+                  open("out.json", "w"))
     elif mode != "silent":
         json.dump({"bulk_density": 1400 + mu, "angle_of_repose": 20 + mu}, open("out.json", "w"))
 """)
@@ -146,12 +165,104 @@ def test_command_engine_reads_responses(tmp_path):
     ("list", r"out.json: 'bulk_density' is \[1400\] \(list\), not a number$"),
     ("array", r"simulator responses file is not a JSON object"),
     ("flood", r"simulator exited with code 1: \.\.\.x+ solver diverged \(its output: command.log"),
+    ("segv", r"^simulator died from SIGSEGV \(no output\)$"),
+    ("huge", r"^simulator responses file \S+/out.json is 1.91 MB, more than the limit of 1 MB$"),
 ])
 def test_command_engine_failures_have_reasons(tmp_path, mode, reason):
     result = run(command_engine(tmp_path, mode), make_job(tmp_path))
     assert result.status == FAILED
     assert re.search(reason, result.reason), result.reason
     assert len(result.reason) < 600  # a flooding simulator's 4 MB line is not copied into records
+
+
+def test_a_flooding_partial_file_fails_the_run_in_bounded_memory(tmp_path, monkeypatch):
+    """Past its limit the simulator is stopped with a reason; demcal copies only the job's
+    responses into partial.csv and never holds the simulator's file in memory."""
+    monkeypatch.setattr(command, "PARTIAL_FILE_BYTES", 2**20)
+    engine = command_engine(tmp_path, "flood_partial")
+    engine.settings["timeout"] = 8.0
+    job = make_job(tmp_path)
+    tracemalloc.start()
+    try:
+        result = run(engine, job)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert result.status == FAILED
+    assert result.reason.startswith("partial file progress.csv grew beyond 1 MB; the simulator "
+                                    "was stopped"), result.reason
+    assert peak < 8 * 2**20
+    assert {r["response"] for r in read_partial(job.partial_file)} == {"bulk_density"}
+    assert job.partial_file.stat().st_size < 10_000
+
+
+def write(path, text, mode="a"):
+    with open(path, mode) as handle:
+        handle.write(text)
+
+
+def test_simulator_progress_reads_on_from_where_it_stopped(tmp_path):
+    """Read in pieces, a half-written last line waiting for its end, it learns what one read of
+    the whole file does; a file cut short or replaced is read again from its start."""
+    path = tmp_path / "progress.csv"
+    pieces = ["progress,response,value\n0.1,bulk_density,1401\n0.2,", "", "angle_of_repose,2",
+              "1\n0.3,bulk_density,14", "02\n0.4,made_up,7\n0.5,,\n0.6,bulk_density,nan\n"]
+    seen = [(None, {}), (0.1, {"bulk_density": 1401.0}), (0.1, {"bulk_density": 1401.0}),
+            (0.1, {"bulk_density": 1401.0}),
+            (0.2, {"bulk_density": 1401.0, "angle_of_repose": 21.0}),
+            (0.6, {"bulk_density": 1402.0, "angle_of_repose": 21.0})]
+    progress = SimulatorProgress(path, "progress.csv", ["bulk_density", "angle_of_repose"])
+    progress.read_on()  # not written yet
+    assert (progress.progress, progress.estimates) == seen[0]
+    for piece, expected in zip(pieces, seen[1:]):
+        write(path, piece)
+        progress.read_on()
+        assert (progress.progress, progress.estimates) == expected
+    whole = SimulatorProgress(path, "progress.csv", ["bulk_density", "angle_of_repose"])
+    whole.read_on()
+    assert (whole.progress, whole.estimates) == (progress.progress, progress.estimates)
+
+    write(path, "progress,response,value\n0.05,angle_of_repose,30\n", mode="w")  # rewritten
+    progress.read_on()
+    assert (progress.progress, progress.estimates) == (0.05, {"angle_of_repose": 30.0})
+    replacement = tmp_path / "new.csv"
+    write(replacement, "progress,response,value\n0.07,angle_of_repose,31\n", mode="w")
+    os.replace(replacement, path)  # same size, another file
+    progress.read_on()
+    assert (progress.progress, progress.estimates) == (0.07, {"angle_of_repose": 31.0})
+
+
+def test_the_daemon_reads_partial_csv_on_as_a_whole_read_would(tmp_path):
+    """The early-termination watch, fed a partial.csv a few bytes at a time, sees at each step
+    the latest estimates that a whole read of the complete lines finds (none of a torn line)."""
+    job = make_job(tmp_path)
+    run(AnalyticEngine({"noise": 0.0, "chunks": 6}), job)
+    text = job.partial_file.read_bytes()
+    files = EvaluationFiles(tmp_path / "evals" / "e1")
+    growing = files.replicate("cylinder_lift", 0).partial
+    growing.parent.mkdir(parents=True)
+    complete = tmp_path / "complete.csv"
+    for end in range(0, len(text) + 1, 7):
+        growing.write_bytes(text[:end])  # rewritten in place, its start unchanged: an append
+        complete.write_bytes(text[:text.rfind(b"\n", 0, end) + 1])
+        whole = {f"cylinder_lift.{r['response']}": [r["value"]] for r in read_partial(complete)
+                 if r["response"] is not None and r["value"] is not None}
+        assert latest_estimates(files, ["cylinder_lift"], 1) == whole
+    assert set(whole) == {"cylinder_lift.bulk_density", "cylinder_lift.angle_of_repose"}
+
+
+@pytest.mark.parametrize("executable,message", [
+    ("/no/such/simulator", r"executable '/no/such/simulator' not found$"),
+    ("no_such_simulator_on_path", r"executable 'no_such_simulator_on_path' not found on PATH"),
+    ("{tmp}/sim.py", r"'\S+/sim.py' is not executable \(no execute permission: chmod \+x it"),
+    ("{tmp}", r"'\S+' is not executable \(a directory\)$"),
+])
+def test_command_engine_says_why_it_cannot_run_the_executable(tmp_path, executable, message):
+    (tmp_path / "sim.py").write_text(SIMULATOR)
+    engine = CommandEngine({"command": f"{executable.format(tmp=tmp_path)} {{seed}}",
+                            "responses_file": "out.json"})
+    with pytest.raises(ConfigError, match=message):
+        engine.check([SCENE])
 
 
 def test_command_engine_stop_terminates_the_process(tmp_path):

@@ -1,7 +1,8 @@
 """The early-termination watch (Samuelsson 2023, sec. 2.6 and 3.6.1).
 
 ``latest_estimates`` reads what running simulations have reported so far
-(``partial_responses`` the same as the optimizer is told it for a stopped run);
+(``partial_responses`` the same as the optimizer is told it for a stopped run),
+each poll reading on from where the last one stopped in each ``partial.csv``;
 ``early_termination_decisions`` applies the optimizer's rule to the objective
 estimates, so the loop feeds it and acts on its answer; ``append_estimates``
 keeps the estimates and limits over time in ``early_termination.csv`` (the
@@ -12,11 +13,33 @@ from __future__ import annotations
 
 import csv
 from collections.abc import Callable
+from functools import lru_cache
 from pathlib import Path
 
-from demcal.files import read_partial
+from demcal.files import GrowingCsv, partial_row
 from demcal.layout import EvaluationFiles
 from demcal.optimizer import EarlyTerminationDecision
+
+
+class LatestReports(GrowingCsv):
+    """(value, final) of the latest report of each response in a simulation's partial.csv."""
+
+    def __init__(self, path: Path):
+        super().__init__(path, "partial.csv")
+
+    def forget(self) -> None:
+        self.latest: dict[str, tuple[float, bool]] = {}
+
+    def take(self, row: dict) -> None:
+        report = partial_row(row)
+        if report is not None and report["response"] is not None and report["value"] is not None:
+            self.latest[report["response"]] = (report["value"], report["final"])
+
+
+@lru_cache(maxsize=4096)  # far more files than simulations run at once; one evicted starts over
+def _reports(path: Path) -> LatestReports:
+    """The reports of one partial.csv, kept between polls so that each reads only what is new."""
+    return LatestReports(path)
 
 
 def _latest(files: EvaluationFiles, scenes: list[str], replicates: int
@@ -25,11 +48,9 @@ def _latest(files: EvaluationFiles, scenes: list[str], replicates: int
     reports: dict[str, list[tuple[float, bool]]] = {}
     for scene in scenes:
         for replicate in range(replicates):
-            latest = {}
-            for row in read_partial(files.replicate(scene, replicate).partial):
-                if row["response"] is not None and row["value"] is not None:
-                    latest[row["response"]] = (row["value"], row["final"])
-            for response, report in latest.items():
+            replicate_reports = _reports(files.replicate(scene, replicate).partial)
+            replicate_reports.read_on()
+            for response, report in replicate_reports.latest.items():
                 reports.setdefault(f"{scene}.{response}", []).append(report)
     return reports
 

@@ -7,13 +7,14 @@ the run directory), ``{workdir}``, ``{seed}``, ``{timestep_fraction}``,
 value can inject a command. The simulator writes ``responses_file`` (a JSON
 object response -> value, relative to the run directory) and may append
 ``partial_file`` (CSV with columns progress,response,value; response and
-value may be empty) while it runs. A STOP request terminates the process
-group and records the run as terminated.
+value may be empty) while it runs; demcal reads on from where its last poll
+stopped and keeps the estimates of the job's responses. Either file beyond
+its size limit fails the run. A STOP request terminates the process group and
+records the run as terminated.
 """
 
 from __future__ import annotations
 
-import csv
 import json
 import math
 import os
@@ -40,9 +41,11 @@ from demcal.engines.base import (
     stop_process_group,
 )
 from demcal.errors import ConfigError, SimulationFailed
-from demcal.files import log_tail, read_json
+from demcal.files import GrowingCsv, log_tail, read_json
 
 POLL_SECONDS = 0.5
+#: Largest responses file read (a JSON object of a few numbers) and partial file followed.
+RESPONSES_FILE_BYTES, PARTIAL_FILE_BYTES = 2**20, 16 * 2**20
 LOG_FILE = "command.log"
 FIXED_PLACEHOLDERS = ("input", "workdir", "seed", "timestep_fraction", "scene")
 #: Files demcal itself keeps in a run directory; a simulator's file may not take their names.
@@ -101,21 +104,33 @@ def simulator_numbers(values: dict, names: list[str], where: str) -> dict[str, f
     return numbers
 
 
-def _read_simulator_partial(path: Path) -> tuple[float | None, dict[str, float]]:
-    """Latest progress and latest estimate per response from the simulator's CSV."""
-    progress, estimates = None, {}
-    try:
-        with open(path, newline="") as handle:
-            for row in csv.DictReader(handle):
-                try:
-                    progress = float(row["progress"])
-                    if row.get("response") and row.get("value"):
-                        estimates[row["response"]] = float(row["value"])
-                except (KeyError, TypeError, ValueError):
-                    continue
-    except FileNotFoundError:
-        pass
-    return progress, estimates
+class SimulatorProgress(GrowingCsv):
+    """Latest progress, and latest finite estimate of each of ``responses``, from the
+    simulator's partial file; more than PARTIAL_FILE_BYTES raises SimulationFailed."""
+
+    def __init__(self, path: Path, name: str, responses: list[str]):
+        self.responses = set(responses)
+        super().__init__(path, f"partial file {name}", PARTIAL_FILE_BYTES)
+
+    def forget(self) -> None:
+        self.progress: float | None = None
+        self.estimates: dict[str, float] = {}
+
+    def take(self, row: dict) -> None:
+        try:
+            progress = float(row["progress"])
+        except (KeyError, TypeError, ValueError):
+            return
+        if not math.isfinite(progress):
+            return
+        self.progress = progress
+        if row.get("response") in self.responses:
+            try:
+                value = float(row["value"])
+            except (TypeError, ValueError):
+                return
+            if math.isfinite(value):
+                self.estimates[row["response"]] = value
 
 
 class CommandEngine(Engine):
@@ -142,8 +157,15 @@ class CommandEngine(Engine):
             raise ConfigError(f"engine.command: cannot split {template!r}: {exc}") from None
         executable = words[0]
         if shutil.which(executable) is None:
-            raise ConfigError(f"engine.command: executable {executable!r} not found on PATH "
-                              f"(is the simulator installed?)")
+            if "/" not in executable:
+                raise ConfigError(f"engine.command: executable {executable!r} not found on PATH "
+                                  f"(is the simulator installed?)")
+            path = Path(executable)
+            if not path.exists():
+                raise ConfigError(f"engine.command: executable {executable!r} not found")
+            why = ("a directory" if path.is_dir() else
+                   "no execute permission: chmod +x it, or put its interpreter first in the command")
+            raise ConfigError(f"engine.command: {executable!r} is not executable ({why})")
         for word in words:
             try:
                 fields = list(string.Formatter().parse(word))
@@ -160,6 +182,10 @@ class CommandEngine(Engine):
         if unknown:
             raise ConfigError(f"engine.command: unknown placeholder {{{unknown[0]}}}; "
                               f"allowed: {', '.join(sorted(known))}")
+        if "input" in placeholders(template) and "input" not in self.settings:
+            raise ConfigError("engine.command: {input} needs engine.input, the file that is "
+                              "copied into the run directory and named by {input}; give "
+                              "engine.input or take {input} out of the command")
         if "input" in self.settings and not Path(self.settings["input"]).is_file():
             raise ConfigError(f"engine.input: file {self.settings['input']!r} not found")
 
@@ -170,7 +196,7 @@ class CommandEngine(Engine):
         """Run the command template; ``driver`` is unused (scenes name none for this engine)."""
         workdir = Path(job.workdir).resolve()
         fields = {**job.parameters, "workdir": str(workdir), "seed": job.seed,
-                  "timestep_fraction": job.timestep_fraction, "scene": job.scene, "input": ""}
+                  "timestep_fraction": job.timestep_fraction, "scene": job.scene}
         if "input" in self.settings:
             source = Path(self.settings["input"])
             shutil.copy(source, workdir / source.name)
@@ -181,7 +207,9 @@ class CommandEngine(Engine):
                                      f"resolves outside the run directory (a symbolic link?); "
                                      f"nothing was run or deleted")
         responses_path.unlink(missing_ok=True)
-        partial = workdir / self.settings["partial_file"] if "partial_file" in self.settings else None
+        partial = (SimulatorProgress(workdir / self.settings["partial_file"],
+                                     self.settings["partial_file"], job.responses)
+                   if "partial_file" in self.settings else None)
         timeout = float(self.settings.get("timeout", float("inf")))
         start, cpu_before = time.monotonic(), os.times()
         adopt_orphans()
@@ -206,19 +234,21 @@ class CommandEngine(Engine):
             tail = log_tail(workdir / LOG_FILE)
             how = (f"died from {signal_name(proc.returncode)}" if proc.returncode < 0
                    else f"exited with code {proc.returncode}")
-            return RunResult(FAILED, f"simulator {how}: {tail} (its output: {LOG_FILE} in the run "
-                                     f"directory)", cost=cost)
+            output = (f": {tail} (its output: {LOG_FILE} in the run directory)" if tail
+                      else " (no output)")
+            return RunResult(FAILED, f"simulator {how}{output}", cost=cost)
         try:
-            values = read_json(responses_path, "simulator responses file")
+            values = read_json(responses_path, "simulator responses file", RESPONSES_FILE_BYTES)
             measurements = simulator_numbers(values, job.responses, self.settings["responses_file"])
         except SimulationFailed as exc:
             return RunResult(FAILED, str(exc), cost=cost)
         return RunResult(OK, measurements=measurements, cost=cost)
 
     @staticmethod
-    def _watch(proc, monitor: RunMonitor, partial: Path | None, start: float,
+    def _watch(proc, monitor: RunMonitor, partial: SimulatorProgress | None, start: float,
                timeout: float) -> tuple[str, str] | None:
-        """Wait for the process, forwarding progress; stop it on STOP or timeout."""
+        """Wait for the process, forwarding progress; stop it on STOP, timeout or a partial
+        file beyond its limit."""
         last = None
         while proc.poll() is None:
             if monitor.stop_requested() or time.monotonic() - start > timeout:
@@ -227,9 +257,15 @@ class CommandEngine(Engine):
                     return TERMINATED, "stop requested"
                 return FAILED, f"simulation exceeded the engine timeout of {timeout:g} s"
             if partial is not None:
-                progress, estimates = _read_simulator_partial(partial)
-                if progress is not None and (progress, estimates) != last:
-                    monitor.progress(progress, "run", estimates or None)
-                    last = (progress, estimates)
+                try:
+                    partial.read_on()
+                except SimulationFailed as exc:
+                    stop_process_group(proc)
+                    return FAILED, (f"{exc}; the simulator was stopped (a partial file holds "
+                                    f"progress reports: a row every few seconds, not every step)")
+                reported = (partial.progress, dict(partial.estimates))
+                if partial.progress is not None and reported != last:
+                    monitor.progress(partial.progress, "run", partial.estimates or None)
+                    last = reported
             time.sleep(POLL_SECONDS)
         return None

@@ -8,6 +8,12 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from demcal.errors import ConfigError
+from demcal.parameters import CATALOG
+
+#: Largest possible angle of a slope (repose, shear), deg.
+MAX_ANGLE = 90.0
+#: A bulk density cannot exceed the solid density of its particles (the catalogue's largest), kg/m^3.
+MAX_BULK_DENSITY = CATALOG["particle_density"].upper
 
 
 def saturating(value: float, scale: float) -> float:
@@ -52,10 +58,12 @@ class SettingSpec:
 
 @dataclass(frozen=True)
 class ResponseSpec:
-    """A bulk response a scene can produce."""
+    """A bulk response a scene can produce, in ``unit``, physically between ``lower`` and ``upper``."""
 
     unit: str
     description: str
+    lower: float = 0.0
+    upper: float = math.inf
 
 
 @dataclass(frozen=True)

@@ -23,7 +23,7 @@ def invocation_profile():
 rule calibrate:
     input:
         # the study file as given (YAML); the daemon validates and freezes it
-        config=workflow.configfiles[0] if workflow.configfiles else STUDY_FILE,
+        config=STUDY_FILE if "study_file" in config else STUDY_YAML[0],
     output:
         str(FILES.finished),
     log:

@@ -35,7 +35,7 @@ import numpy as np
 from demcal.errors import ConfigError, SimulationFailed
 from demcal.granular import measure
 from demcal.granular.psd import diameter_range
-from demcal.scenes.base import ResponseSpec, Scene, SettingSpec
+from demcal.scenes.base import MAX_ANGLE, ResponseSpec, Scene, SettingSpec
 from demcal.scenes.calibration_device.analytic import analytic_model
 
 #: Discharged fractions between which the hopper's mass is fitted for the mass flow.
@@ -146,7 +146,7 @@ SCENE = Scene(
         "slide_time": ResponseSpec("s", "time from opening until the hopper and slide are "
                                         "empty, penalised if never"),
         "angle_of_repose": ResponseSpec("deg", "angle at the inflexion point of a sigmoid "
-                                               "fitted to the pile profile"),
+                                               "fitted to the pile profile", upper=MAX_ANGLE),
     },
     settings={
         "particle_count": SettingSpec(1500, "-", "number of spheres", 10, 1_000_000, integer=True),

@@ -20,7 +20,7 @@ from __future__ import annotations
 from demcal.errors import ConfigError
 from demcal.granular import measure
 from demcal.granular.psd import diameter_range
-from demcal.scenes.base import ResponseSpec, Scene, SettingSpec
+from demcal.scenes.base import MAX_ANGLE, MAX_BULK_DENSITY, ResponseSpec, Scene, SettingSpec
 from demcal.scenes.cylinder_lift.analytic import analytic_model
 
 
@@ -64,8 +64,10 @@ SCENE = Scene(
                 "rolling_friction_pw", "restitution", "youngs_modulus", "poisson_ratio",
                 "particle_density"),
     responses={
-        "bulk_density": ResponseSpec("kg/m^3", "mass of the settled fill / (pi R^2 fill height)"),
-        "angle_of_repose": ResponseSpec("deg", "angle of the heap flank after the lift"),
+        "bulk_density": ResponseSpec("kg/m^3", "mass of the settled fill / (pi R^2 fill height)",
+                                     upper=MAX_BULK_DENSITY),
+        "angle_of_repose": ResponseSpec("deg", "angle of the heap flank after the lift",
+                                        upper=MAX_ANGLE),
     },
     settings={
         "particle_count": SettingSpec(2000, "-", "number of spheres", 10, 1_000_000, integer=True),

@@ -35,7 +35,7 @@ import math
 from demcal.errors import ConfigError
 from demcal.granular import measure
 from demcal.granular.psd import diameter_range
-from demcal.scenes.base import ResponseSpec, Scene, SettingSpec
+from demcal.scenes.base import MAX_ANGLE, MAX_BULK_DENSITY, ResponseSpec, Scene, SettingSpec
 from demcal.scenes.shear_box.analytic import analytic_model
 
 #: Spheres generated fill the box at the densest random packing, so the
@@ -117,10 +117,11 @@ SCENE = Scene(
                 "particle_density"),
     responses={
         "bulk_density": ResponseSpec("kg/m^3", "mass of the spheres whose centres lie in the "
-                                               "filled, struck-off box / box volume"),
+                                               "filled, struck-off box / box volume",
+                                     upper=MAX_BULK_DENSITY),
         "shear_angle": ResponseSpec("deg", "slope of the material left in the box after the "
                                            "flap opened: line fit of the surface against the "
-                                           "distance along the box"),
+                                           "distance along the box", upper=MAX_ANGLE),
     },
     settings={
         "d50": SettingSpec(11.16e-3, "m", "median particle diameter (by number)", 1.0e-5, 0.1),
