@@ -9,7 +9,8 @@ the hand-written points through ``snakemake --profile profiles/local
 results/.../objective.json``. Verdicts (tests/bad_inputs.py, Outcome.verdict):
 clean (one line, naming what tests/bad_inputs.py expects), other message
 (one demcal line, other words), several lines, traceback, silent, wrongly
-accepted (exit 0 or a simulation started), wrote outside results/.
+accepted (exit 0 or a simulation started), timed out (after
+tests/bad_inputs.py's ROUTE_TIMEOUT), wrote outside results/.
 """
 
 from __future__ import annotations

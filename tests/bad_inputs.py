@@ -325,9 +325,12 @@ class Outcome:
     started: list[str]
 
     def verdict(self, message: str) -> str:
-        """clean (one line matching ``message``), or how it fell short."""
+        """clean (one line matching ``message``), or how it fell short (a bomb that is
+        expanded times out)."""
         text = "\n".join(self.lines)
-        if self.returncode in (0, None) or self.started:
+        if self.returncode is None:
+            return "timed out"
+        if self.returncode == 0 or self.started:
             return "wrongly accepted"
         if "Traceback" in text:
             return "traceback"

@@ -265,6 +265,22 @@ def test_command_engine_says_why_it_cannot_run_the_executable(tmp_path, executab
         engine.check([SCENE])
 
 
+def test_a_relative_executable_path_is_taken_from_where_the_study_was_checked(tmp_path, monkeypatch):
+    """bin/sim passes the check in the project folder and runs from there, not from the run dir."""
+    simulator = tmp_path / "bin" / "sim"
+    simulator.parent.mkdir()
+    simulator.write_text(f"#!{sys.executable}\n" + SIMULATOR)
+    simulator.chmod(0o755)
+    monkeypatch.chdir(tmp_path)
+    engine = CommandEngine({"command": "bin/sim {sliding_friction_pp} {seed} ok",
+                            "responses_file": "out.json"})
+    engine.check([SCENE])
+    run_directory = tmp_path / "results" / "rep0"
+    run_directory.mkdir(parents=True)
+    result = run(engine, make_job(run_directory, sliding_friction_pp=0.25))
+    assert result.status == OK, result.reason
+
+
 def test_command_engine_stop_terminates_the_process(tmp_path):
     job = make_job(tmp_path)
     timer = stop_after(tmp_path / "STOP", 1.0)

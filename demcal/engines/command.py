@@ -79,8 +79,16 @@ def placeholders(template: str) -> set[str]:
 
 
 def command_words(template: str, fields: dict) -> list[str]:
-    """The argument vector: shlex words, each formatted with ``fields``."""
-    return [word.format(**fields) for word in shlex.split(template)]
+    """The argument vector: shlex words, each formatted with ``fields``.
+
+    An executable given as a relative path (bin/sim) is taken from the
+    current directory, where the study was checked, not from the run
+    directory the simulator runs in.
+    """
+    words = [word.format(**fields) for word in shlex.split(template)]
+    if "/" in words[0]:
+        words[0] = os.path.abspath(words[0])
+    return words
 
 
 def simulator_numbers(values: dict, names: list[str], where: str) -> dict[str, float]:
