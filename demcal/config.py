@@ -358,8 +358,8 @@ def read_study_yaml(path: str | Path) -> dict:
         raise ConfigError(f"{path} is a directory; give the study's YAML file") from None
     except UnicodeDecodeError as exc:
         raise ConfigError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
-    except PermissionError:
-        raise ConfigError(f"{path}: not readable (permission denied)") from None
+    except OSError as exc:  # permission denied, an I/O error: the Snakefile too prints it in one line
+        raise ConfigError(f"{path}: cannot be read ({exc.strerror or exc})") from None
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc}") from None
     except yaml.YAMLError as exc:
