@@ -36,6 +36,7 @@ from demcal.errors import ConfigError, DemcalError
 from demcal.files import read_json
 from demcal.layout import RESULTS, StudyFiles, read_objective
 from demcal.optimizer import Optimizer
+from demcal.records import Status
 from demcal.resources import PROFILES_DIR
 from demcal.study import Study, freeze, load_frozen
 from demcal.summary import CHOSEN_BY, confirmation_summary, evaluation_summary
@@ -151,7 +152,7 @@ def study_of(argument: str) -> Study:
     return load_frozen(study.files.study) if study.files.study.is_file() else study
 
 
-STATUS_WORDS = {"ok": "ok", "failed": "failed", "terminated": "stopped early", "pending": "pending"}
+STATUS_WORDS = {Status.OK: "ok", Status.FAILED: "failed", Status.TERMINATED: "stopped early", Status.PENDING: "pending"}
 
 
 def study_state(study: Study) -> tuple[str, str]:
@@ -166,7 +167,7 @@ def study_state(study: Study) -> tuple[str, str]:
         state = f"ended: {finished.get('reason', 'unknown reason')}"
     else:
         state = "not running and not finished (interrupted): 'demcal run' continues it"
-    pending = counts.pop("pending", 0)
+    pending = counts.pop(Status.PENDING, 0)
     line = ", ".join(f"{n} {STATUS_WORDS.get(s, s)}" for s, n in sorted(counts.items()))
     if pending:
         line += f", {pending} " + ("running" if daemon is not None else "pending (resumed by the next run)")

@@ -26,10 +26,11 @@ from pathlib import Path
 import pandas as pd
 
 from demcal.config import default, load_study_file
-from demcal.engines.base import OK, SimulationJob
+from demcal.engines.base import SimulationJob
 from demcal.errors import ConfigError, DemcalError
 from demcal.evaluation import run_engine, scene_responses
 from demcal.files import atomic_write_text
+from demcal.records import Status
 from demcal.study import Study
 from demcal.timestep import check_fraction
 
@@ -91,12 +92,12 @@ def run_variant(config: str, scene: str, variant: Variant, seed_index: int,
            "status": result.status, "reason": result.reason,
            "wall_s": result.cost.get("wall_s"), "cpu_s": result.cost.get("cpu_s"),
            "steps": result.cost.get("steps")}
-    if result.status == OK:
+    if result.status == Status.OK:
         try:
             row.update(scene_responses(study.scenes[scene], job.responses, result.measurements,
                                        lambda: result.arrays, settings))
         except DemcalError as exc:
-            row.update(status="failed", reason=str(exc))
+            row.update(status=Status.FAILED, reason=str(exc))
     return row
 
 
@@ -113,7 +114,7 @@ def summarise(runs: pd.DataFrame, responses: list[str], base: Variant) -> pd.Dat
     ``<response>_noise_pct`` is the seed-to-seed standard deviation relative
     to the mean. Failed runs are listed with their reason.
     """
-    ok = runs[runs["status"] == OK]
+    ok = runs[runs["status"] == Status.OK]
     means = ok.groupby(["fraction", "size"])[responses].mean()
     dt_sweep = means.xs(base.size, level="size", drop_level=False) if len(means) else means
     size_sweep = (means.xs(base.fraction, level="fraction", drop_level=False)
@@ -136,7 +137,7 @@ def summarise(runs: pd.DataFrame, responses: list[str], base: Variant) -> pd.Dat
             row[f"{name}_noise_pct"] = (100.0 * statistics.stdev(group[name]) / abs(mean)
                                         if len(group) > 1 and mean else float("nan"))
         rows.append(row)
-    for _, run in runs[runs["status"] != OK].iterrows():
+    for _, run in runs[runs["status"] != Status.OK].iterrows():
         rows.append({"fraction": run["fraction"], "size": run["size"], "runs_ok": 0,
                      "failure": run["reason"]})
     return pd.DataFrame(rows)

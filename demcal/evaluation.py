@@ -21,11 +21,12 @@ from pathlib import Path
 
 import numpy as np
 
-from demcal.engines.base import FAILED, OK, TERMINATED, RunMonitor, RunResult, SimulationJob
+from demcal.engines.base import RunMonitor, RunResult, SimulationJob
 from demcal.errors import ConfigError, DemcalError, SimulationFailed, bounded_reason
 from demcal.files import read_json, write_json
 from demcal.layout import EvaluationFiles, PointRecord, ReplicateFiles, read_point, write_point
 from demcal.objective import objective_value, relative_error, replicate_mean, replicate_spread
+from demcal.records import Status
 from demcal.scenes.base import Scene
 from demcal.study import Study, load_frozen
 
@@ -55,7 +56,7 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> dict:
         attempt = point.attempt
         parameters = study.parameters_for(point.parameters)
     except (ConfigError, SimulationFailed) as exc:
-        result = RunResult(FAILED, f"bad parameters: {exc}")
+        result = RunResult(Status.FAILED, f"bad parameters: {exc}")
         parameters, seed, attempt = {}, None, None
     else:
         seed = study.simulation_seed(evaluation, scene, replicate, attempt)
@@ -66,7 +67,7 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> dict:
                             stop_file=str(files.stop.resolve()),
                             attempt=attempt)
         result = run_engine(study, job)
-    if result.status == OK and result.arrays:
+    if result.status == Status.OK and result.arrays:
         np.savez(replicate_files.state, **result.arrays)
         record["state_file"] = replicate_files.state.name
     record.update(seed=seed, attempt=attempt, parameters=parameters, status=result.status,
@@ -84,10 +85,10 @@ def run_engine(study: Study, job: SimulationJob) -> RunResult:
         driver = study.scenes[job.scene].driver(study.engine.name)
         return study.engine.run(job, RunMonitor(job), driver)
     except SimulationFailed as exc:
-        return RunResult(FAILED, str(exc))
+        return RunResult(Status.FAILED, str(exc))
     except Exception as exc:  # an engine bug must not lose the evaluation
         log.error("engine %s raised:\n%s", study.engine.name, traceback.format_exc())
-        return RunResult(FAILED, f"engine error: {type(exc).__name__}: {exc}")
+        return RunResult(Status.FAILED, f"engine error: {type(exc).__name__}: {exc}")
 
 
 def extract(study: Study, simulation_path: Path) -> dict:
@@ -96,15 +97,15 @@ def extract(study: Study, simulation_path: Path) -> dict:
     try:
         sim = read_json(simulation_path, "simulation.json")
         record = {k: sim.get(k) for k in ("evaluation", "scene", "replicate", "seed", "cost")}
-        record.update(status=sim.get("status", FAILED), reason=bounded_reason(sim.get("reason", "")),
+        record.update(status=sim.get("status", Status.FAILED), reason=bounded_reason(sim.get("reason", "")),
                       responses={})
-        if record["status"] == OK:
+        if record["status"] == Status.OK:
             record["responses"] = _responses(study, sim, simulation_path.parent)
     except SimulationFailed as exc:
-        record = {"status": FAILED, "reason": str(exc), "responses": {}}
+        record = {"status": Status.FAILED, "reason": str(exc), "responses": {}}
     except (KeyError, TypeError, ValueError) as exc:
-        record = {"status": FAILED, "reason": f"simulation.json malformed or response not "
-                                              f"measurable: {type(exc).__name__}: {exc}",
+        record = {"status": Status.FAILED, "reason": f"simulation.json malformed or response not "
+                                                     f"measurable: {type(exc).__name__}: {exc}",
                   "responses": {}}
     write_json(ReplicateFiles(simulation_path.parent).responses, record)
     return record
@@ -160,14 +161,14 @@ def objective(study: Study, evaluation: str, response_paths: list[Path]) -> dict
         try:
             rec = read_json(path, "responses.json")
         except SimulationFailed as exc:
-            rec = {"status": FAILED, "reason": str(exc)}
+            rec = {"status": Status.FAILED, "reason": str(exc)}
         label = f"{rec.get('scene', Path(path).parent.parent.name)} rep{rec.get('replicate', '?')}"
         cost = rec.get("cost") or {}
         cpu += float(cost.get("cpu_s", 0.0))
         wall += float(cost.get("wall_s", 0.0))
-        if rec.get("status") == FAILED:
+        if rec.get("status") == Status.FAILED:
             failures.append(f"{label}: {rec.get('reason', 'unknown reason')}")
-        elif rec.get("status") == TERMINATED:
+        elif rec.get("status") == Status.TERMINATED:
             terminated = True
         else:
             for name, value in (rec.get("responses") or {}).items():
@@ -180,11 +181,11 @@ def objective(study: Study, evaluation: str, response_paths: list[Path]) -> dict
     record = {"evaluation": evaluation, "parameters": point,
               "cost": {"cpu_s": cpu, "simulation_wall_s": wall}}
     if failures:
-        record.update(status=FAILED, reason=bounded_reason("; ".join(failures)))
+        record.update(status=Status.FAILED, reason=bounded_reason("; ".join(failures)))
     elif terminated:
-        record.update(status=TERMINATED, reason="stopped early (STOP requested)")
+        record.update(status=Status.TERMINATED, reason="stopped early (STOP requested)")
     elif missing := [t.key for t in study.targets if t.key not in values]:
-        record.update(status=FAILED, reason=f"no value for targeted responses {missing}")
+        record.update(status=Status.FAILED, reason=f"no value for targeted responses {missing}")
     else:
         _objective_of_responses(study, point, values, record)
     write_json(files.objective, record)
@@ -197,16 +198,16 @@ def _objective_of_responses(study: Study, point: dict, values: dict[str, list[fl
     try:
         timestep_cost = study.timestep_cost(point)
     except DemcalError as exc:
-        record.update(status=FAILED, reason=f"Rayleigh time-step cost: {exc}")
+        record.update(status=Status.FAILED, reason=f"Rayleigh time-step cost: {exc}")
         return
     means = {key: replicate_mean(v) for key, v in values.items()}
     try:
         value = objective_value(study.targets, means, study.objective_form) + timestep_cost
     except ValueError as exc:
-        record.update(status=FAILED, reason=str(exc))
+        record.update(status=Status.FAILED, reason=str(exc))
         return
     record.update(
-        status=OK, reason="",
+        status=Status.OK, reason="",
         objective=value,
         timestep_cost=timestep_cost,
         responses=means, replicates=dict(values),

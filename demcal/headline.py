@@ -15,6 +15,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from demcal.records import Status
 from demcal.study import Study
 from demcal.summary import CHOSEN_BY, duration, with_sd
 
@@ -55,8 +56,8 @@ def report_headline(study: Study) -> str:
         cpu = pd.to_numeric(pd.read_csv(files.evaluations_csv)["cpu_s"], errors="coerce").sum()
         spent = f"; simulation CPU time {duration(cpu)}"
     lines += [f"**Ended:** {finished.get('reason', 'unknown')}. **Evaluations:** "
-              f"{sum(counts.values())} ({counts.get('ok', 0)} ok, {counts.get('failed', 0)} failed, "
-              f"{counts.get('terminated', 0)} stopped early){spent}.", ""]
+              f"{sum(counts.values())} ({counts.get(Status.OK, 0)} ok, {counts.get(Status.FAILED, 0)} failed, "
+              f"{counts.get(Status.TERMINATED, 0)} stopped early){spent}.", ""]
     if best is None:
         return "\n".join([*lines, "No evaluation succeeded: the reasons are in ``evaluations.csv``.", ""])
     lines += [f"**Best parameters** (evaluation ``{best['evaluation']}``, "

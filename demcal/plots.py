@@ -30,14 +30,15 @@ import pandas as pd  # noqa: E402
 from demcal.daemon.watch import ESTIMATE_COLUMNS  # noqa: E402
 from demcal.files import read_json  # noqa: E402
 from demcal.layout import proposal_id  # noqa: E402
+from demcal.records import Status  # noqa: E402
 from demcal.resources import SNAKEFILE  # noqa: E402
 from demcal.study import Study, load_frozen  # noqa: E402
 from demcal.summary import time_unit  # noqa: E402
 
 FIGURES = ("objective_vs_evaluation", "objective_vs_time", "parameter_traces",
            "responses_vs_targets", "parallel_coordinates", "early_termination")
-STATUS_COLOURS = {"ok": "tab:blue", "terminated": "tab:orange", "failed": "tab:red",
-                  "pending": "tab:green"}
+STATUS_COLOURS = {Status.OK: "tab:blue", Status.TERMINATED: "tab:orange", Status.FAILED: "tab:red",
+                  Status.PENDING: "tab:green"}
 
 
 def load_table(study: Study) -> pd.DataFrame:
@@ -79,8 +80,8 @@ def _finish_stack(fig, axes, path: Path) -> None:
 
 
 def _mark_unfinished(ax, table: pd.DataFrame, x: str) -> None:
-    for status, style in (("terminated", dict(marker="x", color="tab:orange")),
-                          ("failed", dict(marker="|", color="tab:red"))):
+    for status, style in ((Status.TERMINATED, dict(marker="x", color="tab:orange")),
+                          (Status.FAILED, dict(marker="|", color="tab:red"))):
         rows = table[table["status"] == status]
         if len(rows):
             ax.plot(rows[x], np.zeros(len(rows)), linestyle="none", markersize=9,
@@ -89,7 +90,7 @@ def _mark_unfinished(ax, table: pd.DataFrame, x: str) -> None:
 
 
 def _objective_axes(ax, table: pd.DataFrame, x: str, xlabel: str, ylabel: str) -> None:
-    ok = table[table["status"] == "ok"].sort_values(x)
+    ok = table[table["status"] == Status.OK].sort_values(x)
     ax.semilogy(ok[x], ok["objective"], "o", color="tab:blue", label="evaluated")
     ax.semilogy(ok[x], ok["objective"].cummin(), "-", color="black", label="best so far")
     _mark_unfinished(ax, table, x)
@@ -121,8 +122,8 @@ def plot_parameter_traces(study: Study, table: pd.DataFrame, best: dict | None,
                           path: Path) -> None:
     fig, axes = _stacked(len(study.free), 2.2)
     for ax, p in zip(axes, study.free):
-        for status, color in (("ok", "tab:blue"), ("terminated", "tab:orange"),
-                              ("failed", "tab:red")):
+        for status, color in ((Status.OK, "tab:blue"), (Status.TERMINATED, "tab:orange"),
+                              (Status.FAILED, "tab:red")):
             rows = table[table["status"] == status]
             ax.plot(rows["number"], rows[p.name], "o", color=color, markersize=4, label=status)
         if best is not None:
@@ -140,7 +141,7 @@ def plot_parameter_traces(study: Study, table: pd.DataFrame, best: dict | None,
 def plot_responses_vs_targets(study: Study, table: pd.DataFrame, best: dict | None,
                               path: Path) -> None:
     fig, axes = _stacked(len(study.targets), 2.4)
-    ok = table[table["status"] == "ok"]
+    ok = table[table["status"] == Status.OK]
     for ax, t in zip(axes, study.targets):
         unit = study.scenes[t.scene].responses[t.response].unit
         ax.plot(ok["number"], ok[t.key], "o", color="tab:blue", markersize=4, label="simulated")
@@ -160,7 +161,7 @@ def plot_parallel_coordinates(study: Study, table: pd.DataFrame, best: dict | No
     """Every finished evaluation as a line across the free parameters (each axis its bounds),
     coloured by the objective: where the good points lie in all dimensions at once."""
     fig, ax = plt.subplots(figsize=(max(6.0, 1.6 * len(study.free)), 4.2))
-    ok = table[table["status"] == "ok"].sort_values("objective", ascending=False)
+    ok = table[table["status"] == Status.OK].sort_values("objective", ascending=False)
     scaled = np.column_stack([(ok[p.name] - p.lower) / (p.upper - p.lower) for p in study.free])
     positions = np.arange(len(study.free))
     if len(ok):
@@ -203,8 +204,8 @@ def plot_early_termination(study: Study, estimates: pd.DataFrame, statuses: dict
     unit, size = time_unit(float(estimates["elapsed_s"].max()))
     shown = set()
     for evaluation, rows in estimates.groupby("evaluation", sort=True):
-        status = statuses.get(evaluation, "pending")
-        label = None if status in shown else {"pending": "running"}.get(status, status)
+        status = statuses.get(evaluation, Status.PENDING)
+        label = None if status in shown else {Status.PENDING: "running"}.get(status, status)
         shown.add(status)
         ax.semilogy(rows["elapsed_s"] / size, rows["estimate"], "-o", color=STATUS_COLOURS.get(status, "grey"),
                     markersize=3, lw=0.8, label=label)

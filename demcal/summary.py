@@ -9,6 +9,7 @@ from pathlib import Path
 from demcal.errors import SimulationFailed
 from demcal.layout import read_objective
 from demcal.objective import relative_error
+from demcal.records import Status
 from demcal.resources import SNAKEFILE
 from demcal.study import Study
 
@@ -66,7 +67,7 @@ def evaluation_summary(study: Study, record: dict, where: Path, best: dict | Non
                      f"({bound.lower if side == 'lower' else bound.upper:g}): the bounds may cut the "
                      f"solution off; widen them if the physics allows")
     predicted = (best or {}).get("predicted_responses", {})
-    if record.get("status") == "ok":
+    if record.get("status") == Status.OK:
         header = f"  {'response':34s} {'simulated':>14s}"
         if predicted:
             header += f" {'predicted':>16s}"

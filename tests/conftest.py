@@ -33,13 +33,14 @@ ANALYTIC_STUDY = {
 
 def run_and_extract(engine, job):
     """Run one simulation on ``engine``; its responses as the workflow's extract job computes them."""
-    from demcal.engines.base import OK, RunMonitor
+    from demcal.engines.base import RunMonitor
     from demcal.evaluation import scene_responses
+    from demcal.records import Status
 
     scene = SCENES[job.scene]
     result = engine.run(job, RunMonitor(job), scene.driver(engine.name))
     responses = {}
-    if result.status == OK:
+    if result.status == Status.OK:
         responses = scene_responses(scene, job.responses, result.measurements,
                                     lambda: result.arrays, job.settings)
     return result, responses

@@ -6,12 +6,13 @@ import numpy as np
 import pytest
 from conftest import PARAMETER_CORNERS
 
-from demcal.engines.base import FAILED, OK, RunMonitor, SimulationJob
+from demcal.engines.base import RunMonitor, SimulationJob
 from demcal.engines.lammps import LammpsEngine
 from demcal.errors import ConfigError
 from demcal.files import read_partial
 from demcal.granular import measure
 from demcal.parameters import CATALOG
+from demcal.records import Status
 from demcal.scenes import SCENES
 from demcal.scenes.calibration_device import device_geometry
 
@@ -143,7 +144,7 @@ def run_lammps(job):
 def test_tiny_device_gives_plausible_responses_and_an_early_estimate(tmp_path):
     job = tiny_job(tmp_path, ("mass_flow", "slide_time", "angle_of_repose"))
     result = run_lammps(job)
-    assert result.status == OK, result.reason
+    assert result.status == Status.OK, result.reason
     aor = SCENE.extractors["angle_of_repose"](result.arrays, job.settings)
     total = 300 * job.parameters["particle_density"] * math.pi / 6 * 2.0e-3**3
     # a slot of 6 d discharges 2.3 g in well under a second, and not instantly
@@ -161,7 +162,7 @@ def test_mass_flow_alone_ends_when_the_hopper_is_empty(tmp_path):
     short = tiny_job(tmp_path / "short", ("mass_flow",))
     full_result = run_lammps(full)
     short_result = run_lammps(short)
-    assert short_result.status == OK and set(short_result.measurements) >= {"mass_flow"}
+    assert short_result.status == Status.OK and set(short_result.measurements) >= {"mass_flow"}
     assert "slide_time" not in short_result.measurements and "heap_x" not in short_result.arrays
     assert short_result.cost["steps"] < full_result.cost["steps"]
     # same seed, same discharge: the mass flow does not depend on what else is measured
@@ -173,7 +174,7 @@ def test_mass_flow_alone_ends_when_the_hopper_is_empty(tmp_path):
 def test_tiny_device_oversized_time_step_fails_with_a_reason(tmp_path):
     job = tiny_job(tmp_path, ("mass_flow",), fraction=1.5)
     result = run_lammps(job)
-    assert result.status == FAILED and "unstable" in result.reason
+    assert result.status == Status.FAILED and "unstable" in result.reason
 
 
 CORNERS = PARAMETER_CORNERS
@@ -189,7 +190,7 @@ def test_tiny_device_extreme_corners_are_stable(tmp_path, corner):
     """
     job = tiny_job(tmp_path, ("mass_flow", "slide_time", "angle_of_repose"), **CORNERS[corner])
     result = run_lammps(job)
-    assert result.status == OK, result.reason
+    assert result.status == Status.OK, result.reason
     assert result.measurements["mass_flow"] >= 0.0
     assert 0.0 < result.measurements["slide_time"] <= job.settings["max_time"] + 10.0
     assert 0.0 <= SCENE.extractors["angle_of_repose"](result.arrays, job.settings) < 90.0

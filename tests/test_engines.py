@@ -17,13 +17,14 @@ import pytest
 from demcal.daemon.watch import latest_estimates
 from demcal.engines import command
 from demcal.engines.analytic import AnalyticEngine
-from demcal.engines.base import FAILED, OK, TERMINATED, RunMonitor, SimulationJob
+from demcal.engines.base import RunMonitor, SimulationJob
 from demcal.engines.command import CommandEngine, SimulatorProgress, command_words
 from demcal.engines.lammps import LammpsEngine
 from demcal.errors import ConfigError
 from demcal.files import read_partial
 from demcal.layout import EvaluationFiles
 from demcal.parameters import CATALOG
+from demcal.records import Status
 from demcal.scenes import SCENES
 
 SCENE = SCENES["cylinder_lift"]
@@ -62,7 +63,7 @@ def test_analytic_streams_progress_and_early_estimates(tmp_path):
     job = make_job(tmp_path)
     result = run(AnalyticEngine({"noise": 0.0, "chunks": 4}), job)
     rows = read_partial(job.partial_file)
-    assert result.status == OK
+    assert result.status == Status.OK
     assert [r["progress"] for r in rows if r["response"] in (None, "bulk_density")] == [
         0.25, 0.5, 0.75, 1.0]
     assert {r["response"] for r in rows if r["progress"] >= 0.5} == {
@@ -75,7 +76,7 @@ def test_analytic_honours_stop(tmp_path):
     start = time.monotonic()
     result = run(AnalyticEngine({"duration": 5.0, "chunks": 50}), job)
     timer.join()
-    assert result.status == TERMINATED and result.reason == "stop requested"
+    assert result.status == Status.TERMINATED and result.reason == "stop requested"
     assert time.monotonic() - start < 2.0
     assert result.measurements == {}
 
@@ -90,11 +91,11 @@ def test_analytic_failure_injection_always_and_once(tmp_path):
     assert run(engine, make_job(once_dir, sliding_friction_pp=0.5)).reason == "flaky"
     retry = make_job(once_dir, sliding_friction_pp=0.5)
     retry.attempt = 1
-    assert run(engine, retry).status == OK
+    assert run(engine, retry).status == Status.OK
     for _ in range(2):
         result = run(engine, make_job(always_dir, sliding_friction_pp=0.9))
-        assert (result.status, result.reason) == (FAILED, "always broken")
-    assert run(engine, make_job(fine_dir, sliding_friction_pp=0.2)).status == OK
+        assert (result.status, result.reason) == (Status.FAILED, "always broken")
+    assert run(engine, make_job(fine_dir, sliding_friction_pp=0.2)).status == Status.OK
 
 
 SIMULATOR = textwrap.dedent("""
@@ -151,7 +152,7 @@ def test_command_engine_reads_responses(tmp_path):
     engine = command_engine(tmp_path, "ok")
     engine.check([SCENE])
     result = run(engine, job)
-    assert result.status == OK
+    assert result.status == Status.OK
     assert result.measurements == {"bulk_density": 1400.25, "angle_of_repose": 20.25}
 
 
@@ -170,7 +171,7 @@ def test_command_engine_reads_responses(tmp_path):
 ])
 def test_command_engine_failures_have_reasons(tmp_path, mode, reason):
     result = run(command_engine(tmp_path, mode), make_job(tmp_path))
-    assert result.status == FAILED
+    assert result.status == Status.FAILED
     assert re.search(reason, result.reason), result.reason
     assert len(result.reason) < 600  # a flooding simulator's 4 MB line is not copied into records
 
@@ -188,7 +189,7 @@ def test_a_flooding_partial_file_fails_the_run_in_bounded_memory(tmp_path, monke
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
-    assert result.status == FAILED
+    assert result.status == Status.FAILED
     assert result.reason.startswith("partial file progress.csv grew beyond 1 MB; the simulator "
                                     "was stopped"), result.reason
     assert peak < 8 * 2**20
@@ -278,7 +279,7 @@ def test_a_relative_executable_path_is_taken_from_where_the_study_was_checked(tm
     run_directory = tmp_path / "results" / "rep0"
     run_directory.mkdir(parents=True)
     result = run(engine, make_job(run_directory, sliding_friction_pp=0.25))
-    assert result.status == OK, result.reason
+    assert result.status == Status.OK, result.reason
 
 
 def test_command_engine_stop_terminates_the_process(tmp_path):
@@ -287,7 +288,7 @@ def test_command_engine_stop_terminates_the_process(tmp_path):
     start = time.monotonic()
     result = run(command_engine(tmp_path, "slow"), job)
     timer.join()
-    assert result.status == TERMINATED
+    assert result.status == Status.TERMINATED
     assert time.monotonic() - start < 10.0
     assert any(r["response"] == "bulk_density" for r in read_partial(job.partial_file))
 
@@ -300,7 +301,7 @@ def test_processes_a_simulator_detaches_end_with_it(tmp_path, mode):
     engine.settings["timeout"] = 2.0
     job = make_job(tmp_path)
     result = run(engine, job)
-    assert result.status == (FAILED if mode == "detach_hang" else OK), result.reason
+    assert result.status == (Status.FAILED if mode == "detach_hang" else Status.OK), result.reason
     detached = int((Path(job.workdir) / "detached.pid").read_text())
     assert not Path(f"/proc/{detached}").exists()  # ended and reaped
 
@@ -318,7 +319,7 @@ def test_command_engine_never_deletes_through_a_symlink(tmp_path):
     workdir.mkdir()
     (workdir / "out.json").symlink_to(outside)
     result = run(command_engine(tmp_path, "ok"), make_job(workdir))
-    assert result.status == FAILED and "outside the run directory" in result.reason
+    assert result.status == Status.FAILED and "outside the run directory" in result.reason
     assert outside.read_text() == "{}"
 
 
@@ -360,8 +361,8 @@ def test_scenes_name_their_drivers_per_engine():
 def test_lammps_engine_without_a_driver_fails_with_a_reason(tmp_path):
     job = make_job(tmp_path)
     result = LammpsEngine().run(job, RunMonitor(job), None)
-    assert (result.status, result.reason) == (FAILED, "LAMMPS engine has no driver for scene "
-                                                      "'cylinder_lift'")
+    assert (result.status, result.reason) == (Status.FAILED, "LAMMPS engine has no driver for scene "
+                                                             "'cylinder_lift'")
 
 
 def test_recorded_reasons_are_bounded_and_keep_both_ends():

@@ -12,10 +12,11 @@ import time
 import pytest
 from conftest import PARAMETER_CORNERS, run_and_extract
 
-from demcal.engines.base import FAILED, OK, TERMINATED, SimulationJob
+from demcal.engines.base import SimulationJob
 from demcal.engines.lammps import LammpsEngine
 from demcal.files import read_partial
 from demcal.parameters import CATALOG
+from demcal.records import Status
 from demcal.scenes import SCENES
 
 pytestmark = pytest.mark.lammps
@@ -50,7 +51,7 @@ CORNERS = {**PARAMETER_CORNERS,
 def test_extreme_corners_are_stable_and_plausible(tmp_path, corner):
     job = tiny_job(tmp_path, **CORNERS[corner])
     result, responses = simulate(job)
-    assert result.status == OK, result.reason
+    assert result.status == Status.OK, result.reason
     solid_fraction = responses["bulk_density"] / job.parameters["particle_density"]
     assert LOOSE < solid_fraction < DENSE
     assert 0.0 <= responses["angle_of_repose"] < 90.0
@@ -65,7 +66,7 @@ def test_friction_raises_the_heap(tmp_path):
 
 def test_oversized_time_step_fails_with_instability_reason(tmp_path):
     result, _ = simulate(tiny_job(tmp_path, fraction=1.5))
-    assert result.status == FAILED
+    assert result.status == Status.FAILED
     assert "unstable" in result.reason
 
 
@@ -73,7 +74,7 @@ def test_bulk_density_alone_skips_the_lift(tmp_path):
     job = tiny_job(tmp_path, responses=("bulk_density",))
     result, responses = simulate(job)
     stages = {row["stage"] for row in read_partial(job.partial_file)}
-    assert result.status == OK and "bulk_density" in responses
+    assert result.status == Status.OK and "bulk_density" in responses
     assert stages == {"fill"} and "heap_x" not in result.arrays
 
 
@@ -93,7 +94,7 @@ def test_stop_request_terminates_cleanly(tmp_path):
     timer.start()
     result, _ = simulate(job)
     timer.join()
-    assert (result.status, result.reason) == (TERMINATED, "stop requested")
+    assert (result.status, result.reason) == (Status.TERMINATED, "stop requested")
     assert result.arrays == {}
 
 
@@ -102,6 +103,6 @@ def test_a_run_beyond_the_wall_clock_limit_is_killed_and_recorded_as_failed(tmp_
     job = tiny_job(tmp_path, youngs_modulus=6.5e8)
     start = time.monotonic()
     result, _ = run_and_extract(LammpsEngine({"timeout": 1}), job)
-    assert result.status == FAILED
+    assert result.status == Status.FAILED
     assert result.reason.startswith("LAMMPS run exceeded the engine timeout of 1 s (engine.timeout)")
     assert time.monotonic() - start < 4.0

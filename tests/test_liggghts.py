@@ -16,11 +16,12 @@ from conftest import run_and_extract
 
 from demcal.config import load_study
 from demcal.engines import liggghts
-from demcal.engines.base import FAILED, OK, TERMINATED, RunMonitor, SimulationJob
+from demcal.engines.base import RunMonitor, SimulationJob
 from demcal.engines.liggghts import LiggghtsEngine, read_dump, write_ascii_stl
 from demcal.errors import ConfigError, SimulationFailed
 from demcal.files import read_partial
 from demcal.parameters import CATALOG
+from demcal.records import Status
 from demcal.scenes import SCENES
 from demcal.scenes.cylinder_lift.liggghts import CylinderLiftInput, cylinder_triangles, place_spheres, polygon_segments
 from demcal.timestep import rayleigh_time
@@ -159,7 +160,7 @@ def test_run_uses_the_driver_it_is_given(tmp_path, monkeypatch):
     monkeypatch.setattr(liggghts.shutil, "which", lambda name: "/usr/bin/" + name)
     job = tiny_job(tmp_path)
     result = LiggghtsEngine().run(job, RunMonitor(job), None)
-    assert result.status == FAILED and "no driver for scene 'cylinder_lift'" in result.reason
+    assert result.status == Status.FAILED and "no driver for scene 'cylinder_lift'" in result.reason
 
     def refuse(workdir):
         raise SimulationFailed(f"fake driver asked to write into {workdir.name}")
@@ -168,7 +169,7 @@ def test_run_uses_the_driver_it_is_given(tmp_path, monkeypatch):
         return SimpleNamespace(dumps={}, write=refuse)
 
     result = LiggghtsEngine().run(job, RunMonitor(job), fake_driver)
-    assert result.status == FAILED
+    assert result.status == Status.FAILED
     assert result.reason == f"fake driver asked to write into {tmp_path.name}"
 
 
@@ -191,7 +192,7 @@ def test_failures_of_the_child_are_failed_results_with_reasons(tmp_path, monkeyp
     work.mkdir()
     job = tiny_job(work)
     result = LiggghtsEngine().run(job, RunMonitor(job), SCENE.driver("liggghts"))
-    assert result.status == FAILED
+    assert result.status == Status.FAILED
     assert expected in result.reason
     assert result.arrays == {}
 
@@ -221,7 +222,7 @@ def test_version_and_check():
 def test_tiny_cylinder_lift_is_plausible(tmp_path):
     job = tiny_job(tmp_path)
     result, responses = simulate(job)
-    assert result.status == OK, result.reason
+    assert result.status == Status.OK, result.reason
     solid_fraction = responses["bulk_density"] / job.parameters["particle_density"]
     assert 0.42 < solid_fraction < 0.66
     assert 5.0 < responses["angle_of_repose"] < 40.0
@@ -238,7 +239,7 @@ def test_tiny_cylinder_lift_is_plausible(tmp_path):
 @needs_liggghts
 def test_oversized_time_step_fails_with_reason(tmp_path):
     result, _ = simulate(tiny_job(tmp_path, fraction=5.0))
-    assert result.status == FAILED
+    assert result.status == Status.FAILED
     assert "Lost atoms" in result.reason or "unstable" in result.reason
     assert "5 T_R" in result.reason
 
@@ -250,5 +251,5 @@ def test_stop_terminates_the_run(tmp_path):
     timer.start()
     result, _ = simulate(job)
     timer.join()
-    assert result.status == TERMINATED and result.reason == "stop requested"
+    assert result.status == Status.TERMINATED and result.reason == "stop requested"
     assert result.cost["wall_s"] < 5.0

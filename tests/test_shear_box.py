@@ -12,12 +12,13 @@ import pytest
 from conftest import PARAMETER_CORNERS, run_and_extract
 
 from demcal.engines.analytic import AnalyticEngine
-from demcal.engines.base import FAILED, OK, TERMINATED, RunMonitor, SimulationJob
+from demcal.engines.base import RunMonitor, SimulationJob
 from demcal.errors import ConfigError, SimulationFailed
 from demcal.files import read_partial
 from demcal.granular import measure
 from demcal.granular.psd import sample_diameters
 from demcal.parameters import CATALOG
+from demcal.records import Status
 from demcal.scenes import SCENES
 from demcal.scenes.shear_box import box_dimensions, fill_particle_count, mean_sphere_volume
 from demcal.scenes.shear_box.lammps import random_loose_packing
@@ -104,7 +105,7 @@ def test_analytic_engine_runs_the_scene_with_early_estimates(tmp_path):
                         workdir=str(tmp_path), stop_file=str(tmp_path / "STOP"))
     result = AnalyticEngine({"noise": 0.0, "chunks": 4}).run(job, RunMonitor(job),
                                                              SCENE.driver("analytic"))
-    assert result.status == OK
+    assert result.status == Status.OK
     assert result.measurements == pytest.approx(SCENE.analytic_model(DEFAULTS, job.settings))
     assert {r["response"] for r in read_partial(job.partial_file)} >= {"bulk_density",
                                                                        "shear_angle"}
@@ -210,7 +211,7 @@ def plausible(job, responses):
 def test_tiny_box_gives_plausible_responses_and_early_estimates(tmp_path):
     job = tiny_job(tmp_path, sliding_friction_pp=0.5)
     result, responses = simulate(job)
-    assert result.status == OK, result.reason
+    assert result.status == Status.OK, result.reason
     assert 0.45 < responses["bulk_density"] / job.parameters["particle_density"] < 0.7
     assert 10.0 < responses["shear_angle"] < 45.0
     estimates = {(row["stage"], row["response"]) for row in read_partial(job.partial_file)}
@@ -223,14 +224,14 @@ def test_bulk_density_alone_ends_after_the_fill(tmp_path):
     job = tiny_job(tmp_path, responses=("bulk_density",))
     result, responses = simulate(job)
     stages = {row["stage"] for row in read_partial(job.partial_file)}
-    assert result.status == OK and plausible(job, responses)
+    assert result.status == Status.OK and plausible(job, responses)
     assert stages == {"fill"} and "slope_x" not in result.arrays
 
 
 @pytest.mark.lammps
 def test_oversized_time_step_fails_with_instability_reason(tmp_path):
     result, _ = simulate(tiny_job(tmp_path, fraction=1.5))
-    assert result.status == FAILED
+    assert result.status == Status.FAILED
     assert "unstable" in result.reason
 
 
@@ -242,7 +243,7 @@ CORNERS = PARAMETER_CORNERS
 def test_extreme_corners_are_stable_and_plausible(tmp_path, corner):
     job = tiny_job(tmp_path, **CORNERS[corner])
     result, responses = simulate(job)
-    assert result.status == OK, result.reason
+    assert result.status == Status.OK, result.reason
     assert plausible(job, responses), responses
 
 
@@ -253,5 +254,5 @@ def test_stop_request_terminates_cleanly(tmp_path):
     timer.start()
     result, _ = simulate(job)
     timer.join()
-    assert (result.status, result.reason) == (TERMINATED, "stop requested")
+    assert (result.status, result.reason) == (Status.TERMINATED, "stop requested")
     assert result.arrays == {}

@@ -16,6 +16,7 @@ from demcal.errors import ConfigError, DemcalError, SimulationFailed
 from demcal.files import atomic_write_text
 from demcal.layout import PointRecord, evaluation_id, proposal_id, read_objective, read_point, write_point
 from demcal.optimizer import Optimizer
+from demcal.records import Status
 from demcal.study import Study
 
 
@@ -37,7 +38,7 @@ def reopen_failed(study: Study) -> list[str]:
             status = read_objective(evaluation).get("status")
         except SimulationFailed:
             continue
-        if status != "failed":
+        if status != Status.FAILED:
             continue
         point = read_point(evaluation)
         optimizer.reopen(proposal_id(evaluation.id))

@@ -47,6 +47,7 @@ from demcal.layout import (
 )
 from demcal.objective import ResponseObjective, estimated_objective, replicate_objectives
 from demcal.optimizer import Optimizer
+from demcal.records import Status
 from demcal.study import RESUMABLE_OPTIMIZER_SETTINGS, Study
 
 log = logging.getLogger("demcal.daemon")
@@ -121,7 +122,7 @@ class Calibration:
         weights = {t.key: t.weight for t in self.study.targets}
         outcomes = {}
         for record in self.optimizer.records:
-            if record["status"] == "pending":
+            if record["status"] == Status.PENDING:
                 continue
             evaluation = evaluation_id(record["id"])
             try:
@@ -226,7 +227,7 @@ class Calibration:
                 record = read_objective(files)
             except SimulationFailed as exc:
                 tail = log_tail(files.snakemake_log, lines=3)
-                record = {"status": "failed",
+                record = {"status": Status.FAILED,
                           "reason": f"workflow ended with code {child.returncode()} and no "
                                     f"objective ({exc}): {tail}"}
             self.finish(evaluation, record)
@@ -235,29 +236,29 @@ class Calibration:
         point = read_point(self.files.evaluation(evaluation))
         status = record.get("status")
         # after `demcal stop` nothing is launched any more, retries included
-        if status == "failed" and point.attempt < self.retries and not self.files.stop_calibration.exists():
+        if status == Status.FAILED and point.attempt < self.retries and not self.files.stop_calibration.exists():
             self.retry(evaluation, point, record.get("reason", ""))
             return
         pid = proposal_id(evaluation)
-        if status == "ok":
+        if status == Status.OK:
             self.optimizer.tell(pid, value=record["objective"],
                                 replicates=self._replicate_values(record),
                                 responses=record.get("replicates"))
-        elif status == "terminated":  # what it did learn enters the response models
-            self.optimizer.tell(pid, status="terminated", partial=partial_responses(
+        elif status == Status.TERMINATED:  # what it did learn enters the response models
+            self.optimizer.tell(pid, status=Status.TERMINATED, partial=partial_responses(
                 self.files.evaluation(evaluation), list(self.study.scenes),
                 self.study.replicates))
         else:
-            self.optimizer.tell(pid, status="failed")
+            self.optimizer.tell(pid, status=Status.FAILED)
         self.save_state()
         self.stop_requested.discard(evaluation)
         log.info("%s: %s %s", evaluation, status,
-                 record.get("objective", "") if status == "ok" else record.get("reason", ""))
+                 record.get("objective", "") if status == Status.OK else record.get("reason", ""))
         self.write_tables()
 
     def _replicate_values(self, record: dict) -> list[float] | None:
         """Eq. 3.3 per replicate of an objective record, for the optimizer's noise estimate."""
-        if record.get("status") != "ok":
+        if record.get("status") != Status.OK:
             return None
         cost = self.study.timestep_cost(record["parameters"])
         return replicate_objectives(self.study.targets, record.get("replicates", {}),
@@ -327,7 +328,7 @@ class Calibration:
 
     def progress(self) -> Progress:
         counts = self.optimizer.status_counts()
-        failed, stopped = counts.get("failed", 0), counts.get("terminated", 0)
+        failed, stopped = counts.get(Status.FAILED, 0), counts.get(Status.TERMINATED, 0)
         budget = self.optimizer.settings.max_evaluations
         best = self.optimizer.best()
         best_text = "no result yet" if best is None else (

@@ -9,6 +9,7 @@ from datetime import UTC, datetime
 from demcal.errors import SimulationFailed
 from demcal.files import atomic_write_text, write_json
 from demcal.layout import evaluation_id, read_launch, read_objective, read_point
+from demcal.records import Status
 from demcal.study import Study
 
 #: Significant digits of the numbers in evaluations.csv (the JSON records keep every digit).
@@ -63,7 +64,7 @@ def write_evaluations_csv(study: Study) -> None:
             record = read_objective(files)
             ended = files.objective.stat().st_mtime
         except (SimulationFailed, OSError):
-            record, ended = {"status": "running"}, ""
+            record, ended = {"status": Status.RUNNING}, ""
         started = read_launch(files).get("started_at", "")
         row = {"evaluation": files.id, "status": record.get("status"),
                "reason": record.get("reason", ""), "objective": record.get("objective"),

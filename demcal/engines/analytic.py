@@ -22,8 +22,9 @@ from collections.abc import Callable
 
 import numpy as np
 
-from demcal.engines.base import FAILED, OK, TERMINATED, Engine, RunMonitor, RunResult, SimulationJob
+from demcal.engines.base import Engine, RunMonitor, RunResult, SimulationJob
 from demcal.errors import ConfigError
+from demcal.records import Status
 
 
 def _injected_failure(failures: list[dict], parameters: dict) -> dict | None:
@@ -74,15 +75,15 @@ class AnalyticEngine(Engine):
 
         for chunk in range(1, chunks + 1):
             if monitor.stop_requested():
-                return RunResult(TERMINATED, "stop requested", cost=cost(chunk - 1))
+                return RunResult(Status.TERMINATED, "stop requested", cost=cost(chunk - 1))
             time.sleep(duration / chunks)
             progress = chunk / chunks
             if failure is not None and progress >= 0.5 and (
                     failure.get("mode", "always") == "always" or job.attempt == 0):
-                return RunResult(FAILED, failure.get("reason", "injected failure"),
+                return RunResult(Status.FAILED, failure.get("reason", "injected failure"),
                                  cost=cost(chunk))
             # from half way on, the responses are known: final values, flagged so
             early = {r: responses[r] for r in job.responses} if progress >= 0.5 else None
             monitor.progress(progress, "run", early, final=early is not None)
-        return RunResult(OK, measurements={r: responses[r] for r in job.responses},
+        return RunResult(Status.OK, measurements={r: responses[r] for r in job.responses},
                          cost=cost(chunks))

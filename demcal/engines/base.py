@@ -28,8 +28,6 @@ import numpy as np
 
 from demcal.files import PartialWriter
 
-OK, TERMINATED, FAILED = "ok", "terminated", "failed"
-
 
 @dataclass
 class SimulationJob:

@@ -27,9 +27,6 @@ from collections.abc import Callable
 from pathlib import Path, PurePosixPath
 
 from demcal.engines.base import (
-    FAILED,
-    OK,
-    TERMINATED,
     Engine,
     RunMonitor,
     RunResult,
@@ -42,6 +39,7 @@ from demcal.engines.base import (
 )
 from demcal.errors import ConfigError, SimulationFailed
 from demcal.files import GrowingCsv, log_tail, read_json
+from demcal.records import Status
 
 POLL_SECONDS = 0.5
 #: Largest responses file read (a JSON object of a few numbers) and partial file followed.
@@ -211,9 +209,9 @@ class CommandEngine(Engine):
             fields["input"] = source.name
         responses_path = workdir / self.settings["responses_file"]
         if not responses_path.resolve().is_relative_to(workdir):
-            return RunResult(FAILED, f"responses_file {self.settings['responses_file']!r} "
-                                     f"resolves outside the run directory (a symbolic link?); "
-                                     f"nothing was run or deleted")
+            return RunResult(Status.FAILED, f"responses_file {self.settings['responses_file']!r} "
+                                            f"resolves outside the run directory (a symbolic link?); "
+                                            f"nothing was run or deleted")
         responses_path.unlink(missing_ok=True)
         partial = (SimulatorProgress(workdir / self.settings["partial_file"],
                                      self.settings["partial_file"], job.responses)
@@ -228,7 +226,7 @@ class CommandEngine(Engine):
                                         cwd=workdir, stdin=subprocess.DEVNULL, stdout=log,
                                         stderr=subprocess.STDOUT, start_new_session=True)
             except OSError as exc:
-                return RunResult(FAILED, f"cannot start the simulator: {exc}")
+                return RunResult(Status.FAILED, f"cannot start the simulator: {exc}")
             outcome = self._watch(proc, monitor, partial, start, timeout)
         # what the simulator left running (detached with setsid or a double fork) ends with it
         end_processes(descendants(os.getpid()) - ours_before)
@@ -244,13 +242,13 @@ class CommandEngine(Engine):
                    else f"exited with code {proc.returncode}")
             output = (f": {tail} (its output: {LOG_FILE} in the run directory)" if tail
                       else " (no output)")
-            return RunResult(FAILED, f"simulator {how}{output}", cost=cost)
+            return RunResult(Status.FAILED, f"simulator {how}{output}", cost=cost)
         try:
             values = read_json(responses_path, "simulator responses file", RESPONSES_FILE_BYTES)
             measurements = simulator_numbers(values, job.responses, self.settings["responses_file"])
         except SimulationFailed as exc:
-            return RunResult(FAILED, str(exc), cost=cost)
-        return RunResult(OK, measurements=measurements, cost=cost)
+            return RunResult(Status.FAILED, str(exc), cost=cost)
+        return RunResult(Status.OK, measurements=measurements, cost=cost)
 
     @staticmethod
     def _watch(proc, monitor: RunMonitor, partial: SimulatorProgress | None, start: float,
@@ -262,15 +260,15 @@ class CommandEngine(Engine):
             if monitor.stop_requested() or time.monotonic() - start > timeout:
                 stop_process_group(proc)
                 if monitor.stop_requested():
-                    return TERMINATED, "stop requested"
-                return FAILED, f"simulation exceeded the engine timeout of {timeout:g} s"
+                    return Status.TERMINATED, "stop requested"
+                return Status.FAILED, f"simulation exceeded the engine timeout of {timeout:g} s"
             if partial is not None:
                 try:
                     partial.read_on()
                 except SimulationFailed as exc:
                     stop_process_group(proc)
-                    return FAILED, (f"{exc}; the simulator was stopped (a partial file holds "
-                                    f"progress reports: a row every few seconds, not every step)")
+                    return Status.FAILED, (f"{exc}; the simulator was stopped (a partial file holds "
+                                           f"progress reports: a row every few seconds, not every step)")
                 reported = (partial.progress, dict(partial.estimates))
                 if partial.progress is not None and reported != last:
                     monitor.progress(partial.progress, "run", partial.estimates or None)

@@ -26,9 +26,10 @@ from pathlib import Path
 
 import numpy as np
 
-from demcal.engines.base import FAILED, Engine, RunMonitor, RunResult, SimulationJob, signal_name
+from demcal.engines.base import Engine, RunMonitor, RunResult, SimulationJob, signal_name
 from demcal.errors import ConfigError
 from demcal.files import log_tail, read_json, write_json
+from demcal.records import Status
 
 JOB_FILE, RESULT_FILE, STATE_FILE, WORKER_LOG = (
     "lammps-job.json", "lammps-result.json", "lammps-state.npz", "lammps-worker.log")
@@ -81,7 +82,7 @@ class LammpsEngine(Engine):
     def run(self, job: SimulationJob, monitor: RunMonitor,
             driver: Callable[[SimulationJob, RunMonitor], RunResult] | None) -> RunResult:
         if driver is None:
-            return RunResult(FAILED, f"LAMMPS engine has no driver for scene {job.scene!r}")
+            return RunResult(Status.FAILED, f"LAMMPS engine has no driver for scene {job.scene!r}")
         workdir = Path(job.workdir).resolve()
         write_json(workdir / JOB_FILE, {"driver": f"{driver.__module__}:{driver.__qualname__}",
                                         "job": asdict(job)})
@@ -103,15 +104,15 @@ class LammpsEngine(Engine):
         cost = {"wall_s": time.monotonic() - start,
                 "cpu_s": (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)}
         if proc is None:
-            return RunResult(FAILED, f"LAMMPS run exceeded the engine timeout of {timeout:g} s "
-                                     f"(engine.timeout) and was killed (log: "
-                                     f"{log_tail(workdir / WORKER_LOG)})", cost=cost)
+            return RunResult(Status.FAILED, f"LAMMPS run exceeded the engine timeout of {timeout:g} s "
+                                            f"(engine.timeout) and was killed (log: "
+                                            f"{log_tail(workdir / WORKER_LOG)})", cost=cost)
         if proc.returncode < 0:
-            return RunResult(FAILED, f"LAMMPS process died from {signal_name(proc.returncode)} "
-                                     f"(log: {log_tail(workdir / WORKER_LOG)})", cost=cost)
+            return RunResult(Status.FAILED, f"LAMMPS process died from {signal_name(proc.returncode)} "
+                                            f"(log: {log_tail(workdir / WORKER_LOG)})", cost=cost)
         if proc.returncode != 0 or not (workdir / RESULT_FILE).exists():
-            return RunResult(FAILED, f"LAMMPS worker exited with code {proc.returncode}: "
-                                     f"{log_tail(workdir / WORKER_LOG)}", cost=cost)
+            return RunResult(Status.FAILED, f"LAMMPS worker exited with code {proc.returncode}: "
+                                            f"{log_tail(workdir / WORKER_LOG)}", cost=cost)
         record = read_json(workdir / RESULT_FILE, "LAMMPS worker result")
         arrays = {}
         if (workdir / STATE_FILE).exists():

@@ -17,9 +17,10 @@ from pathlib import Path
 import numpy as np
 
 from demcal.contact import GRAVITY, sds_rolling_coefficients
-from demcal.engines.base import OK, TERMINATED, RunMonitor, RunResult, SimulationJob
+from demcal.engines.base import RunMonitor, RunResult, SimulationJob
 from demcal.errors import SimulationFailed
 from demcal.granular.particles import BLOWUP_FACTOR, simulation_particles
+from demcal.records import Status
 
 
 def num(value: float) -> str:
@@ -84,13 +85,13 @@ class LammpsDriver:
         try:
             self.build()
             self.stages(measurements, arrays)
-            status, reason = OK, ""
+            status, reason = Status.OK, ""
         except Stopped:
-            status, reason = TERMINATED, "stop requested"
+            status, reason = Status.TERMINATED, "stop requested"
         finally:
             self.lmp.close()
         return RunResult(status, reason, measurements=measurements,
-                         arrays=arrays if status == OK else {}, cost=self.cost())
+                         arrays=arrays if status == Status.OK else {}, cost=self.cost())
 
     # -- set-up ---------------------------------------------------------------
     def pair_model(self) -> str:

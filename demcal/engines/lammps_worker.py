@@ -19,10 +19,11 @@ from pathlib import Path
 
 import numpy as np
 
-from demcal.engines.base import FAILED, RunMonitor, SimulationJob
+from demcal.engines.base import RunMonitor, SimulationJob
 from demcal.engines.lammps import RESULT_FILE, STATE_FILE, preload_mpi
 from demcal.errors import SimulationFailed
 from demcal.files import read_json, write_json
+from demcal.records import Status
 
 
 def _lammps_message(exc: Exception) -> str:
@@ -42,10 +43,10 @@ def main(job_path: str) -> int:
     try:
         result = driver(job, monitor)
     except SimulationFailed as exc:
-        result_record = {"status": FAILED, "reason": str(exc)}
+        result_record = {"status": Status.FAILED, "reason": str(exc)}
     except Exception as exc:  # LAMMPS raises plain Exception("ERROR: ...")
         traceback.print_exc()
-        result_record = {"status": FAILED, "reason": f"LAMMPS error: {_lammps_message(exc)}"}
+        result_record = {"status": Status.FAILED, "reason": f"LAMMPS error: {_lammps_message(exc)}"}
     else:
         if result.arrays:
             np.savez(job_file.parent / STATE_FILE, **result.arrays)

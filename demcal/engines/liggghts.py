@@ -37,9 +37,6 @@ from typing import Protocol
 import numpy as np
 
 from demcal.engines.base import (
-    FAILED,
-    OK,
-    TERMINATED,
     Engine,
     RunMonitor,
     RunResult,
@@ -50,6 +47,7 @@ from demcal.engines.base import (
 from demcal.errors import ConfigError, SimulationFailed
 from demcal.files import log_tail
 from demcal.granular.particles import BLOWUP_FACTOR
+from demcal.records import Status
 
 BINARY = "liggghts"
 INSTALL_HINT = "install it with: apt-get install liggghts (Debian/Ubuntu, LIGGGHTS 3.8)"
@@ -159,9 +157,9 @@ class LiggghtsEngine(Engine):
             driver: Callable[[SimulationJob], LiggghtsCase] | None) -> RunResult:
         binary = shutil.which(BINARY)
         if binary is None:
-            return RunResult(FAILED, f"the {BINARY!r} binary is not on PATH; {INSTALL_HINT}")
+            return RunResult(Status.FAILED, f"the {BINARY!r} binary is not on PATH; {INSTALL_HINT}")
         if driver is None:
-            return RunResult(FAILED, f"LIGGGHTS engine has no driver for scene {job.scene!r}")
+            return RunResult(Status.FAILED, f"LIGGGHTS engine has no driver for scene {job.scene!r}")
         case: LiggghtsCase = driver(job)
         workdir = Path(job.workdir).resolve()
         for stale in (*case.dumps.values(), LOG):
@@ -169,7 +167,7 @@ class LiggghtsEngine(Engine):
         try:
             case.write(workdir)
         except SimulationFailed as exc:
-            return RunResult(FAILED, str(exc))
+            return RunResult(Status.FAILED, str(exc))
         env = dict(os.environ, OMP_NUM_THREADS="1")
         start = time.monotonic()
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -184,7 +182,7 @@ class LiggghtsEngine(Engine):
                 "cpu_s": (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime),
                 "timestep_s": case.dt, "rayleigh_time_s": case.rayleigh}
         if stopped:
-            return RunResult(TERMINATED, "stop requested", cost=cost)
+            return RunResult(Status.TERMINATED, "stop requested", cost=cost)
         log = (workdir / LOG).read_text(errors="replace") if (workdir / LOG).exists() else ""
         steps = [int(m) for m in re.findall(r"^demcal-done (\d+)", log, re.M)]
         if steps:
@@ -192,12 +190,12 @@ class LiggghtsEngine(Engine):
                         simulated_time_s=steps[0] * case.dt)
         reason = self._failure(proc.returncode, log, workdir, job, case.dt, bool(steps))
         if reason:
-            return RunResult(FAILED, reason, cost=cost)
+            return RunResult(Status.FAILED, reason, cost=cost)
         try:
             measurements, arrays = self._state(case, log, workdir)
         except SimulationFailed as exc:
-            return RunResult(FAILED, str(exc), cost=cost)
-        return RunResult(OK, measurements=measurements, arrays=arrays, cost=cost)
+            return RunResult(Status.FAILED, str(exc), cost=cost)
+        return RunResult(Status.OK, measurements=measurements, arrays=arrays, cost=cost)
 
     @staticmethod
     def _watch(proc, monitor: RunMonitor, case: LiggghtsCase, log: Path) -> bool:

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from demcal.objective import ResponseObjective, replicate_objectives
+from demcal.records import Status
 
 from . import strategies as st
 from .bounds import Bounds, on_bounds
@@ -42,7 +43,7 @@ from .stopping import stop_reason
 from .surrogates import Surrogate, make_surrogate
 
 STATE_VERSION = 1
-STATUSES = ("ok", "failed", "terminated")
+STATUSES = (Status.OK, Status.FAILED, Status.TERMINATED)
 
 
 @dataclass(frozen=True)
@@ -60,7 +61,7 @@ def _outcome(id: int, value: float | None, status: str,
     if status not in STATUSES:
         raise ValueError(f"status: {status!r} is not one of {', '.join(STATUSES)}")
     variance = None
-    if status == "ok":
+    if status == Status.OK:
         if replicates:
             replicates = [float(v) for v in replicates]
             if value is None:
@@ -71,8 +72,8 @@ def _outcome(id: int, value: float | None, status: str,
             raise ValueError(f"evaluation {id}: status ok needs a value or replicates")
         value = float(value)
         if not math.isfinite(value) or (variance is not None and not math.isfinite(variance)):
-            status, value, variance = "failed", None, None
-    return {"status": status, "value": value if status == "ok" else None,
+            status, value, variance = Status.FAILED, None, None
+    return {"status": status, "value": value if status == Status.OK else None,
             "variance": variance, "replicates": replicates}
 
 
@@ -150,7 +151,7 @@ class Optimizer:
         record = {
             "id": self.next_id,
             "x": [float(v) for v in unit],
-            "status": "pending",
+            "status": Status.PENDING,
             "value": None,
             "variance": None,
             "replicates": None,
@@ -184,8 +185,9 @@ class Optimizer:
             ids=tuple(r["id"] for r in records),
             points=np.array([r["x"] for r in records], float).reshape(len(records), dimension),
             statuses=tuple(r["status"] for r in records),
-            values=np.array([r["value"] if r["status"] == "ok" else np.nan for r in records], float),
-            variances=np.array([(r["variance"] or 0.0) if r["status"] == "ok" else np.nan for r in records], float),
+            values=np.array([r["value"] if r["status"] == Status.OK else np.nan for r in records], float),
+            variances=np.array([(r["variance"] or 0.0) if r["status"] == Status.OK else np.nan for r in records],
+                               float),
             in_initial_design=np.array([r["in_initial_design"] for r in records], bool),
             surrogate=self._fitted_surrogate(),
             sigma=self.step.sigma,
@@ -196,7 +198,7 @@ class Optimizer:
             responses=self.response_predictor() if self.settings.strategy in RESPONSE_STRATEGIES else None,
             response_means=tuple(
                 {key: float(np.mean(entry["values"])) for key, entry in r["responses"].items() if entry["final"]}
-                if r["status"] == "ok" and r.get("responses") else None for r in records),
+                if r["status"] == Status.OK and r.get("responses") else None for r in records),
             strategy_state=self.strategy_state,
         )
 
@@ -205,7 +207,7 @@ class Optimizer:
         self,
         id: int,
         value: float | None = None,
-        status: str = "ok",
+        status: str = Status.OK,
         replicates: list[float] | None = None,
         responses: dict[str, list[float]] | None = None,
         partial: dict[str, dict] | None = None,
@@ -225,12 +227,12 @@ class Optimizer:
         (final: the response was complete; else an early estimate).
         """
         record = self._record(id)
-        if record["status"] != "pending":
+        if record["status"] != Status.PENDING:
             raise ValueError(f"evaluation {id} was already told ({record['status']})")
-        if status == "ok" and responses and value is None and replicates is None and self.objective is not None:
+        if status == Status.OK and responses and value is None and replicates is None and self.objective is not None:
             value, replicates = self._objective_of(responses)
         record.update(_outcome(id, value, status, replicates))
-        observed = partial if status == "terminated" else (responses if status == "ok" else None)
+        observed = partial if status == Status.TERMINATED else (responses if status == Status.OK else None)
         if observed:
             record["responses"] = {
                 key: {"values": [float(v) for v in entry["values"]], "final": bool(entry["final"])}
@@ -251,9 +253,9 @@ class Optimizer:
         Its old outcome leaves the surrogate data; the step-size history is kept.
         """
         record = self._record(id)
-        if record["status"] == "pending":
+        if record["status"] == Status.PENDING:
             raise ValueError(f"evaluation {id} is still pending")
-        record.update(status="pending", value=None, variance=None, replicates=None)
+        record.update(status=Status.PENDING, value=None, variance=None, replicates=None)
         record.pop("responses", None)
         self._surrogate_version = -1
 
@@ -266,32 +268,32 @@ class Optimizer:
         """
         for id, (status, value, replicates) in outcomes.items():
             record = self._record(id)
-            if record["status"] == "pending":
+            if record["status"] == Status.PENDING:
                 raise ValueError(f"evaluation {id} is pending, it cannot be re-scored")
             record.update(_outcome(id, value, status, replicates))
-        values = [r["value"] for r in self.records if r["status"] == "ok"]
+        values = [r["value"] for r in self.records if r["status"] == Status.OK]
         self.best_observed = min(values) if values else None
         self._surrogate_version = -1
 
     def _update_progress(self, record: dict) -> None:
         status, value = record["status"], record["value"]
-        if status == "failed":
+        if status == Status.FAILED:
             self.evaluations_without_improvement += 1
             return
-        improved = status == "ok" and st.is_improvement(value, self.best_observed)
+        improved = status == Status.OK and st.is_improvement(value, self.best_observed)
         if not record["in_initial_design"]:
             s = self.settings
             self.step.record(
                 improved, s.sigma_min, s.sigma_max, s.success_tolerance, s.failures_to_halve(self.bounds.dimension)
             )
-        if status == "ok" and (self.best_observed is None or value < self.best_observed):
+        if status == Status.OK and (self.best_observed is None or value < self.best_observed):
             self.best_observed = value
         self.evaluations_without_improvement = 0 if improved else self.evaluations_without_improvement + 1
 
     # ------------------------------------------------------------ queries
     def completed_evaluations(self) -> int:
         """Evaluations told so far (ok, failed and terminated)."""
-        return sum(1 for r in self.records if r["status"] != "pending")
+        return sum(1 for r in self.records if r["status"] != Status.PENDING)
 
     def status_counts(self) -> dict[str, int]:
         """How many evaluations are ok, failed, terminated and pending (only those that occur)."""
@@ -299,7 +301,7 @@ class Optimizer:
 
     def pending(self) -> list[int]:
         """Ids handed out and not yet told."""
-        return [r["id"] for r in self.records if r["status"] == "pending"]
+        return [r["id"] for r in self.records if r["status"] == Status.PENDING]
 
     def best(self) -> dict | None:
         """The best evaluated point, and how it was chosen (``chosen_by``).
@@ -319,7 +321,7 @@ class Optimizer:
         "lower"/"upper" of each coordinate on a bound) and, with response
         models, responses ({key: (predicted mean, sd)}); None before any value.
         """
-        finished = [r for r in self.records if r["status"] == "ok"]
+        finished = [r for r in self.records if r["status"] == Status.OK]
         if not finished:
             return None
         observed = np.array([r["value"] for r in finished])
@@ -409,7 +411,7 @@ class Optimizer:
         best = self.best()
         if best is None or best["chosen_by"] != "response models":
             return self.best_observed
-        finished = [r for r in self.records if r["status"] == "ok" and r.get("responses")]
+        finished = [r for r in self.records if r["status"] == Status.OK and r.get("responses")]
         if not finished:
             return best["predicted"]
         predicted, _ = self.response_predictor().predict(np.array([r["x"] for r in finished]))
@@ -445,7 +447,7 @@ class Optimizer:
         runs = [r for r in self.records if "confirms" in r]
         if not runs:
             return None
-        finished = [r for r in runs if r["status"] == "ok" and r.get("responses")]
+        finished = [r for r in runs if r["status"] == Status.OK and r.get("responses")]
         responses = {}
         for key in (self.objective.keys if self.objective else []):
             means = [float(np.mean(r["responses"][key]["values"])) for r in finished if key in r["responses"]]
@@ -453,8 +455,8 @@ class Optimizer:
                 responses[key] = {"mean": float(np.mean(means)), "sd": float(np.std(means, ddof=1)) if
                                   len(means) > 1 else 0.0, "count": len(means)}
         return {"confirms": runs[0]["confirms"], "ids": [r["id"] for r in runs],
-                "pending": sum(r["status"] == "pending" for r in runs),
-                "failed": sum(r["status"] in ("failed", "terminated") for r in runs), "responses": responses}
+                "pending": sum(r["status"] == Status.PENDING for r in runs),
+                "failed": sum(r["status"] in (Status.FAILED, Status.TERMINATED) for r in runs), "responses": responses}
 
     def _record(self, id: int) -> dict:
         for record in self.records:
@@ -469,7 +471,7 @@ class Optimizer:
         that completed all targeted responses (so a stopped region is known
         to the surrogate, not proposed again).
         """
-        finished = [r for r in self.records if r["status"] == "ok"]
+        finished = [r for r in self.records if r["status"] == Status.OK]
         if len(finished) < self.bounds.dimension + 2:
             return None
         data = [(r["x"], r["value"], r["variance"] or 0.0) for r in finished] + self._stopped_values()
@@ -486,7 +488,7 @@ class Optimizer:
         if self.objective is None:
             return []
         keys = self.objective.keys
-        complete = [r for r in self.records if r["status"] == "terminated" and r.get("responses")
+        complete = [r for r in self.records if r["status"] == Status.TERMINATED and r.get("responses")
                     and all(key in r["responses"] and r["responses"][key]["final"] for key in keys)]
         return [(r["x"], float(self.objective({key: np.mean(r["responses"][key]["values"]) for key in keys})), 0.0)
                 for r in complete]

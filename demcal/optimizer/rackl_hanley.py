@@ -33,6 +33,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from demcal.objective import weighted_residuals
+from demcal.records import Status
 
 from .responses import ResponsePredictor
 from .search import History, Strategy
@@ -111,7 +112,7 @@ class RacklHanley(Strategy):
         if "iteration" not in state:  # phase 2, once the sampling is told
             predictor = history.responses
             if predictor is None:
-                return history.space_filling_point() if "pending" not in history.statuses else None
+                return history.space_filling_point() if Status.PENDING not in history.statuses else None
             state.update(damping=DAMPING_START, iterations=0, dem_runs=0,
                          sampling_runs=history.handed_out)
             return self._start_iteration(state, metamodel_minimum(predictor, history.dimension))
@@ -130,7 +131,7 @@ class RacklHanley(Strategy):
 
     def _next_iteration(self, history: History, state: dict) -> np.ndarray | None:
         indices = [_find(history, p) for p in state["iteration"]]
-        if any(i is None or history.statuses[i] == "pending" for i in indices):
+        if any(i is None or history.statuses[i] == Status.PENDING for i in indices):
             return None  # the iteration's simulations are still running
         trial, *steps = (np.array(p) for p in state["iteration"])
         objective = history.responses.objective if history.responses else None

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from demcal.objective import ResponseObjective
+from demcal.records import Status
 
 from .surrogates import CubicRBF, KrigingSurrogate, Surrogate, cubic_rbf_system, leave_one_out_errors
 
@@ -40,7 +41,7 @@ def observations(records: list[dict], key: str, dimension: int) -> tuple[np.ndar
     x, y, variance = [], [], []
     for record in records:
         entry = (record.get("responses") or {}).get(key)
-        if record["status"] not in ("ok", "terminated") or not entry or not entry["values"]:
+        if record["status"] not in (Status.OK, Status.TERMINATED) or not entry or not entry["values"]:
             continue
         values = np.asarray(entry["values"], float)
         mean = float(values.mean())
@@ -59,7 +60,7 @@ def observations(records: list[dict], key: str, dimension: int) -> tuple[np.ndar
 def final_means(records: list[dict], key: str, dimension: int) -> tuple[np.ndarray, np.ndarray]:
     """Points (unit box) and replicate means of one response where it was simulated to the end."""
     rows = [(record["x"], float(np.mean(entry["values"]))) for record in records
-            if record["status"] in ("ok", "terminated")
+            if record["status"] in (Status.OK, Status.TERMINATED)
             and (entry := (record.get("responses") or {}).get(key)) and entry["values"] and entry["final"]]
     rows = [(x, y) for x, y in rows if math.isfinite(y)]
     return (np.array([x for x, _ in rows], float).reshape(len(rows), dimension),

@@ -23,6 +23,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from demcal.records import Status
+
 from . import strategies as st
 from .responses import ResponsePredictor
 from .settings import OptimizerSettings
@@ -90,7 +92,7 @@ class History:
     @property
     def evaluated(self) -> int:
         """Evaluations told (ok, failed and terminated)."""
-        return sum(1 for status in self.statuses if status != "pending")
+        return sum(1 for status in self.statuses if status != Status.PENDING)
 
     @property
     def handed_out(self) -> int:
@@ -105,7 +107,7 @@ class History:
         """The point farthest from all others, clear of failed points (no surrogate needed)."""
         s = self.settings
         return st.space_filling_point(
-            self.points, self.select("failed"), s.failed_exclusion_radius, s.candidates, self.rng
+            self.points, self.select(Status.FAILED), s.failed_exclusion_radius, s.candidates, self.rng
         )
 
 
@@ -134,13 +136,13 @@ class CandidateSearch(Strategy):
         s, surrogate = history.settings, history.surrogate
         if surrogate is None:
             return history.space_filling_point()
-        finished = history.select("ok")
+        finished = history.select(Status.OK)
         center = finished[int(np.argmin(surrogate.predict(finished)))]
         candidates = self.candidates(history, center)
         if s.polish_candidate:
             candidates = np.vstack([candidates, st.surrogate_minimum(surrogate, center, 2 * history.sigma)])
         keep = st.admissible(
-            candidates, history.points, s.min_distance, history.select("failed"), s.failed_exclusion_radius
+            candidates, history.points, s.min_distance, history.select(Status.FAILED), s.failed_exclusion_radius
         )
         if not keep.any():
             return history.space_filling_point()
@@ -189,11 +191,11 @@ class KrigingEI(CandidateSearch):
 
     def choose(self, history: History, candidates: np.ndarray, weight: float, polished: bool) -> np.ndarray:
         surrogate = history.surrogate
-        observed_best = float(np.min(surrogate.predict(history.select("ok"))))
+        observed_best = float(np.min(surrogate.predict(history.select(Status.OK))))
         improvement = st.expected_improvement(
             surrogate.predict(candidates), surrogate.predict_std(candidates), observed_best
         )
-        damping = st.pending_damping(candidates, history.select("pending"), history.sigma)
+        damping = st.pending_damping(candidates, history.select(Status.PENDING), history.sigma)
         return candidates[int(np.argmax(improvement * damping))]
 
 
@@ -212,7 +214,7 @@ class ResponseEI(Strategy):
 
     def propose(self, history: History) -> np.ndarray:
         predictor = history.responses
-        finished = history.select("ok")
+        finished = history.select(Status.OK)
         if predictor is None or len(finished) == 0:
             return history.space_filling_point()
         predicted = predictor.objective_mean(finished)
@@ -226,13 +228,13 @@ class ResponseEI(Strategy):
             st.uniform_candidates(s.candidates, history.dimension, history.rng),
         ])
         keep = st.admissible(
-            candidates, history.points, s.min_distance, history.select("failed"), s.failed_exclusion_radius
+            candidates, history.points, s.min_distance, history.select(Status.FAILED), s.failed_exclusion_radius
         )
         if not keep.any():
             return history.space_filling_point()
         candidates = candidates[keep]
         improvement = predictor.expected_improvement(candidates, float(np.min(predicted)), history.rng)
-        score = improvement * st.pending_damping(candidates, history.select("pending"), history.sigma)
+        score = improvement * st.pending_damping(candidates, history.select(Status.PENDING), history.sigma)
         if not np.any(score > 0.0):  # no improvement expected anywhere: exploit the prediction
             return candidates[int(np.argmin(predictor.objective_mean(candidates)))]
         return candidates[int(np.argmax(score))]
