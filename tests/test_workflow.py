@@ -231,9 +231,10 @@ def test_joint_study_runs_every_scene_replicate_in_parallel(tmp_path, analytic_c
                                                if scene == "cylinder_lift"
                                                else ["mass_flow", "slide_time"])
             spans.append((sim["started_at"], sim["ended_at"]))
-    spans.sort()
-    overlapping = sum(1 for a, b in zip(spans, spans[1:]) if b[0] < a[1])
-    assert overlapping >= 2  # with 2 cores, pairs of simulations ran side by side
+    # two at a time with 2 cores: some ran side by side, never three at once (which pairs
+    # run together is the scheduler's choice between ready simulate and extract jobs)
+    at_once = [sum(start <= moment < end for start, end in spans) for moment, _ in spans]
+    assert max(at_once) == 2, spans
 
 
 def test_rayleigh_cost_is_added_to_the_objective(tmp_path, analytic_config):
