@@ -184,11 +184,12 @@ class CommandEngine(Engine):
                                       f"such as {{seed}} or {{sliding_friction_pp}}, without "
                                       f"formats, conversions, indices or empty braces")
         known = set(FIXED_PLACEHOLDERS) | {p for s in scenes for p in s.parameters}
-        unknown = sorted(placeholders(template) - known)
+        named = placeholders(template)
+        unknown = sorted(named - known)
         if unknown:
             raise ConfigError(f"engine.command: unknown placeholder {{{unknown[0]}}}; "
                               f"allowed: {', '.join(sorted(known))}")
-        if "input" in placeholders(template) and "input" not in self.settings:
+        if "input" in named and "input" not in self.settings:
             raise ConfigError("engine.command: {input} needs engine.input, the file that is "
                               "copied into the run directory and named by {input}; give "
                               "engine.input or take {input} out of the command")
