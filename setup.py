@@ -9,15 +9,18 @@ carries them as ``demcal/project/{workflow,scripts,profiles}``, where
 from setuptools import find_packages, setup
 
 PROJECT_FILES = {
-    "demcal.project.workflow": ("workflow", ["Snakefile", "rules/*.smk", "report/*.rst",
-                                             "schemas/*.yaml"]),
+    "demcal.project.workflow": (
+        "workflow",
+        ["Snakefile", "rules/*.smk", "report/*.rst", "schemas/*.yaml"],
+    ),
     "demcal.project.scripts": ("scripts", ["*.py"]),
     "demcal.project.profiles": ("profiles", ["*/config.yaml"]),
 }
 
 setup(
     # snakemake_logger_plugin_demcal: the profiles' logger (Snakemake finds loggers by that name)
-    packages=find_packages(include=["demcal*", "snakemake_logger_plugin_demcal"]) + list(PROJECT_FILES),
+    packages=find_packages(include=["demcal*", "snakemake_logger_plugin_demcal"])
+    + list(PROJECT_FILES),
     package_dir={name: folder for name, (folder, _) in PROJECT_FILES.items()},
     package_data={name: patterns for name, (_, patterns) in PROJECT_FILES.items()},
 )

@@ -21,9 +21,21 @@ import collections
 from pathlib import Path
 
 STATUS_WORDS = ("ok", "failed", "terminated", "pending", "running")
-RESULT_FILES = ("study.json", "optimizer.json", "evaluations.csv", "best.json", "finished.json",
-                "params.json", "simulation.json", "responses.json", "objective.json",
-                "partial.csv", "early_termination.csv", "daemon.log", "daemon.lock")
+RESULT_FILES = (
+    "study.json",
+    "optimizer.json",
+    "evaluations.csv",
+    "best.json",
+    "finished.json",
+    "params.json",
+    "simulation.json",
+    "responses.json",
+    "objective.json",
+    "partial.csv",
+    "early_termination.csv",
+    "daemon.log",
+    "daemon.lock",
+)
 
 
 def python_sources(root: Path) -> list[Path]:
@@ -31,8 +43,11 @@ def python_sources(root: Path) -> list[Path]:
 
 
 def literals(tree: ast.AST) -> list[str]:
-    return [node.value for node in ast.walk(tree)
-            if isinstance(node, ast.Constant) and isinstance(node.value, str)]
+    return [
+        node.value
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Constant) and isinstance(node.value, str)
+    ]
 
 
 def snakemake_commands(tree: ast.AST) -> int:
@@ -46,8 +61,14 @@ def snakemake_commands(tree: ast.AST) -> int:
 
 
 def largest_function(tree: ast.AST) -> tuple[int, str]:
-    return max(((node.end_lineno - node.lineno + 1, node.name) for node in ast.walk(tree)
-                if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef))), default=(0, ""))
+    return max(
+        (
+            (node.end_lineno - node.lineno + 1, node.name)
+            for node in ast.walk(tree)
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef))
+        ),
+        default=(0, ""),
+    )
 
 
 def main() -> None:
@@ -73,18 +94,25 @@ def main() -> None:
         sizes.append((len(text.splitlines()), name))
         length, function = largest_function(tree)
         functions.append((length, f"{name}:{function}"))
-    workflow_text = "\n".join(p.read_text() for p in sorted(root.joinpath("workflow").rglob("*"))
-                              if p.is_file() and p.suffix in ("", ".smk"))
+    workflow_text = "\n".join(
+        p.read_text()
+        for p in sorted(root.joinpath("workflow").rglob("*"))
+        if p.is_file() and p.suffix in ("", ".smk")
+    )
     top = sorted(p.name for p in root.joinpath("demcal").glob("*.py"))
     print(f"code of {root}")
-    print(f"status words as literals: {sum(status.values())} places in "
-          f"{len(set().union(*status_modules.values()))} modules")
+    print(
+        f"status words as literals: {sum(status.values())} places in "
+        f"{len(set().union(*status_modules.values()))} modules"
+    )
     for word in STATUS_WORDS:
         print(f"  {word!r:14s} {status[word]:3d} places, {len(status_modules[word]):2d} modules")
     print("result file names as literals (Python; +workflow files):")
     for file in RESULT_FILES:
-        print(f"  {file:22s} {files[file]:3d} places, {len(file_modules[file]):2d} modules; "
-              f"workflow {workflow_text.count(file)}")
+        print(
+            f"  {file:22s} {files[file]:3d} places, {len(file_modules[file]):2d} modules; "
+            f"workflow {workflow_text.count(file)}"
+        )
     print(f"Snakemake command lines built by hand: {commands}")
     print(f"top-level modules of demcal/: {len(top)}")
     print(f"largest module: {max(sizes)[1]} ({max(sizes)[0]} lines)")

@@ -33,8 +33,14 @@ def point_verdict(root: Path, point, folder: Path, env: dict) -> str:
     """The README's "evaluate your own point" with a bad params.json: failed with its reason, exit 0."""
     folder.mkdir(parents=True)
     study, target = write_point(folder, point)
-    done = subprocess.run(route_command("snakemake local", study, root, target), cwd=folder,
-                          capture_output=True, text=True, timeout=300, env=env)
+    done = subprocess.run(
+        route_command("snakemake local", study, root, target),
+        cwd=folder,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=env,
+    )
     output = done.stdout + done.stderr
     if "Traceback" in output or "Error in file" in output:
         return "traceback"
@@ -53,18 +59,30 @@ def main() -> None:
     counts = {route: collections.Counter() for route in (*ROUTES, "params.json")}
     misses = []
     with tempfile.TemporaryDirectory() as scratch, ThreadPoolExecutor(2) as pool:
-        jobs = {(route, case.name): pool.submit(run_route, route, case,
-                                                Path(scratch) / case.name / route.replace(" ", "_"),
-                                                root, env)
-                for case in CASES for route in ROUTES}
-        points = {point.name: pool.submit(point_verdict, root, point, Path(scratch) / point.name, env)
-                  for point in POINTS}
+        jobs = {
+            (route, case.name): pool.submit(
+                run_route,
+                route,
+                case,
+                Path(scratch) / case.name / route.replace(" ", "_"),
+                root,
+                env,
+            )
+            for case in CASES
+            for route in ROUTES
+        }
+        points = {
+            point.name: pool.submit(point_verdict, root, point, Path(scratch) / point.name, env)
+            for point in POINTS
+        }
         for (route, name), job in jobs.items():
             case = next(c for c in CASES if c.name == name)
             verdict = job.result().verdict(case.message)
             counts[route][verdict] += 1
             if verdict != "clean":
-                misses.append(f"{route:16s} {name:28s} {verdict}: {' | '.join(job.result().lines)[:160]}")
+                misses.append(
+                    f"{route:16s} {name:28s} {verdict}: {' | '.join(job.result().lines)[:160]}"
+                )
         for job in points.values():
             counts["params.json"][job.result()] += 1
     verdicts = sorted({v for c in counts.values() for v in c})

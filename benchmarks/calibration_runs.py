@@ -69,17 +69,22 @@ def trace(evaluations: pd.DataFrame, config: dict) -> dict:
             best = min(best, objective)
         if to_noise is None and noise is not None and best < noise:
             to_noise = n
-        rows.append({"evaluation": row["evaluation"], "status": row["status"],
-                     "parameters": {k: float(row[k]) for k in names if k in row},
-                     "responses": {k: float(row[k]) for k in keys
-                                   if k in row and pd.notna(row[k])},
-                     "objective": objective,
-                     "running_best": best if math.isfinite(best) else None})
+        rows.append(
+            {
+                "evaluation": row["evaluation"],
+                "status": row["status"],
+                "parameters": {k: float(row[k]) for k in names if k in row},
+                "responses": {k: float(row[k]) for k in keys if k in row and pd.notna(row[k])},
+                "objective": objective,
+                "running_best": best if math.isfinite(best) else None,
+            }
+        )
     return {"noise_level": noise, "simulations_to_noise": to_noise, "trace": rows}
 
 
-def run_one(config: dict, study: str, seed: int, et: bool, strategy: str | None, workers: int,
-            scratch: Path) -> dict:
+def run_one(
+    config: dict, study: str, seed: int, et: bool, strategy: str | None, workers: int, scratch: Path
+) -> dict:
     optimizer = {**config.get("optimizer", {}), "early_termination": {"enabled": et}}
     if strategy is not None:
         optimizer["strategy"] = strategy
@@ -88,50 +93,76 @@ def run_one(config: dict, study: str, seed: int, et: bool, strategy: str | None,
     path = scratch / f"{study}.yaml"
     path.write_text(yaml.safe_dump(variant, sort_keys=False))
     start = time.monotonic()
-    proc = subprocess.run([sys.executable, "-m", "demcal.cli", "run", str(path), "--workers",
-                           str(workers)], cwd=scratch, stdin=subprocess.DEVNULL,
-                          capture_output=True, text=True)
+    proc = subprocess.run(
+        [sys.executable, "-m", "demcal.cli", "run", str(path), "--workers", str(workers)],
+        cwd=scratch,
+        stdin=subprocess.DEVNULL,
+        capture_output=True,
+        text=True,
+    )
     wall = time.monotonic() - start
     results = scratch / "results" / study
     if proc.returncode != 0:
-        return {"study": study, "strategy": strategy, "seed": seed, "et": et,
-                "error": proc.stderr[-2000:]}
+        return {
+            "study": study,
+            "strategy": strategy,
+            "seed": seed,
+            "et": et,
+            "error": proc.stderr[-2000:],
+        }
     evaluations = pd.read_csv(results / "evaluations.csv")
     best = json.loads((results / "best.json").read_text())
-    return {"study": study, "strategy": strategy, "seed": seed, "et": et, "wall_s": wall,
-            "cpu_s": float(evaluations["cpu_s"].sum()),
-            "evaluations": len(evaluations),
-            "terminated": int((evaluations["status"] == "terminated").sum()),
-            "failed": int((evaluations["status"] == "failed").sum()),
-            "best_objective": best["objective"], "best_parameters": best["parameters"],
-            "best_responses": best["responses"], "targets": best["targets"],
-            **trace(evaluations, config)}
+    return {
+        "study": study,
+        "strategy": strategy,
+        "seed": seed,
+        "et": et,
+        "wall_s": wall,
+        "cpu_s": float(evaluations["cpu_s"].sum()),
+        "evaluations": len(evaluations),
+        "terminated": int((evaluations["status"] == "terminated").sum()),
+        "failed": int((evaluations["status"] == "failed").sum()),
+        "best_objective": best["objective"],
+        "best_parameters": best["parameters"],
+        "best_responses": best["responses"],
+        "targets": best["targets"],
+        **trace(evaluations, config),
+    }
 
 
 def table(runs: list[dict]) -> str:
-    lines = ["| strategy | ET | seed | evaluations (stopped early) | CPU [s] | wall [s] "
-             "| best objective | simulations to noise level | best point |",
-             "|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        "| strategy | ET | seed | evaluations (stopped early) | CPU [s] | wall [s] "
+        "| best objective | simulations to noise level | best point |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     for r in runs:
         if "error" in r:
-            lines.append(f"| {r['strategy']} | {'on' if r['et'] else 'off'} | {r['seed']} | "
-                         f"error: {r['error'][-200:]!r} | | | | | |")
+            lines.append(
+                f"| {r['strategy']} | {'on' if r['et'] else 'off'} | {r['seed']} | "
+                f"error: {r['error'][-200:]!r} | | | | | |"
+            )
             continue
         point = ", ".join(f"{k} {v:.3f}" for k, v in sorted(r["best_parameters"].items()))
         to_noise = r["simulations_to_noise"] or "never"
-        lines.append(f"| {r['strategy']} | {'on' if r['et'] else 'off'} | {r['seed']} | "
-                     f"{r['evaluations']} ({r['terminated']}) | {r['cpu_s']:.0f} | "
-                     f"{r['wall_s']:.0f} | {r['best_objective']:.3g} | {to_noise} | {point} |")
+        lines.append(
+            f"| {r['strategy']} | {'on' if r['et'] else 'off'} | {r['seed']} | "
+            f"{r['evaluations']} ({r['terminated']}) | {r['cpu_s']:.0f} | "
+            f"{r['wall_s']:.0f} | {r['best_objective']:.3g} | {to_noise} | {point} |"
+        )
     for strategy in dict.fromkeys(r["strategy"] for r in runs):
         for et in (True, False):
-            group = [r for r in runs
-                     if r["strategy"] == strategy and r["et"] == et and "error" not in r]
+            group = [
+                r for r in runs if r["strategy"] == strategy and r["et"] == et and "error" not in r
+            ]
             if group:
-                lines.append(f"| {strategy} | {'on' if et else 'off'} | mean | | "
-                             f"{statistics.fmean(r['cpu_s'] for r in group):.0f} | "
-                             f"{statistics.fmean(r['wall_s'] for r in group):.0f} | "
-                             f"{statistics.median(r['best_objective'] for r in group):.3g} "
-                             f"(median) | | |")
+                lines.append(
+                    f"| {strategy} | {'on' if et else 'off'} | mean | | "
+                    f"{statistics.fmean(r['cpu_s'] for r in group):.0f} | "
+                    f"{statistics.fmean(r['wall_s'] for r in group):.0f} | "
+                    f"{statistics.median(r['best_objective'] for r in group):.3g} "
+                    f"(median) | | |"
+                )
     return "\n".join(lines)
 
 
@@ -141,8 +172,12 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
     parser.add_argument("--et", nargs="+", choices=("on", "off"), default=["on", "off"])
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--strategies", nargs="+", default=None,
-                        help="optimizer.strategy of each run (default: the config's own)")
+    parser.add_argument(
+        "--strategies",
+        nargs="+",
+        default=None,
+        help="optimizer.strategy of each run (default: the config's own)",
+    )
     parser.add_argument("--tag", default="")
     args = parser.parse_args()
     config = yaml.safe_load(Path(args.config).read_text())
@@ -155,8 +190,9 @@ def main() -> None:
                 for strategy in args.strategies or [None]:
                     prefix = config["study"] + (f"-{strategy}" if strategy else "")
                     study = f"{prefix}-et-{et}-s{seed}"
-                    run = run_one(config, study, seed, et == "on", strategy, args.workers,
-                                  Path(scratch))
+                    run = run_one(
+                        config, study, seed, et == "on", strategy, args.workers, Path(scratch)
+                    )
                     runs.append(run)
                     print(json.dumps(run), flush=True)
                     out.write_text(json.dumps({"config": args.config, "runs": runs}, indent=2))

@@ -30,9 +30,17 @@ from demcal.layout import PointRecord, write_point
 
 ROOT = Path(__file__).resolve().parents[1]
 POINT = {"sliding_friction_pp": 0.5, "rolling_friction_pp": 0.16}
-CASES = {"default": {},
-         "tiny": {"particle_count": 200, "d50": 3.0e-3, "cylinder_diameter": 24.0e-3,
-                  "plate_width": 0.08, "lift_speed": 0.05, "max_settle_time": 0.6}}
+CASES = {
+    "default": {},
+    "tiny": {
+        "particle_count": 200,
+        "d50": 3.0e-3,
+        "cylinder_diameter": 24.0e-3,
+        "plate_width": 0.08,
+        "lift_speed": 0.05,
+        "max_settle_time": 0.6,
+    },
+}
 ENGINES = ("lammps", "liggghts")
 RESPONSES = ("bulk_density", "angle_of_repose")
 
@@ -54,13 +62,18 @@ def mean_sd(values: list[float]) -> str:
 
 def code_state() -> dict:
     """The commit and the uncommitted files of the checkout the runs used."""
-    def git(*args: str) -> str:
-        return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True,
-                              check=False).stdout.strip()
 
-    return {"head": git("rev-parse", "HEAD"),
-            "modified": [line[3:] for line in git("status", "--porcelain").splitlines()
-                         if line.startswith(" M")]}
+    def git(*args: str) -> str:
+        return subprocess.run(
+            ["git", *args], cwd=ROOT, capture_output=True, text=True, check=False
+        ).stdout.strip()
+
+    return {
+        "head": git("rev-parse", "HEAD"),
+        "modified": [
+            line[3:] for line in git("status", "--porcelain").splitlines() if line.startswith(" M")
+        ],
+    }
 
 
 def main() -> None:
@@ -80,30 +93,55 @@ def main() -> None:
                 for rep in range(args.seeds):
                     load_before = os.getloadavg()[0]
                     sim = simulate(study, "point", "cylinder_lift", rep)
-                    out = extract(study, study.files.evaluation("point")
-                                  .replicate("cylinder_lift", rep).simulation)
-                    run = {"case": case, "engine": engine, "version": study.engine.version(),
-                           "replicate": rep, "seed": sim["seed"], "status": sim["status"],
-                           "reason": sim["reason"], "load_before": load_before,
-                           **sim["cost"], **out["responses"]}
+                    out = extract(
+                        study,
+                        study.files.evaluation("point").replicate("cylinder_lift", rep).simulation,
+                    )
+                    run = {
+                        "case": case,
+                        "engine": engine,
+                        "version": study.engine.version(),
+                        "replicate": rep,
+                        "seed": sim["seed"],
+                        "status": sim["status"],
+                        "reason": sim["reason"],
+                        "load_before": load_before,
+                        **sim["cost"],
+                        **out["responses"],
+                    }
                     runs.append(run)
                     print(json.dumps(run), flush=True)
     print("\n| case | engine | wall s | steps | bulk density kg/m³ | angle of repose ° |")
     print("|---|---|---|---|---|---|")
     for case in args.cases:
         for engine in ENGINES:
-            ok = [r for r in runs if r["case"] == case and r["engine"] == engine
-                  and r["status"] == "ok"]
-            print(f"| {case} | {engine} | {mean_sd([r['wall_s'] for r in ok])} | "
-                  f"{mean_sd([r['steps'] for r in ok])} | "
-                  + " | ".join(mean_sd([r[name] for r in ok if name in r]) for name in RESPONSES)
-                  + " |")
+            ok = [
+                r
+                for r in runs
+                if r["case"] == case and r["engine"] == engine and r["status"] == "ok"
+            ]
+            print(
+                f"| {case} | {engine} | {mean_sd([r['wall_s'] for r in ok])} | "
+                f"{mean_sd([r['steps'] for r in ok])} | "
+                + " | ".join(mean_sd([r[name] for r in ok if name in r]) for name in RESPONSES)
+                + " |"
+            )
     out = ROOT / "benchmarks" / "results" / "liggghts_vs_lammps.json"
     out.parent.mkdir(exist_ok=True)
-    out.write_text(json.dumps({"code": code, "point": POINT, "cases": {c: CASES[c] for c in args.cases},
-                               "fixed": config.get("fixed", {}),
-                               "timestep_fraction": config.get("timestep_fraction"),
-                               "runs": runs}, indent=2) + "\n")
+    out.write_text(
+        json.dumps(
+            {
+                "code": code,
+                "point": POINT,
+                "cases": {c: CASES[c] for c in args.cases},
+                "fixed": config.get("fixed", {}),
+                "timestep_fraction": config.get("timestep_fraction"),
+                "runs": runs,
+            },
+            indent=2,
+        )
+        + "\n"
+    )
 
 
 if __name__ == "__main__":

@@ -37,15 +37,29 @@ def main() -> None:
     parser.add_argument("--window", type=int, default=20)
     args = parser.parse_args()
     d, rng = args.dimension, np.random.default_rng(0)
-    targets = tuple(Target("scene", f"response{i}", 1.0 + i, spread=0.05) for i in range(args.responses))
+    targets = tuple(
+        Target("scene", f"response{i}", 1.0 + i, spread=0.05) for i in range(args.responses)
+    )
     directions = rng.normal(size=(args.responses, d))
-    optimizer = Optimizer([0.0] * d, [1.0] * d, {"strategy": "response_ei", "response_model": args.model,
-                                                 "max_evaluations": args.points + args.window},
-                          seed=1, objective=ResponseObjective(targets))
+    optimizer = Optimizer(
+        [0.0] * d,
+        [1.0] * d,
+        {
+            "strategy": "response_ei",
+            "response_model": args.model,
+            "max_evaluations": args.points + args.window,
+        },
+        seed=1,
+        objective=ResponseObjective(targets),
+    )
 
     def simulate(x: np.ndarray) -> dict[str, list[float]]:
-        clean = [t.value + np.sin(directions[i] @ x) + 0.1 * float(x @ x) for i, t in enumerate(targets)]
-        return {t.key: [float(v * (1 + 0.02 * rng.standard_normal()))] for t, v in zip(targets, clean)}
+        clean = [
+            t.value + np.sin(directions[i] @ x) + 0.1 * float(x @ x) for i, t in enumerate(targets)
+        ]
+        return {
+            t.key: [float(v * (1 + 0.02 * rng.standard_normal()))] for t, v in zip(targets, clean)
+        }
 
     seconds = []
     while optimizer.completed_evaluations() < args.points + args.window // 2:
@@ -55,9 +69,11 @@ def main() -> None:
         if optimizer.completed_evaluations() >= args.points - args.window // 2:
             seconds.append(elapsed)
         optimizer.tell(proposal.id, responses=simulate(np.asarray(proposal.x)))
-    print(f"{args.model}, {args.responses} responses, {d}-D, proposals at {args.points - args.window // 2}"
-          f"-{args.points + args.window // 2} points: median {statistics.median(seconds):.2f} s, "
-          f"max {max(seconds):.2f} s")
+    print(
+        f"{args.model}, {args.responses} responses, {d}-D, proposals at {args.points - args.window // 2}"
+        f"-{args.points + args.window // 2} points: median {statistics.median(seconds):.2f} s, "
+        f"max {max(seconds):.2f} s"
+    )
 
 
 if __name__ == "__main__":

@@ -36,11 +36,18 @@ def run_seed(config: str, scene: str, replicate: int) -> dict:
     study = load_study_file(config)
     start = time.monotonic()
     sim = simulate(study, EVALUATION, scene, replicate)
-    responses = extract(study, study.files.evaluation(EVALUATION)
-                        .replicate(scene, replicate).simulation)
-    return {"replicate": replicate, "seed": sim["seed"], "status": sim["status"],
-            "reason": sim["reason"], "wall_s": time.monotonic() - start, **sim["cost"],
-            **responses["responses"]}
+    responses = extract(
+        study, study.files.evaluation(EVALUATION).replicate(scene, replicate).simulation
+    )
+    return {
+        "replicate": replicate,
+        "seed": sim["seed"],
+        "status": sim["status"],
+        "reason": sim["reason"],
+        "wall_s": time.monotonic() - start,
+        **sim["cost"],
+        **responses["responses"],
+    }
 
 
 def summary(rows: list[dict], responses: list[str]) -> str:
@@ -49,12 +56,16 @@ def summary(rows: list[dict], responses: list[str]) -> str:
         values = [r[key] for r in rows if key in r]
         if values:
             sd = statistics.stdev(values) if len(values) > 1 else 0.0
-            lines.append(f"| {key} | {statistics.fmean(values):.4g} | {sd:.3g} | "
-                         f"{min(values):.4g} | {max(values):.4g} |")
+            lines.append(
+                f"| {key} | {statistics.fmean(values):.4g} | {sd:.3g} | "
+                f"{min(values):.4g} | {max(values):.4g} |"
+            )
     rate = [r["particle_steps"] / r["cpu_s"] for r in rows if r.get("cpu_s")]
     if rate:
-        lines.append(f"| particle-steps per CPU second | {statistics.fmean(rate):.3g} | | "
-                     f"{min(rate):.3g} | {max(rate):.3g} |")
+        lines.append(
+            f"| particle-steps per CPU second | {statistics.fmean(rate):.3g} | | "
+            f"{min(rate):.3g} | {max(rate):.3g} |"
+        )
     return "\n".join(lines)
 
 
@@ -75,17 +86,27 @@ def main() -> None:
         os.chdir(scratch)
         write_point(study.files.evaluation(EVALUATION), PointRecord(point))
         with ProcessPoolExecutor(args.jobs) as pool:
-            rows = list(pool.map(run_seed, [config] * args.seeds, [scene] * args.seeds,
-                                 range(args.seeds)))
+            rows = list(
+                pool.map(run_seed, [config] * args.seeds, [scene] * args.seeds, range(args.seeds))
+            )
     for row in rows:
         print(json.dumps(row))
     name = f"noise_{study.name}_{scene}" + (f"_{args.tag}" if args.tag else "")
     out = ROOT / "benchmarks" / "results" / f"{name}.json"
     out.parent.mkdir(exist_ok=True)
-    out.write_text(json.dumps({"config": os.path.relpath(config, ROOT), "scene": scene,
-                               "point": point, "settings": study.settings[scene],
-                               "timestep_fraction": study.timestep_fraction, "runs": rows},
-                              indent=2))
+    out.write_text(
+        json.dumps(
+            {
+                "config": os.path.relpath(config, ROOT),
+                "scene": scene,
+                "point": point,
+                "settings": study.settings[scene],
+                "timestep_fraction": study.timestep_fraction,
+                "runs": rows,
+            },
+            indent=2,
+        )
+    )
     ok = [r for r in rows if r["status"] == "ok"]
     print(f"\n{scene} at {point}: {len(ok)} of {len(rows)} runs ok ({out.name})\n")
     if not ok:

@@ -49,21 +49,29 @@ def _schema_message(error: jsonschema.ValidationError, schema: dict) -> str:
         choices = error.validator_value if kind == "enum" else [error.validator_value]
         return f"{where}: {value!r} is not one of {', '.join(map(str, choices))}"
     if kind == "pattern":
-        return (f"{where}: {value!r} is not a valid name (letters, digits, '_' and '-', "
-                f"starting with a letter)")
+        return (
+            f"{where}: {value!r} is not a valid name (letters, digits, '_' and '-', "
+            f"starting with a letter)"
+        )
     if kind in ("minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum"):
-        words = {"minimum": ">=", "maximum": "<=", "exclusiveMinimum": ">",
-                 "exclusiveMaximum": "<"}
+        words = {"minimum": ">=", "maximum": "<=", "exclusiveMinimum": ">", "exclusiveMaximum": "<"}
         return f"{where}: {value!r} must be {words[kind]} {error.validator_value}"
     if kind in ("minItems", "minProperties"):
         given = len(value)
-        return (f"{where}: {given or 'none'} given; give at least {error.validator_value}"
-                + (" (their standard deviation is the spread)" if where.endswith("repeats") else ""))
+        return f"{where}: {given or 'none'} given; give at least {error.validator_value}" + (
+            " (their standard deviation is the spread)" if where.endswith("repeats") else ""
+        )
     if kind == "type":
-        wanted = error.validator_value if isinstance(error.validator_value, list) else [error.validator_value]
+        wanted = (
+            error.validator_value
+            if isinstance(error.validator_value, list)
+            else [error.validator_value]
+        )
         if isinstance(value, str) and {"number", "integer"} & set(wanted):
-            return (f"{where}: {value!r} is text, not a number ({' or '.join(wanted)}); "
-                    f"write it without quotes")
+            return (
+                f"{where}: {value!r} is text, not a number ({' or '.join(wanted)}); "
+                f"write it without quotes"
+            )
         return f"{where}: {value!r} is not of type {error.validator_value}"
     return f"{where}: {error.message}"
 
@@ -96,12 +104,16 @@ def _scenes_of(config: dict) -> dict[str, Scene]:
     names = [t["scene"] for t in config["targets"]]
     for i, name in enumerate(names):
         if name not in SCENES:
-            raise ConfigError(f"targets[{i}].scene: {name!r} is not a known scene; "
-                              f"known scenes: {', '.join(sorted(SCENES))}")
+            raise ConfigError(
+                f"targets[{i}].scene: {name!r} is not a known scene; "
+                f"known scenes: {', '.join(sorted(SCENES))}"
+            )
     for name in config.get("scenes", {}):
         if name not in names:
-            raise ConfigError(f"scenes.{name}: settings given for a scene no target uses; "
-                              f"targeted scenes: {', '.join(sorted(set(names)))}")
+            raise ConfigError(
+                f"scenes.{name}: settings given for a scene no target uses; "
+                f"targeted scenes: {', '.join(sorted(set(names)))}"
+            )
     return {name: SCENES[name] for name in dict.fromkeys(names)}
 
 
@@ -110,13 +122,17 @@ def _targets(config: dict, scenes: dict[str, Scene]) -> list[Target]:
     for i, t in enumerate(config["targets"]):
         scene = scenes[t["scene"]]
         if t["response"] not in scene.responses:
-            raise ConfigError(f"targets[{i}].response: scene {scene.name!r} cannot produce "
-                              f"{t['response']!r}; it produces "
-                              f"{', '.join(scene.responses)}")
+            raise ConfigError(
+                f"targets[{i}].response: scene {scene.name!r} cannot produce "
+                f"{t['response']!r}; it produces "
+                f"{', '.join(scene.responses)}"
+            )
         unit = scene.responses[t["response"]].unit
         if "unit" in t and t["unit"] != unit:
-            raise ConfigError(f"targets[{i}].unit: {t['unit']!r} but {t['response']} is "
-                              f"measured in {unit}; give the value in {unit}")
+            raise ConfigError(
+                f"targets[{i}].unit: {t['unit']!r} but {t['response']} is "
+                f"measured in {unit}; give the value in {unit}"
+            )
         key = (t["scene"], t["response"])
         if key in seen:
             raise ConfigError(f"targets[{i}]: {t['scene']}.{t['response']} is targeted twice")
@@ -124,11 +140,20 @@ def _targets(config: dict, scenes: dict[str, Scene]) -> list[Target]:
         value, spread = _target_value(t, i)
         response = scene.responses[t["response"]]
         if not response.lower <= value <= response.upper:
-            raise ConfigError(f"targets[{i}]{'' if 'repeats' in t else '.value'}: {value:g} "
-                              f"{unit} is not a possible {t['response']}; it lies in "
-                              f"[{response.lower:g}, {response.upper:g}] {unit}")
-        targets.append(Target(t["scene"], t["response"], value,
-                              float(t.get("weight", default("targets", "weight"))), spread))
+            raise ConfigError(
+                f"targets[{i}]{'' if 'repeats' in t else '.value'}: {value:g} "
+                f"{unit} is not a possible {t['response']}; it lies in "
+                f"[{response.lower:g}, {response.upper:g}] {unit}"
+            )
+        targets.append(
+            Target(
+                t["scene"],
+                t["response"],
+                value,
+                float(t.get("weight", default("targets", "weight"))),
+                spread,
+            )
+        )
     return targets
 
 
@@ -136,22 +161,28 @@ def _target_value(target: dict, index: int) -> tuple[float, float | None]:
     """The target's value and spread: as given, or the mean and standard deviation of its repeats."""
     if "repeats" not in target:
         if "value" not in target:
-            raise ConfigError(f"targets[{index}]: give the measured value (value: ..., optionally "
-                              f"spread: ...) or the lab test's repeats (repeats: [..., ...])")
+            raise ConfigError(
+                f"targets[{index}]: give the measured value (value: ..., optionally "
+                f"spread: ...) or the lab test's repeats (repeats: [..., ...])"
+            )
         return float(target["value"]), target.get("spread")
     given = [key for key in ("value", "spread") if key in target]
     if given:
-        raise ConfigError(f"targets[{index}].{given[0]}: given together with repeats, which "
-                          f"determine it (their mean and standard deviation); give one or the other")
+        raise ConfigError(
+            f"targets[{index}].{given[0]}: given together with repeats, which "
+            f"determine it (their mean and standard deviation); give one or the other"
+        )
     repeats = target["repeats"]
     try:  # exact arithmetic: a float sum of large repeats would overflow where their mean does not
         value, spread = float(statistics.mean(repeats)), float(statistics.stdev(repeats))
     except OverflowError:
         value, spread = math.inf, math.inf
     if not math.isfinite(spread):
-        raise ConfigError(f"targets[{index}].repeats: their standard deviation is beyond the "
-                          f"largest float ({max(repeats, key=abs):g} among them); give the repeats "
-                          f"in the response's unit")
+        raise ConfigError(
+            f"targets[{index}].repeats: their standard deviation is beyond the "
+            f"largest float ({max(repeats, key=abs):g} among them); give the repeats "
+            f"in the response's unit"
+        )
     return value, spread
 
 
@@ -161,36 +192,50 @@ def _parameters(config: dict, scenes: dict[str, Scene]) -> tuple[list[FreeParame
     for name, bounds in config["parameters"].items():
         where = f"parameters.{name}"
         if name not in readable:
-            raise ConfigError(f"{where}: not a parameter of the scenes "
-                              f"{', '.join(scenes)}; they read {', '.join(readable)}")
+            raise ConfigError(
+                f"{where}: not a parameter of the scenes "
+                f"{', '.join(scenes)}; they read {', '.join(readable)}"
+            )
         spec = CATALOG[name]
         if "unit" in bounds and bounds["unit"] != spec.unit:
-            raise ConfigError(f"{where}.unit: {bounds['unit']!r} but demcal uses SI units: "
-                              f"give {name} in {spec.unit}")
+            raise ConfigError(
+                f"{where}.unit: {bounds['unit']!r} but demcal uses SI units: "
+                f"give {name} in {spec.unit}"
+            )
         lower, upper = float(bounds["lower"]), float(bounds["upper"])
         if not lower < upper:
-            raise ConfigError(f"{where}: lower bound {lower:g} must be less than upper "
-                              f"bound {upper:g}")
+            raise ConfigError(
+                f"{where}: lower bound {lower:g} must be less than upper bound {upper:g}"
+            )
         for side, value in (("lower", lower), ("upper", upper)):
             if not spec.contains(value):
-                raise ConfigError(f"{where}.{side}: {value:g} is outside the physically "
-                                  f"allowed range {spec.allowed()}")
+                raise ConfigError(
+                    f"{where}.{side}: {value:g} is outside the physically "
+                    f"allowed range {spec.allowed()}"
+                )
         free.append(FreeParameter(spec, lower, upper))
     fixed = {}
     for name, value in config.get("fixed", {}).items():
         where = f"fixed.{name}"
         if name not in readable:
-            raise ConfigError(f"{where}: not a parameter of the scenes "
-                              f"{', '.join(scenes)}; they read {', '.join(readable)}")
+            raise ConfigError(
+                f"{where}: not a parameter of the scenes "
+                f"{', '.join(scenes)}; they read {', '.join(readable)}"
+            )
         if name in config["parameters"]:
-            raise ConfigError(f"{where}: {name} is also a free parameter; "
-                              f"list it under parameters or fixed, not both")
+            raise ConfigError(
+                f"{where}: {name} is also a free parameter; "
+                f"list it under parameters or fixed, not both"
+            )
         if not CATALOG[name].contains(value):
-            raise ConfigError(f"{where}: {value:g} is outside the physically allowed range "
-                              f"{CATALOG[name].allowed()}")
+            raise ConfigError(
+                f"{where}: {value:g} is outside the physically allowed range "
+                f"{CATALOG[name].allowed()}"
+            )
         fixed[name] = float(value)
-    defaults = {n: CATALOG[n].default for n in readable
-                if n not in fixed and n not in config["parameters"]}
+    defaults = {
+        n: CATALOG[n].default for n in readable if n not in fixed and n not in config["parameters"]
+    }
     return free, {**defaults, **fixed}
 
 
@@ -208,8 +253,9 @@ def refuse_non_finite(value, where: str = "") -> None:
         for i, item in enumerate(value):
             refuse_non_finite(item, f"{where}[{i}]")
     elif isinstance(value, float) and not math.isfinite(value):
-        raise ConfigError(f"{where or '(top level)'}: {value} is not a finite number; "
-                          f"give a finite value")
+        raise ConfigError(
+            f"{where or '(top level)'}: {value} is not a finite number; give a finite value"
+        )
 
 
 def load_study(config: dict, check_engine: bool = True) -> Study:
@@ -221,9 +267,12 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
     scenes = _scenes_of(config)
     targets = _targets(config, scenes)
     free, fixed = _parameters(config, scenes)
-    settings = {name: scene.resolve_settings(config.get("scenes", {}).get(name, {}).get("settings"),
-                                             f"scenes.{name}.settings")
-                for name, scene in scenes.items()}
+    settings = {
+        name: scene.resolve_settings(
+            config.get("scenes", {}).get(name, {}).get("settings"), f"scenes.{name}.settings"
+        )
+        for name, scene in scenes.items()
+    }
     fraction = float(config.get("timestep_fraction", default("timestep_fraction")))
     warning = check_fraction(fraction, default("timestep_fraction"))
     cost_weight = float(config.get("rayleigh_cost_weight", default("rayleigh_cost_weight")))
@@ -231,41 +280,61 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
         raise ConfigError(
             f"rayleigh_cost_weight: {cost_weight:g} needs one of "
             f"{', '.join(RAYLEIGH_PARAMETERS)} among the free parameters (the Rayleigh time "
-            f"step depends only on them); set it to 0 or free one of them")
+            f"step depends only on them); set it to 0 or free one of them"
+        )
     form = config.get("objective", default("objective"))
     unspread = [i for i, t in enumerate(targets) if not t.spread]
     if form == "auto":  # weigh each error by its measurement spread when every spread is known
         form = "relative" if unspread else "precision"
     if form == "precision" and unspread:
-        raise ConfigError(f"targets[{unspread[0]}].spread: the precision-weighted objective "
-                          f"measures each error in units of its target's spread; give every "
-                          f"target a spread > 0 (its measurement standard deviation), or use "
-                          f"objective: relative")
+        raise ConfigError(
+            f"targets[{unspread[0]}].spread: the precision-weighted objective "
+            f"measures each error in units of its target's spread; give every "
+            f"target a spread > 0 (its measurement standard deviation), or use "
+            f"objective: relative"
+        )
     # The response models do not model the Rayleigh cost term yet: with it, a
     # study's default is the optimizer's own (dycors), and response_ei is refused.
-    strategy = default("optimizer", "strategy") if cost_weight == 0.0 else OptimizerSettings().strategy
+    strategy = (
+        default("optimizer", "strategy") if cost_weight == 0.0 else OptimizerSettings().strategy
+    )
     try:
-        optimizer = OptimizerSettings.from_dict({"strategy": strategy, **config.get("optimizer", {})})
+        optimizer = OptimizerSettings.from_dict(
+            {"strategy": strategy, **config.get("optimizer", {})}
+        )
     except ValueError as exc:
         raise ConfigError(str(exc)) from None
     if cost_weight > 0.0 and optimizer.strategy in RESPONSE_STRATEGIES:
-        raise ConfigError(f"optimizer.strategy: {optimizer.strategy} does not model the Rayleigh "
-                          f"time-step cost yet; with rayleigh_cost_weight {cost_weight:g} use "
-                          f"dycors or kriging_ei")
+        raise ConfigError(
+            f"optimizer.strategy: {optimizer.strategy} does not model the Rayleigh "
+            f"time-step cost yet; with rayleigh_cost_weight {cost_weight:g} use "
+            f"dycors or kriging_ei"
+        )
     engine_config = dict(config["engine"])
     engine = make_engine(engine_config.pop("name"), engine_config)
     if check_engine:
         engine.check(list(scenes.values()))
-    return Study(name=config["study"], engine=engine, scenes=scenes, settings=settings,
-                 free=free, fixed=fixed, targets=targets,
-                 replicates=int(config.get("replicates", default("replicates"))),
-                 seed=int(config.get("seed", default("seed"))),
-                 timestep_fraction=fraction, optimizer=optimizer, objective_form=form,
-                 rayleigh_cost_weight=cost_weight,
-                 calibration={"retries": default("calibration", "retries"),
-                              "poll_seconds": default("calibration", "poll_seconds"),
-                              **config.get("calibration", {})},
-                 warnings=[warning] if warning else [])
+    return Study(
+        name=config["study"],
+        engine=engine,
+        scenes=scenes,
+        settings=settings,
+        free=free,
+        fixed=fixed,
+        targets=targets,
+        replicates=int(config.get("replicates", default("replicates"))),
+        seed=int(config.get("seed", default("seed"))),
+        timestep_fraction=fraction,
+        optimizer=optimizer,
+        objective_form=form,
+        rayleigh_cost_weight=cost_weight,
+        calibration={
+            "retries": default("calibration", "retries"),
+            "poll_seconds": default("calibration", "poll_seconds"),
+            **config.get("calibration", {}),
+        },
+        warnings=[warning] if warning else [],
+    )
 
 
 #: Largest study file demcal reads (bytes); a study is a few hundred lines.
@@ -287,15 +356,19 @@ class StrictLoader(yaml.SafeLoader):
         for key_node, _ in node.value:
             key = self.construct_object(key_node, deep=deep)
             if key in seen:
-                raise ConfigError(f"duplicate key {key!r} (line {key_node.start_mark.line + 1}): "
-                                  f"YAML would silently keep only the last one; remove one")
+                raise ConfigError(
+                    f"duplicate key {key!r} (line {key_node.start_mark.line + 1}): "
+                    f"YAML would silently keep only the last one; remove one"
+                )
             seen.add(key)
         return super().construct_mapping(node, deep=deep)
 
 
 StrictLoader.add_implicit_resolver(
     "tag:yaml.org,2002:float",
-    re.compile(r"^[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)[eE][-+]?[0-9]+$"), list("-+0123456789."))
+    re.compile(r"^[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)[eE][-+]?[0-9]+$"),
+    list("-+0123456789."),
+)
 
 
 def expanded_size(node: yaml.Node, limit: int) -> int:
@@ -312,8 +385,13 @@ def expanded_size(node: yaml.Node, limit: int) -> int:
             return sizes[id(item)]
         if id(item) in inside:
             raise ConfigError("a YAML alias refers to the node that contains it")
-        children = ([part for pair in item.value for part in pair] if isinstance(item, yaml.MappingNode)
-                    else item.value if isinstance(item, yaml.SequenceNode) else [])
+        children = (
+            [part for pair in item.value for part in pair]
+            if isinstance(item, yaml.MappingNode)
+            else item.value
+            if isinstance(item, yaml.SequenceNode)
+            else []
+        )
         total = 1
         for child in children:
             total += size(child, inside | {id(item)})
@@ -340,15 +418,22 @@ def read_study_yaml(path: str | Path) -> dict:
         with path.open("rb") as stream:
             raw = stream.read(MAX_STUDY_FILE_BYTES + 1)
         if len(raw) > MAX_STUDY_FILE_BYTES:
-            raise ConfigError(f"larger than {MAX_STUDY_FILE_BYTES // 1000} kB; a study file is a "
-                              f"few hundred lines of YAML")
+            raise ConfigError(
+                f"larger than {MAX_STUDY_FILE_BYTES // 1000} kB; a study file is a "
+                f"few hundred lines of YAML"
+            )
         loader = StrictLoader(raw.decode("utf-8"))
         try:
             document = loader.get_single_node()
-            if document is not None and expanded_size(document, MAX_STUDY_VALUES) > MAX_STUDY_VALUES:
-                raise ConfigError(f"its YAML aliases expand to more than {MAX_STUDY_VALUES} values "
-                                  f"(nested aliases, a 'billion laughs' file?); write the study "
-                                  f"out without them")
+            if (
+                document is not None
+                and expanded_size(document, MAX_STUDY_VALUES) > MAX_STUDY_VALUES
+            ):
+                raise ConfigError(
+                    f"its YAML aliases expand to more than {MAX_STUDY_VALUES} values "
+                    f"(nested aliases, a 'billion laughs' file?); write the study "
+                    f"out without them"
+                )
             config = loader.construct_document(document) if document is not None else None
         finally:
             loader.dispose()
@@ -358,7 +443,9 @@ def read_study_yaml(path: str | Path) -> dict:
         raise ConfigError(f"{path} is a directory; give the study's YAML file") from None
     except UnicodeDecodeError as exc:
         raise ConfigError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
-    except OSError as exc:  # permission denied, an I/O error: the Snakefile too prints it in one line
+    except (
+        OSError
+    ) as exc:  # permission denied, an I/O error: the Snakefile too prints it in one line
         raise ConfigError(f"{path}: cannot be read ({exc.strerror or exc})") from None
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc}") from None
@@ -367,10 +454,14 @@ def read_study_yaml(path: str | Path) -> dict:
     except RecursionError:
         raise ConfigError(f"{path}: nested too deeply to be a study file") from None
     if not isinstance(config, dict):
-        raise ConfigError(f"{path}: a study file is a YAML mapping (study:, engine:, parameters:, ...)")
+        raise ConfigError(
+            f"{path}: a study file is a YAML mapping (study:, engine:, parameters:, ...)"
+        )
     if "__use_yte__" in config:  # refused before Snakemake would render it (and run its code)
-        raise ConfigError(f"{path}: __use_yte__: a study file is data, not a YTE template "
-                          f"(whose Python expressions Snakemake would run); write the values out")
+        raise ConfigError(
+            f"{path}: __use_yte__: a study file is data, not a YTE template "
+            f"(whose Python expressions Snakemake would run); write the values out"
+        )
     return config
 
 

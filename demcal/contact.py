@@ -34,9 +34,14 @@ def hertz_secant_stiffness(force: float, effective_radius: float, effective_mod:
     return force / overlap
 
 
-def sds_rolling_coefficients(rolling_friction: float, diameter: float, density: float,
-                             youngs_modulus: float, poisson_ratio: float,
-                             wall: bool) -> tuple[float, float]:
+def sds_rolling_coefficients(
+    rolling_friction: float,
+    diameter: float,
+    density: float,
+    youngs_modulus: float,
+    poisson_ratio: float,
+    wall: bool,
+) -> tuple[float, float]:
     """LAMMPS ``rolling sds`` stiffness [N/m] and damping [N s/m] for a rolling friction mu_r.
 
     Follows Ai et al. (2011) as used by Rackl & Hanley (2017): k_roll = 2.25 k_n mu_r^2,
@@ -48,7 +53,10 @@ def sds_rolling_coefficients(rolling_friction: float, diameter: float, density: 
     mass = density * math.pi / 6.0 * diameter**3
     radius_eff = diameter / 2.0 if wall else diameter / 4.0
     mass_eff = mass if wall else mass / 2.0
-    k_n = hertz_secant_stiffness(REFERENCE_LOAD_WEIGHTS * mass * GRAVITY, radius_eff,
-                                 effective_modulus(youngs_modulus, poisson_ratio))
+    k_n = hertz_secant_stiffness(
+        REFERENCE_LOAD_WEIGHTS * mass * GRAVITY,
+        radius_eff,
+        effective_modulus(youngs_modulus, poisson_ratio),
+    )
     k_roll = 2.25 * k_n * rolling_friction**2
     return k_roll, ROLLING_DAMPING_RATIO * 2.0 * math.sqrt(mass_eff * k_roll)

@@ -61,41 +61,71 @@ def variant_settings(study: Study, scene: str, variant: Variant, field: str) -> 
     return study.scenes[scene].resolve_settings(settings, field)
 
 
-def plan(study: Study, scene: str, fractions: list[float],
-         sizes: list[float]) -> tuple[list[Variant], Variant]:
+def plan(
+    study: Study, scene: str, fractions: list[float], sizes: list[float]
+) -> tuple[list[Variant], Variant]:
     """The variants of both sweeps and the configured (base) one; each is checked like a config."""
     size_setting = study.scenes[scene].size_setting
     base = Variant(study.timestep_fraction, study.settings[scene][size_setting])
-    variants = sorted({base, *(Variant(f, base.size) for f in fractions),
-                       *(Variant(base.fraction, s) for s in sizes)},
-                      key=lambda v: (v.size, -v.fraction))
+    variants = sorted(
+        {
+            base,
+            *(Variant(f, base.size) for f in fractions),
+            *(Variant(base.fraction, s) for s in sizes),
+        },
+        key=lambda v: (v.size, -v.fraction),
+    )
     for v in variants:
         check_fraction(v.fraction, default("timestep_fraction"), "--fractions")
         variant_settings(study, scene, v, f"--sizes ({size_setting})")
     return variants, base
 
 
-def run_variant(config: str, scene: str, variant: Variant, seed_index: int,
-                point: dict[str, float], workdir: str) -> dict:
+def run_variant(
+    config: str,
+    scene: str,
+    variant: Variant,
+    seed_index: int,
+    point: dict[str, float],
+    workdir: str,
+) -> dict:
     """One simulation of ``variant``; returns its responses and cost (a failure keeps its reason)."""
     study = load_study_file(config)
     settings = variant_settings(study, scene, variant, "settings")
     Path(workdir).mkdir(parents=True, exist_ok=True)
-    job = SimulationJob(scene=scene, parameters=study.parameters_for(point), settings=settings,
-                        seed=study.simulation_seed("convergence", scene, seed_index),
-                        responses=study.responses_needed(scene),
-                        timestep_fraction=variant.fraction, workdir=workdir,
-                        stop_file=str(Path(workdir) / "STOP"))
+    job = SimulationJob(
+        scene=scene,
+        parameters=study.parameters_for(point),
+        settings=settings,
+        seed=study.simulation_seed("convergence", scene, seed_index),
+        responses=study.responses_needed(scene),
+        timestep_fraction=variant.fraction,
+        workdir=workdir,
+        stop_file=str(Path(workdir) / "STOP"),
+    )
     result = run_engine(study, job)
-    row = {"fraction": variant.fraction, "size": variant.size, "d50": settings["d50"],
-           "seed_index": seed_index,
-           "status": result.status, "reason": result.reason,
-           "wall_s": result.cost.get("wall_s"), "cpu_s": result.cost.get("cpu_s"),
-           "steps": result.cost.get("steps")}
+    row = {
+        "fraction": variant.fraction,
+        "size": variant.size,
+        "d50": settings["d50"],
+        "seed_index": seed_index,
+        "status": result.status,
+        "reason": result.reason,
+        "wall_s": result.cost.get("wall_s"),
+        "cpu_s": result.cost.get("cpu_s"),
+        "steps": result.cost.get("steps"),
+    }
     if result.status == Status.OK:
         try:
-            row.update(scene_responses(study.scenes[scene], job.responses, result.measurements,
-                                       lambda: result.arrays, settings))
+            row.update(
+                scene_responses(
+                    study.scenes[scene],
+                    job.responses,
+                    result.measurements,
+                    lambda: result.arrays,
+                    settings,
+                )
+            )
         except DemcalError as exc:
             row.update(status=Status.FAILED, reason=str(exc))
     return row
@@ -117,29 +147,48 @@ def summarise(runs: pd.DataFrame, responses: list[str], base: Variant) -> pd.Dat
     ok = runs[runs["status"] == Status.OK]
     means = ok.groupby(["fraction", "size"])[responses].mean()
     dt_sweep = means.xs(base.size, level="size", drop_level=False) if len(means) else means
-    size_sweep = (means.xs(base.fraction, level="fraction", drop_level=False)
-                  if len(means) else means)
+    size_sweep = (
+        means.xs(base.fraction, level="fraction", drop_level=False) if len(means) else means
+    )
     finest_dt = dt_sweep.loc[dt_sweep.index.min()] if len(dt_sweep) else None
     largest = size_sweep.loc[size_sweep.index.max()] if len(size_sweep) else None
     rows = []
     for (fraction, size), group in ok.groupby(["fraction", "size"]):
-        row = {"fraction": fraction, "size": size, "runs_ok": len(group),
-               "cpu_s": group["cpu_s"].mean(), "wall_s": group["wall_s"].mean()}
+        row = {
+            "fraction": fraction,
+            "size": size,
+            "runs_ok": len(group),
+            "cpu_s": group["cpu_s"].mean(),
+            "wall_s": group["wall_s"].mean(),
+        }
         for name in responses:
             mean = group[name].mean()
             row[name] = mean
             row[f"{name}_dt_deviation_pct"] = (
-                _relative_pct(mean, finest_dt[name]) if size == base.size and finest_dt is not None
-                else float("nan"))
+                _relative_pct(mean, finest_dt[name])
+                if size == base.size and finest_dt is not None
+                else float("nan")
+            )
             row[f"{name}_size_deviation_pct"] = (
                 _relative_pct(mean, largest[name])
-                if fraction == base.fraction and largest is not None else float("nan"))
-            row[f"{name}_noise_pct"] = (100.0 * statistics.stdev(group[name]) / abs(mean)
-                                        if len(group) > 1 and mean else float("nan"))
+                if fraction == base.fraction and largest is not None
+                else float("nan")
+            )
+            row[f"{name}_noise_pct"] = (
+                100.0 * statistics.stdev(group[name]) / abs(mean)
+                if len(group) > 1 and mean
+                else float("nan")
+            )
         rows.append(row)
     for _, run in runs[runs["status"] != Status.OK].iterrows():
-        rows.append({"fraction": run["fraction"], "size": run["size"], "runs_ok": 0,
-                     "failure": run["reason"]})
+        rows.append(
+            {
+                "fraction": run["fraction"],
+                "size": run["size"],
+                "runs_ok": 0,
+                "failure": run["reason"],
+            }
+        )
     return pd.DataFrame(rows)
 
 
@@ -153,15 +202,25 @@ def plot(summary: pd.DataFrame, responses: list[str], size_setting: str, path: P
     ok = summary[summary["runs_ok"] > 0]
     fig, axes = plt.subplots(1, len(responses), figsize=(5.0 * len(responses), 4.0), squeeze=False)
     for ax, name in zip(axes[0], responses):
-        for sweep, colour, label in (("dt", "tab:blue", "time step"),
-                                     ("size", "tab:orange", size_setting)):
+        for sweep, colour, label in (
+            ("dt", "tab:blue", "time step"),
+            ("size", "tab:orange", size_setting),
+        ):
             rows = ok[ok[f"{name}_{sweep}_deviation_pct"].notna()]
-            ax.scatter(rows["cpu_s"], rows[f"{name}_{sweep}_deviation_pct"].abs(), color=colour,
-                       label=f"{label} sweep")
+            ax.scatter(
+                rows["cpu_s"],
+                rows[f"{name}_{sweep}_deviation_pct"].abs(),
+                color=colour,
+                label=f"{label} sweep",
+            )
             for _, row in rows.iterrows():
-                ax.annotate(f"dt {row['fraction']:g}, {row['size']:g}",
-                            (row["cpu_s"], abs(row[f"{name}_{sweep}_deviation_pct"])),
-                            fontsize=7, xytext=(3, 3), textcoords="offset points")
+                ax.annotate(
+                    f"dt {row['fraction']:g}, {row['size']:g}",
+                    (row["cpu_s"], abs(row[f"{name}_{sweep}_deviation_pct"])),
+                    fontsize=7,
+                    xytext=(3, 3),
+                    textcoords="offset points",
+                )
         noise = ok[f"{name}_noise_pct"].median()
         if noise == noise:  # not NaN
             ax.axhline(noise, color="tab:red", linestyle="--", label=f"seed noise {noise:.2g} %")
@@ -177,8 +236,15 @@ def plot(summary: pd.DataFrame, responses: list[str], size_setting: str, path: P
     tmp.replace(path)
 
 
-def run(config: str, scene: str | None, fractions: list[float] | None,
-        sizes: list[float] | None, seeds: int, jobs: int, point_overrides: list[str]) -> Path:
+def run(
+    config: str,
+    scene: str | None,
+    fractions: list[float] | None,
+    sizes: list[float] | None,
+    seeds: int,
+    jobs: int,
+    point_overrides: list[str],
+) -> Path:
     """Run the study and write its files; returns the summary CSV's path."""
     config = str(Path(config).resolve())
     study = load_study_file(config)
@@ -196,26 +262,48 @@ def run(config: str, scene: str | None, fractions: list[float] | None,
     out = study.files.convergence
     out.mkdir(parents=True, exist_ok=True)
     tasks = [(v, k) for v in variants for k in range(seeds)]
-    print(f"demcal convergence: {scene}, {len(variants)} variants x {seeds} seeds = "
-          f"{len(tasks)} simulations, {jobs} at a time; configured {base.label}", flush=True)
+    print(
+        f"demcal convergence: {scene}, {len(variants)} variants x {seeds} seeds = "
+        f"{len(tasks)} simulations, {jobs} at a time; configured {base.label}",
+        flush=True,
+    )
     rows = []
     with ProcessPoolExecutor(jobs) as pool:
-        futures = [pool.submit(run_variant, config, scene, v, k, point,
-                               str((out / scene / v.label / f"seed{k}").resolve()))
-                   for v, k in tasks]
+        futures = [
+            pool.submit(
+                run_variant,
+                config,
+                scene,
+                v,
+                k,
+                point,
+                str((out / scene / v.label / f"seed{k}").resolve()),
+            )
+            for v, k in tasks
+        ]
         for done, future in enumerate(futures, 1):
             row = future.result()
             rows.append(row)
             atomic_write_text(out / f"{scene}.csv", pd.DataFrame(rows).to_csv(index=False))
-            print(f"  [{done}/{len(tasks)}] dt {row['fraction']:g} T_R, {size_setting} "
-                  f"{row['size']:g}, seed {row['seed_index']}: {row['status']} "
-                  f"({row['cpu_s'] or 0:.0f} s CPU) {row['reason']}", flush=True)
-    return write_summary(out, scene, pd.DataFrame(rows), study.responses_needed(scene), base,
-                         size_setting)
+            print(
+                f"  [{done}/{len(tasks)}] dt {row['fraction']:g} T_R, {size_setting} "
+                f"{row['size']:g}, seed {row['seed_index']}: {row['status']} "
+                f"({row['cpu_s'] or 0:.0f} s CPU) {row['reason']}",
+                flush=True,
+            )
+    return write_summary(
+        out, scene, pd.DataFrame(rows), study.responses_needed(scene), base, size_setting
+    )
 
 
-def write_summary(out: Path, scene: str, runs: pd.DataFrame, responses: list[str],
-                  base: Variant, size_setting: str) -> Path:
+def write_summary(
+    out: Path,
+    scene: str,
+    runs: pd.DataFrame,
+    responses: list[str],
+    base: Variant,
+    size_setting: str,
+) -> Path:
     """Summary CSV and plot of the runs; prints the table. Returns the CSV's path."""
     summary = summarise(runs, responses, base)
     summary_path = out / f"{scene}_summary.csv"

@@ -24,4 +24,6 @@ def bounded_reason(text: str) -> str:
     if len(text) <= REASON_CHARS:
         return text
     half = REASON_CHARS // 2
-    return f"{text[:half]} [... {len(text) - 2 * half} characters cut; see the log ...] {text[-half:]}"
+    return (
+        f"{text[:half]} [... {len(text) - 2 * half} characters cut; see the log ...] {text[-half:]}"
+    )

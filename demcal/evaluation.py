@@ -36,8 +36,11 @@ log = logging.getLogger("demcal")
 def response_paths(study: Study, evaluation: str) -> list[Path]:
     """The responses.json of every scene replicate of an evaluation (the objective's inputs)."""
     files = study.files.evaluation(evaluation)
-    return [files.replicate(scene, r).responses
-            for scene in study.scenes for r in range(study.replicates)]
+    return [
+        files.replicate(scene, r).responses
+        for scene in study.scenes
+        for r in range(study.replicates)
+    ]
 
 
 def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> dict:
@@ -47,10 +50,17 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> dict:
     workdir = replicate_files.dir
     workdir.mkdir(parents=True, exist_ok=True)
     replicate_files.state.unlink(missing_ok=True)
-    record = {"evaluation": evaluation, "scene": scene, "replicate": replicate,
-              "engine": study.engine.name, "engine_version": study.engine.version(),
-              "settings": study.settings[scene], "timestep_fraction": study.timestep_fraction,
-              "responses_needed": study.responses_needed(scene), "started_at": time.time()}
+    record = {
+        "evaluation": evaluation,
+        "scene": scene,
+        "replicate": replicate,
+        "engine": study.engine.name,
+        "engine_version": study.engine.version(),
+        "settings": study.settings[scene],
+        "timestep_fraction": study.timestep_fraction,
+        "responses_needed": study.responses_needed(scene),
+        "started_at": time.time(),
+    }
     try:
         point = read_point(files)
         attempt = point.attempt
@@ -60,22 +70,35 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> dict:
         parameters, seed, attempt = {}, None, None
     else:
         seed = study.simulation_seed(evaluation, scene, replicate, attempt)
-        job = SimulationJob(scene=scene, parameters=parameters, settings=study.settings[scene],
-                            seed=seed, responses=record["responses_needed"],
-                            timestep_fraction=study.timestep_fraction,
-                            workdir=str(workdir.resolve()),
-                            stop_file=str(files.stop.resolve()),
-                            attempt=attempt)
+        job = SimulationJob(
+            scene=scene,
+            parameters=parameters,
+            settings=study.settings[scene],
+            seed=seed,
+            responses=record["responses_needed"],
+            timestep_fraction=study.timestep_fraction,
+            workdir=str(workdir.resolve()),
+            stop_file=str(files.stop.resolve()),
+            attempt=attempt,
+        )
         result = run_engine(study, job)
     if result.status == Status.OK and result.arrays:
         np.savez(replicate_files.state, **result.arrays)
         record["state_file"] = replicate_files.state.name
-    record.update(seed=seed, attempt=attempt, parameters=parameters, status=result.status,
-                  reason=bounded_reason(result.reason),
-                  measurements=result.measurements, cost=result.cost, ended_at=time.time())
+    record.update(
+        seed=seed,
+        attempt=attempt,
+        parameters=parameters,
+        status=result.status,
+        reason=bounded_reason(result.reason),
+        measurements=result.measurements,
+        cost=result.cost,
+        ended_at=time.time(),
+    )
     write_json(replicate_files.simulation, record)
-    log.info("simulation %s %s rep%d: %s %s", evaluation, scene, replicate, result.status,
-             result.reason)
+    log.info(
+        "simulation %s %s rep%d: %s %s", evaluation, scene, replicate, result.status, result.reason
+    )
     return record
 
 
@@ -97,28 +120,43 @@ def extract(study: Study, simulation_path: Path) -> dict:
     try:
         sim = read_json(simulation_path, "simulation.json")
         record = {k: sim.get(k) for k in ("evaluation", "scene", "replicate", "seed", "cost")}
-        record.update(status=sim.get("status", Status.FAILED), reason=bounded_reason(sim.get("reason", "")),
-                      responses={})
+        record.update(
+            status=sim.get("status", Status.FAILED),
+            reason=bounded_reason(sim.get("reason", "")),
+            responses={},
+        )
         if record["status"] == Status.OK:
             record["responses"] = _responses(study, sim, simulation_path.parent)
     except SimulationFailed as exc:
         record = {"status": Status.FAILED, "reason": str(exc), "responses": {}}
     except (KeyError, TypeError, ValueError) as exc:
-        record = {"status": Status.FAILED, "reason": f"simulation.json malformed or response not "
-                                                     f"measurable: {type(exc).__name__}: {exc}",
-                  "responses": {}}
+        record = {
+            "status": Status.FAILED,
+            "reason": f"simulation.json malformed or response not "
+            f"measurable: {type(exc).__name__}: {exc}",
+            "responses": {},
+        }
     write_json(ReplicateFiles(simulation_path.parent).responses, record)
     return record
 
 
 def _responses(study: Study, sim: dict, workdir: Path) -> dict[str, float]:
-    return scene_responses(study.scenes[sim["scene"]], study.responses_needed(sim["scene"]),
-                           sim.get("measurements", {}), lambda: _load_state(workdir, sim),
-                           sim["settings"])
+    return scene_responses(
+        study.scenes[sim["scene"]],
+        study.responses_needed(sim["scene"]),
+        sim.get("measurements", {}),
+        lambda: _load_state(workdir, sim),
+        sim["settings"],
+    )
 
 
-def scene_responses(scene: Scene, wanted: list[str], measurements: dict,
-                    load_state: Callable[[], dict], settings: dict) -> dict[str, float]:
+def scene_responses(
+    scene: Scene,
+    wanted: list[str],
+    measurements: dict,
+    load_state: Callable[[], dict],
+    settings: dict,
+) -> dict[str, float]:
     """Each wanted response: measured by the engine, else computed by the scene from the state.
 
     ``load_state`` is called at most once, and only if some response needs it.
@@ -178,8 +216,11 @@ def objective(study: Study, evaluation: str, response_paths: list[Path]) -> dict
         point = read_point(files).parameters
     except SimulationFailed:
         point = {}
-    record = {"evaluation": evaluation, "parameters": point,
-              "cost": {"cpu_s": cpu, "simulation_wall_s": wall}}
+    record = {
+        "evaluation": evaluation,
+        "parameters": point,
+        "cost": {"cpu_s": cpu, "simulation_wall_s": wall},
+    }
     if failures:
         record.update(status=Status.FAILED, reason=bounded_reason("; ".join(failures)))
     elif terminated:
@@ -192,8 +233,9 @@ def objective(study: Study, evaluation: str, response_paths: list[Path]) -> dict
     return record
 
 
-def _objective_of_responses(study: Study, point: dict, values: dict[str, list[float]],
-                            record: dict) -> None:
+def _objective_of_responses(
+    study: Study, point: dict, values: dict[str, list[float]], record: dict
+) -> None:
     """Fill ``record`` with eq. 3.3 (plus the Rayleigh cost) of the replicate means, or a failure."""
     try:
         timestep_cost = study.timestep_cost(point)
@@ -207,20 +249,28 @@ def _objective_of_responses(study: Study, point: dict, values: dict[str, list[fl
         record.update(status=Status.FAILED, reason=str(exc))
         return
     record.update(
-        status=Status.OK, reason="",
+        status=Status.OK,
+        reason="",
         objective=value,
         timestep_cost=timestep_cost,
-        responses=means, replicates=dict(values),
+        responses=means,
+        replicates=dict(values),
         spread={key: replicate_spread(v) for key, v in values.items()},
         relative_errors={t.key: relative_error(means[t.key], t.value) for t in study.targets},
         targets={t.key: t.value for t in study.targets},
-        weights={t.key: t.weight for t in study.targets}, objective_form=study.objective_form)
+        weights={t.key: t.weight for t in study.targets},
+        objective_form=study.objective_form,
+    )
 
 
 def run_snakemake_job(smk, stage: str) -> None:
     """Entry point of the workflow's scripts: log to the rule's log, run one stage."""
-    logging.basicConfig(filename=smk.log[0], level=logging.INFO, force=True,
-                        format="%(asctime)s %(levelname)s %(message)s")
+    logging.basicConfig(
+        filename=smk.log[0],
+        level=logging.INFO,
+        force=True,
+        format="%(asctime)s %(levelname)s %(message)s",
+    )
     try:
         study = load_frozen(smk.params.study_file)
         w = smk.wildcards
@@ -238,5 +288,7 @@ def run_snakemake_job(smk, stage: str) -> None:
 def write_centre_point(smk) -> None:
     """params.json at the centre of the free parameters' bounds (the default evaluation)."""
     study = load_frozen(smk.params.study_file)
-    write_point(EvaluationFiles(Path(smk.output[0]).parent),
-                PointRecord(study.centre_point(), proposed_by="centre of the bounds"))
+    write_point(
+        EvaluationFiles(Path(smk.output[0]).parent),
+        PointRecord(study.centre_point(), proposed_by="centre of the bounds"),
+    )

@@ -78,8 +78,9 @@ def read_json(path: Path, what: str, limit: int | None = None) -> dict:
             text = handle.read(-1 if limit is None else limit + 1)
             if limit is not None and len(text) > limit:
                 size = os.fstat(handle.fileno()).st_size
-                raise SimulationFailed(f"{what} {path} is {byte_size(size)}, more than the limit "
-                                       f"of {byte_size(limit)}")
+                raise SimulationFailed(
+                    f"{what} {path} is {byte_size(size)}, more than the limit of {byte_size(limit)}"
+                )
         record = json.loads(text)
     except FileNotFoundError:
         raise SimulationFailed(f"{what} missing: {path}") from None
@@ -108,8 +109,13 @@ class PartialWriter:
         with open(self.path, "w", newline="") as handle:
             csv.writer(handle).writerow(PARTIAL_COLUMNS)
 
-    def write(self, progress: float, stage: str, estimates: dict[str, float] | None = None,
-              final: bool = False) -> None:
+    def write(
+        self,
+        progress: float,
+        stage: str,
+        estimates: dict[str, float] | None = None,
+        final: bool = False,
+    ) -> None:
         rows = [(r, v, int(final)) for r, v in (estimates or {}).items()] or [("", "", "")]
         wall = f"{self.clock() - self.start:.3f}"
         with open(self.path, "a", newline="") as handle:
@@ -121,12 +127,14 @@ class PartialWriter:
 def partial_row(row: dict) -> dict | None:
     """One row of a partial.csv (a dict by its header) with its numbers read; None if damaged."""
     try:
-        return {"wall_s": float(row["wall_s"]),
-                "progress": float(row["progress"]),
-                "stage": row["stage"],
-                "response": row["response"] or None,
-                "value": float(row["value"]) if row["value"] else None,
-                "final": row.get("final") == "1"}
+        return {
+            "wall_s": float(row["wall_s"]),
+            "progress": float(row["progress"]),
+            "stage": row["stage"],
+            "response": row["response"] or None,
+            "value": float(row["value"]) if row["value"] else None,
+            "final": row.get("final") == "1",
+        }
     except (KeyError, TypeError, ValueError):
         return None
 
@@ -229,5 +237,7 @@ def log_tail(path: Path, lines: int = 5) -> str:
             text = handle.read().decode(errors="replace").strip().splitlines()
     except OSError:
         return ""
-    return " | ".join(line if len(line) <= TAIL_LINE_CHARS else "..." + line[-TAIL_LINE_CHARS:]
-                      for line in text[-lines:])
+    return " | ".join(
+        line if len(line) <= TAIL_LINE_CHARS else "..." + line[-TAIL_LINE_CHARS:]
+        for line in text[-lines:]
+    )

@@ -32,8 +32,15 @@ def _image(path: Path) -> list[str]:
         return []
     data = base64.b64encode(path.read_bytes()).decode()
     # docutils limits a line to 10000 characters; a URI may continue on indented lines (joined)
-    return [".. image::", *(f"   {data[i:i + 76]}" if i else f"   data:image/png;base64,{data[:76]}"
-                            for i in range(0, len(data), 76)), "   :width: 100%", ""]
+    return [
+        ".. image::",
+        *(
+            f"   {data[i : i + 76]}" if i else f"   data:image/png;base64,{data[:76]}"
+            for i in range(0, len(data), 76)
+        ),
+        "   :width: 100%",
+        "",
+    ]
 
 
 def _read(path: Path) -> dict | None:
@@ -49,36 +56,61 @@ def report_headline(study: Study) -> str:
     lines = ["The answer", "==========", ""]
     finished, best = _read(files.finished), _read(files.best)
     if finished is None:
-        return "\n".join([*lines, "The calibration has not finished (no finished.json): run it first.", ""])
+        return "\n".join(
+            [*lines, "The calibration has not finished (no finished.json): run it first.", ""]
+        )
     counts = finished.get("evaluations", {})
     spent = ""
     if files.evaluations_csv.exists():
         cpu = pd.to_numeric(pd.read_csv(files.evaluations_csv)["cpu_s"], errors="coerce").sum()
         spent = f"; simulation CPU time {duration(cpu)}"
-    lines += [f"**Ended:** {finished.get('reason', 'unknown')}. **Evaluations:** "
-              f"{sum(counts.values())} ({counts.get(Status.OK, 0)} ok, {counts.get(Status.FAILED, 0)} failed, "
-              f"{counts.get(Status.TERMINATED, 0)} stopped early){spent}.", ""]
+    lines += [
+        f"**Ended:** {finished.get('reason', 'unknown')}. **Evaluations:** "
+        f"{sum(counts.values())} ({counts.get(Status.OK, 0)} ok, {counts.get(Status.FAILED, 0)} failed, "
+        f"{counts.get(Status.TERMINATED, 0)} stopped early){spent}.",
+        "",
+    ]
     if best is None:
-        return "\n".join([*lines, "No evaluation succeeded: the reasons are in ``evaluations.csv``.", ""])
-    lines += [f"**Best parameters** (evaluation ``{best['evaluation']}``, "
-              f"the evaluated point with the {CHOSEN_BY.get(best.get('chosen_by'), 'lowest objective')}):", ""]
+        return "\n".join(
+            [*lines, "No evaluation succeeded: the reasons are in ``evaluations.csv``.", ""]
+        )
+    lines += [
+        f"**Best parameters** (evaluation ``{best['evaluation']}``, "
+        f"the evaluated point with the {CHOSEN_BY.get(best.get('chosen_by'), 'lowest objective')}):",
+        "",
+    ]
     on_bounds = best.get("on_bounds", {})
     rows = []
     for p in study.free:
         unit = "" if p.spec.unit == "-" else f" {p.spec.unit}"
         note = f" **on its {on_bounds[p.name]} bound**" if p.name in on_bounds else ""
-        rows.append([p.name, f"{best['parameters'][p.name]:.4g}{unit}", f"{p.lower:g} – {p.upper:g}{unit}{note}"])
+        rows.append(
+            [
+                p.name,
+                f"{best['parameters'][p.name]:.4g}{unit}",
+                f"{p.lower:g} – {p.upper:g}{unit}{note}",
+            ]
+        )
     lines += _table(["parameter", "value", "bounds"], rows)
     predicted = best.get("predicted_responses", {})
     rows = []
     for t in study.targets:
         unit = study.scenes[t.scene].responses[t.response].unit
         model = predicted.get(t.key, {})
-        rows.append([f"{t.key} [{unit}]", with_sd(best["responses"].get(t.key), None),
-                     with_sd(model.get("mean"), model.get("sd")), with_sd(t.value, t.spread),
-                     f"{100 * best['relative_errors'].get(t.key, float('nan')):+.1f} %"])
-    lines += ["**Responses against the targets** (simulated at the best point; predicted there by the response "
-              "models ± their sd; target ± its measurement spread):", ""]
+        rows.append(
+            [
+                f"{t.key} [{unit}]",
+                with_sd(best["responses"].get(t.key), None),
+                with_sd(model.get("mean"), model.get("sd")),
+                with_sd(t.value, t.spread),
+                f"{100 * best['relative_errors'].get(t.key, float('nan')):+.1f} %",
+            ]
+        )
+    lines += [
+        "**Responses against the targets** (simulated at the best point; predicted there by the response "
+        "models ± their sd; target ± its measurement spread):",
+        "",
+    ]
     lines += _table(["response", "simulated", "predicted", "target", "error"], rows)
     confirmation = best.get("confirmation")
     if confirmation and confirmation["responses"]:
@@ -86,15 +118,27 @@ def report_headline(study: Study) -> str:
         for t in study.targets:
             entry = confirmation["responses"].get(t.key)
             if entry:
-                rows.append([t.key, with_sd(entry["mean"], entry["sd"]), str(entry["count"]),
-                             with_sd(t.value, t.spread)])
-        lines += [f"**Confirmed** by {len(confirmation['evaluations'])} more simulations of the best point "
-                  f"(new seeds; mean ± sd of their responses):", ""]
+                rows.append(
+                    [
+                        t.key,
+                        with_sd(entry["mean"], entry["sd"]),
+                        str(entry["count"]),
+                        with_sd(t.value, t.spread),
+                    ]
+                )
+        lines += [
+            f"**Confirmed** by {len(confirmation['evaluations'])} more simulations of the best point "
+            f"(new seeds; mean ± sd of their responses):",
+            "",
+        ]
         lines += _table(["response", "mean", "simulations", "target"], rows)
     solutions = _read(files.solutions_summary)
     if solutions:
-        lines += [f"**What the targets identify** ({solutions['accepted']} of {solutions['sampled']} sampled "
-                  f"parameter sets meet every target within {solutions['k']:g} sd):", ""]
+        lines += [
+            f"**What the targets identify** ({solutions['accepted']} of {solutions['sampled']} sampled "
+            f"parameter sets meet every target within {solutions['k']:g} sd):",
+            "",
+        ]
         lines += [f"- {verdict['sentence']}" for verdict in solutions["verdicts"]] + [""]
     lines += _image(files.plots / "solution_space.png") + _image(files.plots / "sensitivity.png")
     return "\n".join(lines)

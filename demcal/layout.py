@@ -96,8 +96,9 @@ class EvaluationFiles:
     def snakemake_log(self) -> Path:
         return self.logs / "snakemake.log"
 
-    def job_log(self, stage: str, scene: str | None = None, replicate: int | str | None = None
-                ) -> Path:
+    def job_log(
+        self, stage: str, scene: str | None = None, replicate: int | str | None = None
+    ) -> Path:
         """Log of one workflow job (simulate/extract per scene replicate, or objective)."""
         suffix = "" if scene is None else f"_{scene}_rep{replicate}"
         return self.logs / f"{stage}{suffix}.log"
@@ -234,14 +235,22 @@ def read_point(files: EvaluationFiles) -> PointRecord:
     attempt = record.get("attempt", 0)
     if not isinstance(attempt, int) or isinstance(attempt, bool) or attempt < 0:
         raise SimulationFailed(f"params.json: attempt {attempt!r} is not a count")
-    return PointRecord(record["parameters"], attempt, list(record.get("previous_failures", [])),
-                       bool(record.get("in_initial_design", False)), record.get("proposed_by"))
+    return PointRecord(
+        record["parameters"],
+        attempt,
+        list(record.get("previous_failures", [])),
+        bool(record.get("in_initial_design", False)),
+        record.get("proposed_by"),
+    )
 
 
 def write_point(files: EvaluationFiles, point: PointRecord) -> None:
-    record = {"parameters": point.parameters, "attempt": point.attempt,
-              "previous_failures": point.previous_failures,
-              "in_initial_design": point.in_initial_design}
+    record = {
+        "parameters": point.parameters,
+        "attempt": point.attempt,
+        "previous_failures": point.previous_failures,
+        "in_initial_design": point.in_initial_design,
+    }
     if point.proposed_by is not None:
         record["proposed_by"] = point.proposed_by
     write_json(files.params, record)

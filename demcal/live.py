@@ -58,11 +58,25 @@ def running_rows(study: Study, pending: list[str], estimates: pd.DataFrame) -> l
         started = read_launch(study.files.evaluation(evaluation)).get("started_at")
         progress = simulation_progress(study, evaluation)
         mine = estimates[estimates["evaluation"] == evaluation]
-        estimate, limit = ("–", "–") if mine.empty else (
-            f"{mine['estimate'].iloc[-1]:.4g}",
-            "not applied" if pd.isna(mine["limit"].iloc[-1]) else f"{mine['limit'].iloc[-1]:.4g}")
-        rows.append([evaluation, "–" if started is None else clock(now - float(started)),
-                     "starting" if progress is None else f"{100 * progress:.0f} %", estimate, limit])
+        estimate, limit = (
+            ("–", "–")
+            if mine.empty
+            else (
+                f"{mine['estimate'].iloc[-1]:.4g}",
+                "not applied"
+                if pd.isna(mine["limit"].iloc[-1])
+                else f"{mine['limit'].iloc[-1]:.4g}",
+            )
+        )
+        rows.append(
+            [
+                evaluation,
+                "–" if started is None else clock(now - float(started)),
+                "starting" if progress is None else f"{100 * progress:.0f} %",
+                estimate,
+                limit,
+            ]
+        )
     return rows
 
 
@@ -72,16 +86,21 @@ def live_page(study: Study, state: str, counts: str, refresh_s: float) -> str:
     optimizer = Optimizer.from_json(files.optimizer.read_text())
     pending = [evaluation_id(i) for i in optimizer.pending()]
     estimates = load_estimates(study)
-    parts = [f"<h1>demcal: {html.escape(study.name)}</h1>",
-             f"<p><b>{html.escape(state)}</b><br>{html.escape(counts)}<br>"
-             f"updated {time.strftime('%H:%M:%S')}, every {refresh_s:g} s</p>"]
+    parts = [
+        f"<h1>demcal: {html.escape(study.name)}</h1>",
+        f"<p><b>{html.escape(state)}</b><br>{html.escape(counts)}<br>"
+        f"updated {time.strftime('%H:%M:%S')}, every {refresh_s:g} s</p>",
+    ]
     rows = running_rows(study, pending, estimates)
     if rows:
-        cells = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in row) + "</tr>"
-                        for row in rows)
-        parts.append("<h2>Running</h2><table><tr><th>evaluation</th><th>running for</th><th>simulated</th>"
-                     "<th>estimated objective</th><th>early-termination limit</th></tr>"
-                     f"{cells}</table>")
+        cells = "".join(
+            "<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in row) + "</tr>" for row in rows
+        )
+        parts.append(
+            "<h2>Running</h2><table><tr><th>evaluation</th><th>running for</th><th>simulated</th>"
+            "<th>estimated objective</th><th>early-termination limit</th></tr>"
+            f"{cells}</table>"
+        )
     if files.evaluations_csv.exists() and files.calibration.exists():
         table = load_table(study)
         parts.append(_png(lambda out: plot_objective_vs_time(study, table, out)))
@@ -89,12 +108,16 @@ def live_page(study: Study, state: str, counts: str, refresh_s: float) -> str:
     else:
         statuses = {}
     parts.append(_png(lambda out: plot_early_termination(study, estimates, statuses, out)))
-    style = ("body{font-family:sans-serif;margin:2em}img{max-width:100%;display:block}"
-             "td,th{padding:2px 12px;text-align:right}")
-    return (f'<!DOCTYPE html><html><head><meta charset="utf-8">'
-            f'<meta http-equiv="refresh" content="{refresh_s:g}">'
-            f"<title>demcal {html.escape(study.name)}</title><style>{style}</style></head>"
-            f"<body>{''.join(parts)}</body></html>\n")
+    style = (
+        "body{font-family:sans-serif;margin:2em}img{max-width:100%;display:block}"
+        "td,th{padding:2px 12px;text-align:right}"
+    )
+    return (
+        f'<!DOCTYPE html><html><head><meta charset="utf-8">'
+        f'<meta http-equiv="refresh" content="{refresh_s:g}">'
+        f"<title>demcal {html.escape(study.name)}</title><style>{style}</style></head>"
+        f"<body>{''.join(parts)}</body></html>\n"
+    )
 
 
 def write_live_page(study: Study, state: str, counts: str, refresh_s: float) -> None:

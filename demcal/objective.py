@@ -60,8 +60,9 @@ def replicate_spread(values: list[float]) -> float:
     return stdev(values) if len(values) > 1 else 0.0
 
 
-def objective_value(targets: list[Target], mean_responses: dict[str, float],
-                    form: str = "relative") -> float:
+def objective_value(
+    targets: list[Target], mean_responses: dict[str, float], form: str = "relative"
+) -> float:
     """The objective of replicate-mean responses: eq. 3.3, or its precision-weighted form.
 
     ``mean_responses`` maps ``scene.response`` to the replicate mean.
@@ -72,9 +73,11 @@ def objective_value(targets: list[Target], mean_responses: dict[str, float],
     return total
 
 
-def objective_values(targets: list[Target] | tuple[Target, ...],
-                     responses: Mapping[str, float | np.ndarray], form: str = "relative"
-                     ) -> float | np.ndarray:
+def objective_values(
+    targets: list[Target] | tuple[Target, ...],
+    responses: Mapping[str, float | np.ndarray],
+    form: str = "relative",
+) -> float | np.ndarray:
     """The objective of responses given as numbers or as arrays of one shape (element-wise).
 
     Used on simulated means and on model predictions or posterior samples.
@@ -86,7 +89,9 @@ def objective_values(targets: list[Target] | tuple[Target, ...],
     return total
 
 
-def target_error(target: Target, simulated: float | np.ndarray, form: str = "relative") -> float | np.ndarray:
+def target_error(
+    target: Target, simulated: float | np.ndarray, form: str = "relative"
+) -> float | np.ndarray:
     """The error of one response in the objective's form: (y - r) / r (Rackl & Hanley 2017, eq. 9;
     y - r where r is 0), or (y - r) / s in units of the target's spread (precision form)."""
     y = np.asarray(simulated, float)
@@ -95,10 +100,15 @@ def target_error(target: Target, simulated: float | np.ndarray, form: str = "rel
     return relative_error(y, target.value)
 
 
-def weighted_residuals(targets: list[Target] | tuple[Target, ...], responses: Mapping[str, float | np.ndarray],
-                       form: str = "relative") -> np.ndarray:
+def weighted_residuals(
+    targets: list[Target] | tuple[Target, ...],
+    responses: Mapping[str, float | np.ndarray],
+    form: str = "relative",
+) -> np.ndarray:
     """sqrt(w_i) e_i per target (rows): the residuals whose squares sum to the objective (least squares)."""
-    return np.array([math.sqrt(t.weight) * target_error(t, responses[t.key], form) for t in targets])
+    return np.array(
+        [math.sqrt(t.weight) * target_error(t, responses[t.key], form) for t in targets]
+    )
 
 
 @dataclass(frozen=True)
@@ -116,17 +126,31 @@ class ResponseObjective:
         return [t.key for t in self.targets]
 
     def to_dict(self) -> dict:
-        return {"form": self.form, "targets": [
-            {"scene": t.scene, "response": t.response, "value": t.value, "weight": t.weight,
-             "spread": t.spread} for t in self.targets]}
+        return {
+            "form": self.form,
+            "targets": [
+                {
+                    "scene": t.scene,
+                    "response": t.response,
+                    "value": t.value,
+                    "weight": t.weight,
+                    "spread": t.spread,
+                }
+                for t in self.targets
+            ],
+        }
 
     @classmethod
     def from_dict(cls, record: dict) -> ResponseObjective:
         return cls(tuple(Target(**t) for t in record["targets"]), record["form"])
 
 
-def replicate_objectives(targets: list[Target], replicates: dict[str, list[float]],
-                         cost: float = 0.0, form: str = "relative") -> list[float]:
+def replicate_objectives(
+    targets: list[Target],
+    replicates: dict[str, list[float]],
+    cost: float = 0.0,
+    form: str = "relative",
+) -> list[float]:
     """Eq. 3.3 of each replicate index alone (for the optimizer's noise estimate).
 
     Empty unless every targeted response has the same number (> 1) of replicates.
@@ -135,12 +159,19 @@ def replicate_objectives(targets: list[Target], replicates: dict[str, list[float
     counts = {len(replicates.get(t.key, [])) for t in targets}
     if len(counts) != 1 or counts in ({0}, {1}):
         return []
-    return [float(objective_values(targets, {t.key: replicates[t.key][i] for t in targets}, form)) + cost
-            for i in range(counts.pop())]
+    return [
+        float(objective_values(targets, {t.key: replicates[t.key][i] for t in targets}, form))
+        + cost
+        for i in range(counts.pop())
+    ]
 
 
-def estimated_objective(targets: list[Target], estimates: dict[str, list[float]],
-                        cost: float = 0.0, form: str = "relative") -> float | None:
+def estimated_objective(
+    targets: list[Target],
+    estimates: dict[str, list[float]],
+    cost: float = 0.0,
+    form: str = "relative",
+) -> float | None:
     """Objective from early estimates of a running evaluation (thesis sec. 3.6.1).
 
     Each targeted response's estimates are averaged over the replicates that

@@ -35,17 +35,29 @@ from demcal.resources import SNAKEFILE  # noqa: E402
 from demcal.study import Study, load_frozen  # noqa: E402
 from demcal.summary import time_unit  # noqa: E402
 
-FIGURES = ("objective_vs_evaluation", "objective_vs_time", "parameter_traces",
-           "responses_vs_targets", "parallel_coordinates", "early_termination")
-STATUS_COLOURS = {Status.OK: "tab:blue", Status.TERMINATED: "tab:orange", Status.FAILED: "tab:red",
-                  Status.PENDING: "tab:green"}
+FIGURES = (
+    "objective_vs_evaluation",
+    "objective_vs_time",
+    "parameter_traces",
+    "responses_vs_targets",
+    "parallel_coordinates",
+    "early_termination",
+)
+STATUS_COLOURS = {
+    Status.OK: "tab:blue",
+    Status.TERMINATED: "tab:orange",
+    Status.FAILED: "tab:red",
+    Status.PENDING: "tab:green",
+}
 
 
 def load_table(study: Study) -> pd.DataFrame:
     """evaluations.csv with evaluation number, wall time since start and cumulative CPU time."""
     table = pd.read_csv(study.files.evaluations_csv)
     table["number"] = table["evaluation"].map(proposal_id)  # as in the files: e0007 is 7
-    start = pd.Timestamp(read_json(study.files.calibration, "calibration.json")["started_at"], unit="s", tz="UTC")
+    start = pd.Timestamp(
+        read_json(study.files.calibration, "calibration.json")["started_at"], unit="s", tz="UTC"
+    )
     table["ended_at"] = pd.to_datetime(table["ended_at"], utc=True, errors="coerce")
     table["cpu_s"] = pd.to_numeric(table["cpu_s"], errors="coerce").fillna(0.0)
     table["since_start_s"] = (table["ended_at"] - start).dt.total_seconds()
@@ -80,13 +92,22 @@ def _finish_stack(fig, axes, path: Path) -> None:
 
 
 def _mark_unfinished(ax, table: pd.DataFrame, x: str) -> None:
-    for status, style in ((Status.TERMINATED, dict(marker="x", color="tab:orange")),
-                          (Status.FAILED, dict(marker="|", color="tab:red"))):
+    for status, style in (
+        (Status.TERMINATED, dict(marker="x", color="tab:orange")),
+        (Status.FAILED, dict(marker="|", color="tab:red")),
+    ):
         rows = table[table["status"] == status]
         if len(rows):
-            ax.plot(rows[x], np.zeros(len(rows)), linestyle="none", markersize=9,
-                    transform=ax.get_xaxis_transform(), clip_on=False,
-                    label=f"{status} ({len(rows)})", **style)
+            ax.plot(
+                rows[x],
+                np.zeros(len(rows)),
+                linestyle="none",
+                markersize=9,
+                transform=ax.get_xaxis_transform(),
+                clip_on=False,
+                label=f"{status} ({len(rows)})",
+                **style,
+            )
 
 
 def _objective_axes(ax, table: pd.DataFrame, x: str, xlabel: str, ylabel: str) -> None:
@@ -102,15 +123,19 @@ def _objective_axes(ax, table: pd.DataFrame, x: str, xlabel: str, ylabel: str) -
 
 def plot_objective_vs_evaluation(study: Study, table: pd.DataFrame, path: Path) -> None:
     fig, ax = plt.subplots(figsize=(7, 4))
-    _objective_axes(ax, table, "number", "evaluation (number as in evals/e0000...)", objective_label(study))
+    _objective_axes(
+        ax, table, "number", "evaluation (number as in evals/e0000...)", objective_label(study)
+    )
     ax.set_title(f"{study.name}: mismatch with the targets, evaluation by evaluation")
     _save(fig, path)
 
 
 def plot_objective_vs_time(study: Study, table: pd.DataFrame, path: Path) -> None:
     fig, axes = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
-    for ax, column, what in ((axes[0], "since_start_s", "wall-clock time since start"),
-                             (axes[1], "cpu_total_s", "simulation CPU time spent")):
+    for ax, column, what in (
+        (axes[0], "since_start_s", "wall-clock time since start"),
+        (axes[1], "cpu_total_s", "simulation CPU time spent"),
+    ):
         unit, size = time_unit(float(table[column].max()) if len(table) else 0.0)
         scaled = table.assign(**{column: table[column] / size})
         _objective_axes(ax, scaled, column, f"{what} [{unit}]", objective_label(study))
@@ -118,12 +143,14 @@ def plot_objective_vs_time(study: Study, table: pd.DataFrame, path: Path) -> Non
     _save(fig, path)
 
 
-def plot_parameter_traces(study: Study, table: pd.DataFrame, best: dict | None,
-                          path: Path) -> None:
+def plot_parameter_traces(study: Study, table: pd.DataFrame, best: dict | None, path: Path) -> None:
     fig, axes = _stacked(len(study.free), 2.2)
     for ax, p in zip(axes, study.free):
-        for status, color in ((Status.OK, "tab:blue"), (Status.TERMINATED, "tab:orange"),
-                              (Status.FAILED, "tab:red")):
+        for status, color in (
+            (Status.OK, "tab:blue"),
+            (Status.TERMINATED, "tab:orange"),
+            (Status.FAILED, "tab:red"),
+        ):
             rows = table[table["status"] == status]
             ax.plot(rows["number"], rows[p.name], "o", color=color, markersize=4, label=status)
         if best is not None:
@@ -138,8 +165,9 @@ def plot_parameter_traces(study: Study, table: pd.DataFrame, best: dict | None,
     _finish_stack(fig, axes, path)
 
 
-def plot_responses_vs_targets(study: Study, table: pd.DataFrame, best: dict | None,
-                              path: Path) -> None:
+def plot_responses_vs_targets(
+    study: Study, table: pd.DataFrame, best: dict | None, path: Path
+) -> None:
     fig, axes = _stacked(len(study.targets), 2.4)
     ok = table[table["status"] == Status.OK]
     for ax, t in zip(axes, study.targets):
@@ -147,8 +175,13 @@ def plot_responses_vs_targets(study: Study, table: pd.DataFrame, best: dict | No
         ax.plot(ok["number"], ok[t.key], "o", color="tab:blue", markersize=4, label="simulated")
         ax.axhline(t.value, color="green", lw=1.5, label="target")
         if t.spread:
-            ax.axhspan(t.value - t.spread, t.value + t.spread, color="green", alpha=0.15,
-                       label="measurement spread")
+            ax.axhspan(
+                t.value - t.spread,
+                t.value + t.spread,
+                color="green",
+                alpha=0.15,
+                label="measurement spread",
+            )
         if best is not None:
             row = table[table["evaluation"] == best["evaluation"]]
             ax.plot(row["number"], row[t.key], "*", color="black", markersize=12, label="best")
@@ -157,7 +190,9 @@ def plot_responses_vs_targets(study: Study, table: pd.DataFrame, best: dict | No
     _finish_stack(fig, axes, path)
 
 
-def plot_parallel_coordinates(study: Study, table: pd.DataFrame, best: dict | None, path: Path) -> None:
+def plot_parallel_coordinates(
+    study: Study, table: pd.DataFrame, best: dict | None, path: Path
+) -> None:
     """Every finished evaluation as a line across the free parameters (each axis its bounds),
     coloured by the objective: where the good points lie in all dimensions at once."""
     fig, ax = plt.subplots(figsize=(max(6.0, 1.6 * len(study.free)), 4.2))
@@ -165,17 +200,28 @@ def plot_parallel_coordinates(study: Study, table: pd.DataFrame, best: dict | No
     scaled = np.column_stack([(ok[p.name] - p.lower) / (p.upper - p.lower) for p in study.free])
     positions = np.arange(len(study.free))
     if len(ok):
-        colours = plt.cm.viridis(np.linspace(0.0, 1.0, len(ok)))  # poor in dark purple, the best last, in yellow
+        colours = plt.cm.viridis(
+            np.linspace(0.0, 1.0, len(ok))
+        )  # poor in dark purple, the best last, in yellow
         for row, colour in zip(scaled, colours):
             ax.plot(positions, row, color=colour, alpha=0.6, lw=1)
     if best is not None:
-        ax.plot(positions, [(best["parameters"][p.name] - p.lower) / (p.upper - p.lower) for p in study.free],
-                color="red", lw=2.5, label="best point")
+        ax.plot(
+            positions,
+            [(best["parameters"][p.name] - p.lower) / (p.upper - p.lower) for p in study.free],
+            color="red",
+            lw=2.5,
+            label="best point",
+        )
         ax.legend(fontsize=8, loc="upper right")
-    ax.set_xticks(positions, [f"{p.name}\n{p.lower:g} – {p.upper:g}" for p in study.free], fontsize=8)
+    ax.set_xticks(
+        positions, [f"{p.name}\n{p.lower:g} – {p.upper:g}" for p in study.free], fontsize=8
+    )
     ax.set_ylim(-0.02, 1.02)
     ax.set_yticks([0, 1], ["lower bound", "upper bound"])
-    ax.set_title(f"{study.name}: evaluated points, dark = poor match, yellow = good match", fontsize=10)
+    ax.set_title(
+        f"{study.name}: evaluated points, dark = poor match, yellow = good match", fontsize=10
+    )
     _save(fig, path)
 
 
@@ -187,17 +233,24 @@ def load_estimates(study: Study) -> pd.DataFrame:
     return pd.read_csv(path)
 
 
-def plot_early_termination(study: Study, estimates: pd.DataFrame, statuses: dict[str, str],
-                           path: Path) -> None:
+def plot_early_termination(
+    study: Study, estimates: pd.DataFrame, statuses: dict[str, str], path: Path
+) -> None:
     """The objective estimates of running evaluations over the calibration's time (points,
     joined per evaluation, coloured by how it ended) and the limit c f* they were held to
     (thesis eq. 3.4, one step line: it applies to every run at that moment); a cross where
     a run was stopped."""
     fig, ax = plt.subplots(figsize=(7, 4.2))
     if estimates.empty:
-        ax.text(0.5, 0.5, "no early estimates recorded\n(early termination off, or no run "
-                "reported an estimate before it ended)", ha="center", va="center",
-                transform=ax.transAxes)
+        ax.text(
+            0.5,
+            0.5,
+            "no early estimates recorded\n(early termination off, or no run "
+            "reported an estimate before it ended)",
+            ha="center",
+            va="center",
+            transform=ax.transAxes,
+        )
         ax.set_axis_off()
         _save(fig, path)
         return
@@ -207,16 +260,35 @@ def plot_early_termination(study: Study, estimates: pd.DataFrame, statuses: dict
         status = statuses.get(evaluation, Status.PENDING)
         label = None if status in shown else {Status.PENDING: "running"}.get(status, status)
         shown.add(status)
-        ax.semilogy(rows["elapsed_s"] / size, rows["estimate"], "-o", color=STATUS_COLOURS.get(status, "grey"),
-                    markersize=3, lw=0.8, label=label)
+        ax.semilogy(
+            rows["elapsed_s"] / size,
+            rows["estimate"],
+            "-o",
+            color=STATUS_COLOURS.get(status, "grey"),
+            markersize=3,
+            lw=0.8,
+            label=label,
+        )
     limits = estimates.dropna(subset=["limit"]).sort_values("elapsed_s")
     if len(limits):
-        ax.step(limits["elapsed_s"] / size, limits["limit"], where="post", color="black", lw=1.2,
-                label="limit c f* (eq. 3.4)")
+        ax.step(
+            limits["elapsed_s"] / size,
+            limits["limit"],
+            where="post",
+            color="black",
+            lw=1.2,
+            label="limit c f* (eq. 3.4)",
+        )
     stopped = estimates[estimates["stop"] == 1]
     if len(stopped):
-        ax.plot(stopped["elapsed_s"] / size, stopped["estimate"], "x", color="black", markersize=9,
-                label=f"stopped ({len(stopped)})")
+        ax.plot(
+            stopped["elapsed_s"] / size,
+            stopped["estimate"],
+            "x",
+            color="black",
+            markersize=9,
+            label=f"stopped ({len(stopped)})",
+        )
     ax.set_xlabel(f"time since the calibration started [{unit}]")
     ax.set_ylabel("estimated " + objective_label(study))
     ax.set_title(f"{study.name}: early termination, estimates of running evaluations", fontsize=10)
@@ -241,8 +313,9 @@ def write_plots(study: Study, outdir: Path) -> list[Path]:
     plot_parameter_traces(study, table, best, paths["parameter_traces"])
     plot_responses_vs_targets(study, table, best, paths["responses_vs_targets"])
     plot_parallel_coordinates(study, table, best, paths["parallel_coordinates"])
-    plot_early_termination(study, load_estimates(study), evaluation_statuses(table),
-                           paths["early_termination"])
+    plot_early_termination(
+        study, load_estimates(study), evaluation_statuses(table), paths["early_termination"]
+    )
     return list(paths.values())
 
 
@@ -250,27 +323,62 @@ def best_point_table(study: Study) -> pd.DataFrame:
     """Parameters and responses of the best point against the targets."""
     best_file = study.files.best
     if not best_file.exists():
-        return pd.DataFrame([{"quantity": "no evaluation succeeded (see evaluations.csv)",
-                              "value": "", "target": "", "relative_error_percent": "",
-                              "unit": ""}])
+        return pd.DataFrame(
+            [
+                {
+                    "quantity": "no evaluation succeeded (see evaluations.csv)",
+                    "value": "",
+                    "target": "",
+                    "relative_error_percent": "",
+                    "unit": "",
+                }
+            ]
+        )
     best = read_json(best_file, "best.json")
     on_bounds = best.get("on_bounds", {})
-    rows = [{"quantity": name, "value": value,
-             "note": f"on its {on_bounds[name]} bound" if name in on_bounds else "",
-             "unit": next(p.spec.unit for p in study.free if p.name == name)}
-            for name, value in best["parameters"].items()]
+    rows = [
+        {
+            "quantity": name,
+            "value": value,
+            "note": f"on its {on_bounds[name]} bound" if name in on_bounds else "",
+            "unit": next(p.spec.unit for p in study.free if p.name == name),
+        }
+        for name, value in best["parameters"].items()
+    ]
     predicted = best.get("predicted_responses", {})
     for t in study.targets:
-        rows.append({"quantity": t.key, "value": best["responses"].get(t.key),
-                     "predicted": predicted.get(t.key, {}).get("mean", ""),
-                     "predicted_sd": predicted.get(t.key, {}).get("sd", ""),
-                     "target": t.value, "target_spread": "" if t.spread is None else t.spread,
-                     "relative_error_percent": 100 * best["relative_errors"].get(t.key, np.nan),
-                     "unit": study.scenes[t.scene].responses[t.response].unit})
-    rows.append({"quantity": "objective", "value": best["objective"],
-                 "predicted": best.get("predicted_objective", ""), "target": 0, "unit": "-"})
-    columns = ["quantity", "value", "predicted", "predicted_sd", "target", "target_spread",
-               "relative_error_percent", "unit", "note"]
+        rows.append(
+            {
+                "quantity": t.key,
+                "value": best["responses"].get(t.key),
+                "predicted": predicted.get(t.key, {}).get("mean", ""),
+                "predicted_sd": predicted.get(t.key, {}).get("sd", ""),
+                "target": t.value,
+                "target_spread": "" if t.spread is None else t.spread,
+                "relative_error_percent": 100 * best["relative_errors"].get(t.key, np.nan),
+                "unit": study.scenes[t.scene].responses[t.response].unit,
+            }
+        )
+    rows.append(
+        {
+            "quantity": "objective",
+            "value": best["objective"],
+            "predicted": best.get("predicted_objective", ""),
+            "target": 0,
+            "unit": "-",
+        }
+    )
+    columns = [
+        "quantity",
+        "value",
+        "predicted",
+        "predicted_sd",
+        "target",
+        "target_spread",
+        "relative_error_percent",
+        "unit",
+        "note",
+    ]
     return pd.DataFrame(rows).reindex(columns=columns).fillna("")
 
 
@@ -288,26 +396,49 @@ def write_report_files(smk) -> None:
 def dag_svg(dot_source: str) -> str:
     """Render DOT with Graphviz; without it, an SVG that says how to get the drawing."""
     if shutil.which("dot") is None:
-        lines = ["Graphviz is not installed (apt install graphviz): DAG not drawn.",
-                 "DOT source:"] + dot_source.splitlines()
-        text = "".join(f'<text x="10" y="{20 + 16 * i}" font-family="monospace" '
-                       f'font-size="12">{html.escape(line)}</text>'
-                       for i, line in enumerate(lines))
-        return (f'<svg xmlns="http://www.w3.org/2000/svg" width="900" '
-                f'height="{40 + 16 * len(lines)}">{text}</svg>\n')
-    proc = subprocess.run(["dot", "-Tsvg"], input=dot_source, capture_output=True, text=True,
-                          check=True, timeout=120)
+        lines = [
+            "Graphviz is not installed (apt install graphviz): DAG not drawn.",
+            "DOT source:",
+        ] + dot_source.splitlines()
+        text = "".join(
+            f'<text x="10" y="{20 + 16 * i}" font-family="monospace" '
+            f'font-size="12">{html.escape(line)}</text>'
+            for i, line in enumerate(lines)
+        )
+        return (
+            f'<svg xmlns="http://www.w3.org/2000/svg" width="900" '
+            f'height="{40 + 16 * len(lines)}">{text}</svg>\n'
+        )
+    proc = subprocess.run(
+        ["dot", "-Tsvg"], input=dot_source, capture_output=True, text=True, check=True, timeout=120
+    )
     return proc.stdout
 
 
 def write_evaluation_dag(smk) -> None:
     """Entry point of the workflow's evaluation_dag job."""
     proc = subprocess.run(
-        [sys.executable, "-m", "snakemake", "-s", str(SNAKEFILE), "--config",
-         f"study_file={smk.params.study_file}", "--nolock", "--dag", "dot", smk.params.target],
-        capture_output=True, text=True, check=False, stdin=subprocess.DEVNULL, timeout=300)
+        [
+            sys.executable,
+            "-m",
+            "snakemake",
+            "-s",
+            str(SNAKEFILE),
+            "--config",
+            f"study_file={smk.params.study_file}",
+            "--nolock",
+            "--dag",
+            "dot",
+            smk.params.target,
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+        stdin=subprocess.DEVNULL,
+        timeout=300,
+    )
     Path(smk.log[0]).write_text(proc.stderr)
     if proc.returncode != 0 or "digraph" not in proc.stdout:
         raise SystemExit(f"snakemake --dag failed (see {smk.log[0]})")
-    dot_source = proc.stdout[proc.stdout.index("digraph"):]
+    dot_source = proc.stdout[proc.stdout.index("digraph") :]
     Path(smk.output[0]).write_text(dag_svg(dot_source))

@@ -17,8 +17,10 @@ def _project_root() -> Path:
     for root in (_PACKAGE.parent, _PACKAGE / "project"):
         if (root / "workflow" / "Snakefile").is_file():
             return root
-    raise RuntimeError(f"demcal's workflow files are missing (looked in {_PACKAGE.parent} "
-                       f"and {_PACKAGE / 'project'}); reinstall demcal")
+    raise RuntimeError(
+        f"demcal's workflow files are missing (looked in {_PACKAGE.parent} "
+        f"and {_PACKAGE / 'project'}); reinstall demcal"
+    )
 
 
 PROJECT_ROOT = _project_root()

@@ -68,24 +68,42 @@ class SolutionAnalysis:
 def analyse(study: Study, k: float = 2.0, samples: int = 2**16, seed: int = 0) -> SolutionAnalysis:
     """The solution space and identifiability of ``study`` from its saved evaluations."""
     if not study.files.optimizer.exists():
-        raise DemcalError(f"study {study.name!r} has no evaluations yet ({study.files.optimizer} missing); "
-                          f"run the calibration first")
+        raise DemcalError(
+            f"study {study.name!r} has no evaluations yet ({study.files.optimizer} missing); "
+            f"run the calibration first"
+        )
     optimizer = Optimizer.from_json(study.files.optimizer.read_text())
-    predictor = optimizer.response_predictor(ResponseObjective(tuple(study.targets), study.objective_form))
+    predictor = optimizer.response_predictor(
+        ResponseObjective(tuple(study.targets), study.objective_form)
+    )
     dimension = optimizer.bounds.dimension
     if predictor is None:
-        raise DemcalError(f"study {study.name!r}: too few evaluations with responses to model them "
-                          f"(every targeted response needs at least {dimension + 2})")
+        raise DemcalError(
+            f"study {study.name!r}: too few evaluations with responses to model them "
+            f"(every targeted response needs at least {dimension + 2})"
+        )
     observed = {key: final_means(optimizer.records, key, dimension) for key in predictor.models}
     noise = simulation_noise_sd(predictor, observed)
     solutions = sample_solutions(predictor, dimension, noise, k, samples, seed)
     names = [p.name for p in study.free]
     sensitivity = sensitivity_indices(predictor, names, seed=seed)
-    verdicts = identifiability(solutions, names, [p.spec.unit for p in study.free],
-                               np.array(optimizer.bounds.lower), np.array(optimizer.bounds.upper),
-                               largest_total_index(sensitivity))
-    return SolutionAnalysis(predictor, solutions, verdicts, sensitivity, names, np.array(optimizer.bounds.lower),
-                            np.array(optimizer.bounds.upper))
+    verdicts = identifiability(
+        solutions,
+        names,
+        [p.spec.unit for p in study.free],
+        np.array(optimizer.bounds.lower),
+        np.array(optimizer.bounds.upper),
+        largest_total_index(sensitivity),
+    )
+    return SolutionAnalysis(
+        predictor,
+        solutions,
+        verdicts,
+        sensitivity,
+        names,
+        np.array(optimizer.bounds.lower),
+        np.array(optimizer.bounds.upper),
+    )
 
 
 def solutions_table(analysis: SolutionAnalysis) -> pd.DataFrame:
@@ -114,16 +132,33 @@ def plot_corner(analysis: SolutionAnalysis, best: dict | None, path: Path, seed:
                 continue
             if col == row:
                 if len(points):
-                    ax.hist([points[supported, col], points[~supported, col]], bins=30, stacked=True,
-                            range=(analysis.lower[col], analysis.upper[col]), color=["tab:blue", "lightgrey"])
+                    ax.hist(
+                        [points[supported, col], points[~supported, col]],
+                        bins=30,
+                        stacked=True,
+                        range=(analysis.lower[col], analysis.upper[col]),
+                        color=["tab:blue", "lightgrey"],
+                    )
                 if best_x is not None:
                     ax.axvline(best_x[col], color="tab:red")
                 ax.set_yticks([])
             else:
-                ax.scatter(points[~supported, col], points[~supported, row], s=2, alpha=0.3, color="lightgrey",
-                           rasterized=True)
-                ax.scatter(points[supported, col], points[supported, row], s=2, alpha=0.3, color="tab:blue",
-                           rasterized=True)
+                ax.scatter(
+                    points[~supported, col],
+                    points[~supported, row],
+                    s=2,
+                    alpha=0.3,
+                    color="lightgrey",
+                    rasterized=True,
+                )
+                ax.scatter(
+                    points[supported, col],
+                    points[supported, row],
+                    s=2,
+                    alpha=0.3,
+                    color="tab:blue",
+                    rasterized=True,
+                )
                 if best_x is not None:
                     ax.plot(best_x[col], best_x[row], marker="*", color="tab:red", markersize=12)
                 ax.set_ylim(analysis.lower[row], analysis.upper[row])
@@ -133,23 +168,32 @@ def plot_corner(analysis: SolutionAnalysis, best: dict | None, path: Path, seed:
             if row == d - 1:
                 ax.set_xlabel(names[col])
     s = analysis.solutions
-    fig.suptitle(f"Parameter sets whose predicted responses meet every target within {s.k:g} sd\n"
-                 f"{len(s.points_unit)} of {s.sampled} sampled; blue: supported by the simulations, grey: where the "
-                 f"models are unsure; best point in red", fontsize="medium")
+    fig.suptitle(
+        f"Parameter sets whose predicted responses meet every target within {s.k:g} sd\n"
+        f"{len(s.points_unit)} of {s.sampled} sampled; blue: supported by the simulations, grey: where the "
+        f"models are unsure; best point in red",
+        fontsize="medium",
+    )
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
 
 
-def plot_objective_slices(analysis: SolutionAnalysis, best: dict | None, path: Path, grid: int = 60) -> None:
+def plot_objective_slices(
+    analysis: SolutionAnalysis, best: dict | None, path: Path, grid: int = 60
+) -> None:
     """The predicted objective over pairs of the (up to three) most influential parameters, the
     others held at the best point: where the answer lies and how sharp its valley is."""
     names, d = analysis.names, len(analysis.names)
     largest = largest_total_index(analysis.sensitivity)
     chosen = sorted(range(d), key=lambda i: -largest.get(names[i], 0.0))[:3]
-    pairs = [(a, b) for n, a in enumerate(chosen) for b in chosen[n + 1:]] or [(0, 0)]
-    centre = (np.full(d, 0.5) if best is None else
-              (np.array([best["parameters"][n] for n in names]) - analysis.lower) / (analysis.upper - analysis.lower))
+    pairs = [(a, b) for n, a in enumerate(chosen) for b in chosen[n + 1 :]] or [(0, 0)]
+    centre = (
+        np.full(d, 0.5)
+        if best is None
+        else (np.array([best["parameters"][n] for n in names]) - analysis.lower)
+        / (analysis.upper - analysis.lower)
+    )
     fig, axes = plt.subplots(1, len(pairs), figsize=(4.6 * len(pairs), 4.0), squeeze=False)
     axis = np.linspace(0.0, 1.0, grid)
     for ax, (i, j) in zip(axes[0], pairs):
@@ -162,13 +206,17 @@ def plot_objective_slices(analysis: SolutionAnalysis, best: dict | None, path: P
         points[:, i], points[:, j] = u.ravel(), v.ravel()
         objective = np.maximum(analysis.predictor.objective_mean(points), 1e-12).reshape(grid, grid)
         scale = lambda k, t: analysis.lower[k] + t * (analysis.upper[k] - analysis.lower[k])  # noqa: E731
-        filled = ax.contourf(scale(i, u), scale(j, v), np.log10(objective), levels=20, cmap="viridis_r")
+        filled = ax.contourf(
+            scale(i, u), scale(j, v), np.log10(objective), levels=20, cmap="viridis_r"
+        )
         fig.colorbar(filled, ax=ax, label="log10 predicted objective")
         ax.plot(scale(i, centre[i]), scale(j, centre[j]), "*", color="red", markersize=12)
         ax.set_xlabel(names[i])
         ax.set_ylabel(names[j])
-    fig.suptitle("Predicted objective through the best point (red star), other parameters held there",
-                 fontsize="medium")
+    fig.suptitle(
+        "Predicted objective through the best point (red star), other parameters held there",
+        fontsize="medium",
+    )
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
@@ -181,13 +229,21 @@ def plot_sensitivity(rows: list[dict], path: Path) -> None:
     columns = min(2, len(responses))
     grid_rows = -(-len(responses) // columns)
     height = 1.4 + 0.35 * table["parameter"].nunique()
-    fig, axes = plt.subplots(grid_rows, columns, figsize=(5.5 * columns, height * grid_rows), squeeze=False)
-    for ax in axes.flat[len(responses):]:
+    fig, axes = plt.subplots(
+        grid_rows, columns, figsize=(5.5 * columns, height * grid_rows), squeeze=False
+    )
+    for ax in axes.flat[len(responses) :]:
         ax.set_visible(False)
     for ax, response in zip(axes.flat, responses):
         part = table[table["response"] == response]
         y = np.arange(len(part))
-        ax.barh(y, part["ST"].clip(lower=0), color="tab:blue", alpha=0.35, label="total (alone and with others)")
+        ax.barh(
+            y,
+            part["ST"].clip(lower=0),
+            color="tab:blue",
+            alpha=0.35,
+            label="total (alone and with others)",
+        )
         ax.barh(y, part["S1"].clip(lower=0), color="tab:blue", label="first order (alone)")
         ax.set_yticks(y, part["parameter"])
         ax.set_xlim(0, 1)
@@ -195,25 +251,35 @@ def plot_sensitivity(rows: list[dict], path: Path) -> None:
         ax.set_xlabel("share of the response's variance over the box")
     handles, labels = axes[0, 0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=2, fontsize="small")
-    fig.suptitle("Sensitivity of each response to each parameter (Sobol indices on the response models)",
-                 fontsize="medium")
+    fig.suptitle(
+        "Sensitivity of each response to each parameter (Sobol indices on the response models)",
+        fontsize="medium",
+    )
     fig.tight_layout(rect=(0, 0.06, 1, 1))
     fig.savefig(path, dpi=100)
     plt.close(fig)
 
 
-def write_solutions(study: Study, k: float = 2.0, samples: int = 2**16, seed: int = 0) -> SolutionAnalysis:
+def write_solutions(
+    study: Study, k: float = 2.0, samples: int = 2**16, seed: int = 0
+) -> SolutionAnalysis:
     """Analyse the study and write its solution files and figures (see the module docstring)."""
     files = study.files
     analysis = analyse(study, k, samples, seed)
     files.plots.mkdir(parents=True, exist_ok=True)
     solutions_table(analysis).to_csv(files.solutions, index=False, float_format="%.6g")
-    pd.DataFrame(analysis.sensitivity).to_csv(files.plots / "sensitivity.csv", index=False, float_format="%.3f")
+    pd.DataFrame(analysis.sensitivity).to_csv(
+        files.plots / "sensitivity.csv", index=False, float_format="%.3f"
+    )
     s = analysis.solutions
-    summary = {"k": s.k, "sampled": s.sampled, "accepted": int(len(s.points_unit)),
-               "simulation_noise_sd": s.noise_sd,
-               "target_spread": {t.key: t.spread for t in study.targets},
-               "verdicts": [asdict(v) for v in analysis.verdicts]}
+    summary = {
+        "k": s.k,
+        "sampled": s.sampled,
+        "accepted": int(len(s.points_unit)),
+        "simulation_noise_sd": s.noise_sd,
+        "target_spread": {t.key: t.spread for t in study.targets},
+        "verdicts": [asdict(v) for v in analysis.verdicts],
+    }
     files.solutions_summary.write_text(json.dumps(summary, indent=2, default=float))
     best = read_json(files.best, "best.json") if files.best.exists() else None
     plot_corner(analysis, best, files.plots / "solution_space.png", seed)

@@ -43,8 +43,9 @@ MIN_SOLUTIONS = 20
 BATCH = 8192
 
 
-def simulation_noise_sd(predictor: ResponsePredictor,
-                        observed: dict[str, tuple[np.ndarray, np.ndarray]]) -> dict[str, float]:
+def simulation_noise_sd(
+    predictor: ResponsePredictor, observed: dict[str, tuple[np.ndarray, np.ndarray]]
+) -> dict[str, float]:
     """Scatter of the simulated responses about their models: RMS of observed − predicted.
 
     ``observed``: per response, the evaluated points (unit box) and the
@@ -67,8 +68,13 @@ def tolerance_sd(target: Target, noise_sd: float, model_sd: np.ndarray) -> np.nd
     return np.sqrt(spread**2 + noise_sd**2 + np.asarray(model_sd) ** 2)
 
 
-def within_tolerance(targets: tuple[Target, ...], means: dict[str, np.ndarray], stds: dict[str, np.ndarray],
-                     noise_sd: dict[str, float], k: float) -> np.ndarray:
+def within_tolerance(
+    targets: tuple[Target, ...],
+    means: dict[str, np.ndarray],
+    stds: dict[str, np.ndarray],
+    noise_sd: dict[str, float],
+    k: float,
+) -> np.ndarray:
     """Whether every targeted response is within ``k`` combined sd of its target (per point)."""
     accepted = None
     for t in targets:
@@ -96,14 +102,24 @@ class SolutionSet:
     supported: np.ndarray
 
 
-def sample_solutions(predictor: ResponsePredictor, dimension: int, noise_sd: dict[str, float], k: float = 2.0,
-                     samples: int = 2**16, seed: int = 0) -> SolutionSet:
+def sample_solutions(
+    predictor: ResponsePredictor,
+    dimension: int,
+    noise_sd: dict[str, float],
+    k: float = 2.0,
+    samples: int = 2**16,
+    seed: int = 0,
+) -> SolutionSet:
     """The points of a scrambled Sobol sample of the unit box that meet every target within ``k`` sd."""
     sampler = qmc.Sobol(dimension, scramble=True, seed=seed)
     points = sampler.random_base2(int(math.ceil(math.log2(samples))))
-    kept, means, stds = [], {key: [] for key in predictor.models}, {key: [] for key in predictor.models}
+    kept, means, stds = (
+        [],
+        {key: [] for key in predictor.models},
+        {key: [] for key in predictor.models},
+    )
     for start in range(0, len(points), BATCH):
-        batch = points[start:start + BATCH]
+        batch = points[start : start + BATCH]
         mean, std = predictor.predict(batch)
         ok = within_tolerance(predictor.objective.targets, mean, std, noise_sd, k)
         kept.append(batch[ok])
@@ -114,8 +130,15 @@ def sample_solutions(predictor: ResponsePredictor, dimension: int, noise_sd: dic
     supported = np.ones(sum(len(batch) for batch in kept), bool)
     for t in predictor.objective.targets:
         supported &= stds[t.key] <= tolerance_sd(t, noise_sd[t.key], 0.0)
-    return SolutionSet(np.vstack(kept), {key: np.concatenate(v) for key, v in means.items()},
-                       stds, len(points), k, noise_sd, supported)
+    return SolutionSet(
+        np.vstack(kept),
+        {key: np.concatenate(v) for key, v in means.items()},
+        stds,
+        len(points),
+        k,
+        noise_sd,
+        supported,
+    )
 
 
 @dataclass(frozen=True)
@@ -137,8 +160,14 @@ def _fmt(value: float) -> str:
     return f"{value:.3g}"
 
 
-def identifiability(solutions: SolutionSet, names: list[str], units: list[str], lower: np.ndarray,
-                    upper: np.ndarray, total_index: dict[str, float] | None = None) -> list[Verdict]:
+def identifiability(
+    solutions: SolutionSet,
+    names: list[str],
+    units: list[str],
+    lower: np.ndarray,
+    upper: np.ndarray,
+    total_index: dict[str, float] | None = None,
+) -> list[Verdict]:
     """A verdict per parameter from the span of the solution set (central 95 %).
 
     The span is taken over the points the simulations support (``supported``)
@@ -154,21 +183,39 @@ def identifiability(solutions: SolutionSet, names: list[str], units: list[str], 
     unsure = 1.0 - float(np.mean(solutions.supported)) if len(points) else 0.0
     if int(np.sum(solutions.supported)) >= MIN_SOLUTIONS and unsure > 0.0:
         points = points[solutions.supported]
-        caveat = (f" (over the {len(points)} sets the simulations support; the other {100 * unsure:.0f} % "
-                  f"of the set lie where the models are unsure, too little explored to rule out)")
+        caveat = (
+            f" (over the {len(points)} sets the simulations support; the other {100 * unsure:.0f} % "
+            f"of the set lie where the models are unsure, too little explored to rule out)"
+        )
     else:
         caveat = ""
     count = len(points)
     for i, (name, unit) in enumerate(zip(names, units)):
         box = f"{_fmt(lower[i])}–{_fmt(upper[i])}" + ("" if unit in ("-", "") else f" {unit}")
         if count < MIN_SOLUTIONS:
-            sentence = (f"{name}: no verdict: only {count} of {solutions.sampled} sampled parameter sets meet all "
-                        f"targets within {solutions.k:g} sd (the targets may lie outside what these bounds reach)")
-            verdicts.append(Verdict(name, unit, lower[i], upper[i], math.nan, math.nan, math.nan, "no solutions",
-                                    sentence))
+            sentence = (
+                f"{name}: no verdict: only {count} of {solutions.sampled} sampled parameter sets meet all "
+                f"targets within {solutions.k:g} sd (the targets may lie outside what these bounds reach)"
+            )
+            verdicts.append(
+                Verdict(
+                    name,
+                    unit,
+                    lower[i],
+                    upper[i],
+                    math.nan,
+                    math.nan,
+                    math.nan,
+                    "no solutions",
+                    sentence,
+                )
+            )
             continue
         low_u, high_u = np.percentile(points[:, i], [2.5, 97.5])
-        low, high = lower[i] + low_u * (upper[i] - lower[i]), lower[i] + high_u * (upper[i] - lower[i])
+        low, high = (
+            lower[i] + low_u * (upper[i] - lower[i]),
+            lower[i] + high_u * (upper[i] - lower[i]),
+        )
         share = float(high_u - low_u)
         spans = f"it spans {_fmt(low)}–{_fmt(high)} of {box} ({100 * share:.0f} %){caveat}"
         if share <= PINNED_SHARE:
@@ -179,18 +226,25 @@ def identifiability(solutions: SolutionSet, names: list[str], units: list[str], 
             verdict = "not identified"
             index = None if total_index is None else total_index.get(name)
             if index is not None and index < INSENSITIVE_INDEX:
-                why = (f"no targeted response is sensitive to it (total Sobol index at most {index:.2f}); "
-                       f"a test sensitive to {name} would pin it")
+                why = (
+                    f"no targeted response is sensitive to it (total Sobol index at most {index:.2f}); "
+                    f"a test sensitive to {name} would pin it"
+                )
             else:
-                why = ("it trades off against other parameters (several combinations match the targets "
-                       f"equally well); one more test sensitive to {name} would pin it")
+                why = (
+                    "it trades off against other parameters (several combinations match the targets "
+                    f"equally well); one more test sensitive to {name} would pin it"
+                )
             sentence = f"{name}: not identified by these targets: {spans}; {why}"
-        verdicts.append(Verdict(name, unit, lower[i], upper[i], low, high, share, verdict, sentence))
+        verdicts.append(
+            Verdict(name, unit, lower[i], upper[i], low, high, share, verdict, sentence)
+        )
     return verdicts
 
 
-def sensitivity_indices(predictor: ResponsePredictor, names: list[str], base_samples: int = 1024,
-                        seed: int = 0) -> list[dict]:
+def sensitivity_indices(
+    predictor: ResponsePredictor, names: list[str], base_samples: int = 1024, seed: int = 0
+) -> list[dict]:
     """First-order (S1) and total (ST) Sobol indices of each response's model over the box.
 
     Saltelli's sampling and estimators (SALib); the model's predicted mean
@@ -207,11 +261,22 @@ def sensitivity_indices(predictor: ResponsePredictor, names: list[str], base_sam
         if np.ptp(y) == 0.0:
             indices = {"S1": np.zeros(len(names)), "ST": np.zeros(len(names))}
         else:
-            indices = sobol_analyze.analyze(problem, np.asarray(y, float), calc_second_order=False,
-                                            print_to_console=False, seed=seed)
+            indices = sobol_analyze.analyze(
+                problem,
+                np.asarray(y, float),
+                calc_second_order=False,
+                print_to_console=False,
+                seed=seed,
+            )
         for i, name in enumerate(names):
-            rows.append({"response": key, "parameter": name, "S1": float(indices["S1"][i]),
-                         "ST": float(indices["ST"][i])})
+            rows.append(
+                {
+                    "response": key,
+                    "parameter": name,
+                    "S1": float(indices["S1"][i]),
+                    "ST": float(indices["ST"][i]),
+                }
+            )
     return rows
 
 

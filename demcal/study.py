@@ -32,9 +32,14 @@ from demcal.scenes import SCENES, Scene
 from demcal.timestep import RAYLEIGH_PARAMETERS, rayleigh_cost, rayleigh_time_range
 
 #: Optimizer settings a resumed calibration takes from the current study file.
-RESUMABLE_OPTIMIZER_SETTINGS = ("max_evaluations", "max_seconds", "target_objective",
-                                "no_improvement_evaluations", "early_termination",
-                                "confirm_replicates")
+RESUMABLE_OPTIMIZER_SETTINGS = (
+    "max_evaluations",
+    "max_seconds",
+    "target_objective",
+    "no_improvement_evaluations",
+    "early_termination",
+    "confirm_replicates",
+)
 #: Target fields that may change on resume (stored simulations are re-scored).
 RESCORABLE_TARGET_FIELDS = ("value", "weight", "spread", "unit")
 
@@ -97,8 +102,9 @@ class Study:
         for item in items:
             name, _, value = item.partition("=")
             if name not in names:
-                raise ConfigError(f"{option} {item}: {name!r} is not a free parameter "
-                                  f"({', '.join(names)})")
+                raise ConfigError(
+                    f"{option} {item}: {name!r} is not a free parameter ({', '.join(names)})"
+                )
             try:
                 values[name] = float(value)
             except ValueError:
@@ -111,11 +117,15 @@ class Study:
         """Squared Rayleigh time-step cost of a point, added to its objective (0 when off)."""
         if self.rayleigh_cost_weight == 0.0:
             return 0.0
-        bounds = {name: (self.fixed[name], self.fixed[name]) for name in RAYLEIGH_PARAMETERS
-                  if name in self.fixed}
+        bounds = {
+            name: (self.fixed[name], self.fixed[name])
+            for name in RAYLEIGH_PARAMETERS
+            if name in self.fixed
+        }
         bounds.update({p.name: (p.lower, p.upper) for p in self.free})
-        term = rayleigh_cost(self.parameters_for(free_values), rayleigh_time_range(bounds),
-                             self.rayleigh_cost_weight)
+        term = rayleigh_cost(
+            self.parameters_for(free_values), rayleigh_time_range(bounds), self.rayleigh_cost_weight
+        )
         return term * term
 
     def parameters_for(self, free_values: dict[str, float]) -> dict[str, float]:
@@ -123,9 +133,11 @@ class Study:
         missing = [p.name for p in self.free if p.name not in free_values]
         unknown = sorted(set(free_values) - {p.name for p in self.free})
         if missing or unknown:
-            raise ConfigError(f"params.json: missing free parameters {missing}, "
-                              f"unknown {unknown}; free parameters are "
-                              f"{[p.name for p in self.free]}")
+            raise ConfigError(
+                f"params.json: missing free parameters {missing}, "
+                f"unknown {unknown}; free parameters are "
+                f"{[p.name for p in self.free]}"
+            )
         for p in self.free:
             value = free_values[p.name]
             if isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -133,8 +145,10 @@ class Study:
             if not math.isfinite(value):
                 raise ConfigError(f"params.json: {p.name} = {value} is not a finite number")
             if not p.spec.contains(value):
-                raise ConfigError(f"params.json: {p.name} = {value:g} is outside the allowed "
-                                  f"range {p.spec.allowed()}")
+                raise ConfigError(
+                    f"params.json: {p.name} = {value:g} is outside the allowed "
+                    f"range {p.spec.allowed()}"
+                )
         return {**self.fixed, **{k: float(v) for k, v in free_values.items()}}
 
     def simulation_seed(self, evaluation: str, scene: str, replicate: int, attempt: int = 0) -> int:
@@ -147,8 +161,6 @@ class Study:
         if attempt:
             key.append(attempt)
         return int(np.random.SeedSequence(key).generate_state(1)[0] % 2_147_483_646) + 1
-
-
 
 
 def demcal_version() -> str:
@@ -166,12 +178,22 @@ def study_record(study: Study) -> dict:
         "engine": {"name": study.engine.name, **study.engine.settings},
         # lists, not objects: the order of scenes and free parameters matters
         "scenes": [{"name": name, "settings": study.settings[name]} for name in study.scenes],
-        "parameters": [{"name": p.name, "lower": p.lower, "upper": p.upper,
-                        "unit": p.spec.unit} for p in study.free],
+        "parameters": [
+            {"name": p.name, "lower": p.lower, "upper": p.upper, "unit": p.spec.unit}
+            for p in study.free
+        ],
         "fixed": study.fixed,
-        "targets": [{"scene": t.scene, "response": t.response, "value": t.value,
-                     "unit": study.scenes[t.scene].responses[t.response].unit,
-                     "weight": t.weight, "spread": t.spread} for t in study.targets],
+        "targets": [
+            {
+                "scene": t.scene,
+                "response": t.response,
+                "value": t.value,
+                "unit": study.scenes[t.scene].responses[t.response].unit,
+                "weight": t.weight,
+                "spread": t.spread,
+            }
+            for t in study.targets
+        ],
         "replicates": study.replicates,
         "seed": study.seed,
         "timestep_fraction": study.timestep_fraction,
@@ -187,20 +209,27 @@ def study_from_record(record: dict) -> Study:
     """The ``Study`` of a record written by :func:`study_record` (trusted: not validated again)."""
     engine = dict(record["engine"])
     return Study(
-        name=record["study"], engine=make_engine(engine.pop("name"), engine),
+        name=record["study"],
+        engine=make_engine(engine.pop("name"), engine),
         scenes={scene["name"]: SCENES[scene["name"]] for scene in record["scenes"]},
         settings={scene["name"]: scene["settings"] for scene in record["scenes"]},
-        free=[FreeParameter(CATALOG[p["name"]], p["lower"], p["upper"])
-              for p in record["parameters"]],
+        free=[
+            FreeParameter(CATALOG[p["name"]], p["lower"], p["upper"]) for p in record["parameters"]
+        ],
         fixed=record["fixed"],
-        targets=[Target(t["scene"], t["response"], t["value"], t["weight"], t["spread"])
-                 for t in record["targets"]],
-        replicates=record["replicates"], seed=record["seed"],
+        targets=[
+            Target(t["scene"], t["response"], t["value"], t["weight"], t["spread"])
+            for t in record["targets"]
+        ],
+        replicates=record["replicates"],
+        seed=record["seed"],
         timestep_fraction=record["timestep_fraction"],
         optimizer=OptimizerSettings.from_dict(record["optimizer"]),
         objective_form=record.get("objective", "relative"),
         rayleigh_cost_weight=record["rayleigh_cost_weight"],
-        calibration=record["calibration"], warnings=record["warnings"])
+        calibration=record["calibration"],
+        warnings=record["warnings"],
+    )
 
 
 def load_frozen(path) -> Study:
@@ -210,8 +239,10 @@ def load_frozen(path) -> Study:
     except SimulationFailed as exc:
         raise ConfigError(f"{exc}; run the study file again to write it") from None
     except (KeyError, TypeError, ValueError) as exc:
-        raise ConfigError(f"{path}: not a study written by demcal ({type(exc).__name__}: "
-                          f"{exc}); remove it and run the study file again") from None
+        raise ConfigError(
+            f"{path}: not a study written by demcal ({type(exc).__name__}: "
+            f"{exc}); remove it and run the study file again"
+        ) from None
 
 
 def incompatible_changes(old: dict, new: dict) -> list[str]:
@@ -222,28 +253,50 @@ def incompatible_changes(old: dict, new: dict) -> list[str]:
     objective's form, and target values, weights and spreads when the same
     responses are targeted (stored simulations are then re-scored).
     """
-    changed = [path for path in _differences(old, new, "")
-               if not path.startswith(("demcal_version", "warnings", "calibration", "objective"))
-               and not any(path == f"optimizer.{name}" or path.startswith(f"optimizer.{name}.")
-                           for name in RESUMABLE_OPTIMIZER_SETTINGS)]
+    changed = [
+        path
+        for path in _differences(old, new, "")
+        if not path.startswith(("demcal_version", "warnings", "calibration", "objective"))
+        and not any(
+            path == f"optimizer.{name}" or path.startswith(f"optimizer.{name}.")
+            for name in RESUMABLE_OPTIMIZER_SETTINGS
+        )
+    ]
     same_responses = [(t["scene"], t["response"]) for t in old.get("targets", [])] == [
-        (t["scene"], t["response"]) for t in new.get("targets", [])]
+        (t["scene"], t["response"]) for t in new.get("targets", [])
+    ]
     if same_responses:
-        changed = [path for path in changed if not (
-            path.startswith("targets[") and path.rsplit(".", 1)[-1] in RESCORABLE_TARGET_FIELDS)]
+        changed = [
+            path
+            for path in changed
+            if not (
+                path.startswith("targets[") and path.rsplit(".", 1)[-1] in RESCORABLE_TARGET_FIELDS
+            )
+        ]
     return changed
 
 
 def _differences(old, new, where: str) -> list[str]:
     """Dotted paths of the leaves in which two JSON values differ."""
     if isinstance(old, dict) and isinstance(new, dict):
-        return [path for key in sorted(set(old) | set(new), key=str)
-                for path in _differences(old.get(key), new.get(key),
-                                         f"{where}.{key}" if where else str(key))]
-    if isinstance(old, list) and isinstance(new, list) and len(old) == len(new) and any(
-            isinstance(item, (dict, list)) for item in old):
-        return [path for i, (a, b) in enumerate(zip(old, new))
-                for path in _differences(a, b, f"{where}[{i}]")]
+        return [
+            path
+            for key in sorted(set(old) | set(new), key=str)
+            for path in _differences(
+                old.get(key), new.get(key), f"{where}.{key}" if where else str(key)
+            )
+        ]
+    if (
+        isinstance(old, list)
+        and isinstance(new, list)
+        and len(old) == len(new)
+        and any(isinstance(item, (dict, list)) for item in old)
+    ):
+        return [
+            path
+            for i, (a, b) in enumerate(zip(old, new))
+            for path in _differences(a, b, f"{where}[{i}]")
+        ]
     return [] if old == new else [where or "(study)"]
 
 
@@ -263,18 +316,21 @@ def freeze(study: Study) -> Study:
             raise ConfigError(f"{exc}; move it away to start the study afresh") from None
         changed = incompatible_changes(old, record)
         if changed:
-            shown = "; ".join(f"{name}: {_short(_at(old, name))} -> {_short(_at(record, name))}"
-                              for name in changed[:5])
+            shown = "; ".join(
+                f"{name}: {_short(_at(old, name))} -> {_short(_at(record, name))}"
+                for name in changed[:5]
+            )
             raise ConfigError(
                 f"{study.files.dir} holds a calibration of a different study ({shown}); "
-                f"give the study a new name, or move {study.files.dir} away")
+                f"give the study a new name, or move {study.files.dir} away"
+            )
     write_json(path, record)
     return study_from_record(read_json(path, "study.json"))
 
 
 def _short(value, limit: int = 60) -> str:
     text = repr(value)
-    return text if len(text) <= limit else text[:limit - 3] + "..."
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def _at(record, dotted: str):

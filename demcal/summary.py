@@ -28,8 +28,10 @@ def duration(seconds: float) -> str:
 
 
 #: How the best point was chosen (``Optimizer.best()["chosen_by"]``), in words.
-CHOSEN_BY = {"response models": "lowest objective predicted from the response models",
-             "objective surrogate": "lowest of observed and surrogate-predicted objective"}
+CHOSEN_BY = {
+    "response models": "lowest objective predicted from the response models",
+    "objective surrogate": "lowest of observed and surrogate-predicted objective",
+}
 
 
 def with_sd(value: float | None, sd: float | None) -> str:
@@ -53,19 +55,27 @@ def evaluation_summary(study: Study, record: dict, where: Path, best: dict | Non
     the response models' prediction ± sd there and the target ± spread, and
     parameters on a bound are flagged.
     """
-    lines = [f"demcal: evaluation {record.get('evaluation')!r} of study {study.name!r}: "
-             f"{record.get('status')}"
-             + (f", objective {record['objective']:.4g}" if "objective" in record else "")]
+    lines = [
+        f"demcal: evaluation {record.get('evaluation')!r} of study {study.name!r}: "
+        f"{record.get('status')}"
+        + (f", objective {record['objective']:.4g}" if "objective" in record else "")
+    ]
     params = record.get("parameters", {})
     units = {p.name: p.spec.unit for p in study.free if p.spec.unit != "-"}
-    lines.append("  parameters: " + (", ".join(
-        f"{k} = {_given(v)} {units.get(k, '')}".rstrip() for k, v in params.items())
-        or "none recorded (see the reason)"))
+    lines.append(
+        "  parameters: "
+        + (
+            ", ".join(f"{k} = {_given(v)} {units.get(k, '')}".rstrip() for k, v in params.items())
+            or "none recorded (see the reason)"
+        )
+    )
     for name, side in (best or {}).get("on_bounds", {}).items():
         bound = next(p for p in study.free if p.name == name)
-        lines.append(f"  warning: {name} lies on its {side} bound "
-                     f"({bound.lower if side == 'lower' else bound.upper:g}): the bounds may cut the "
-                     f"solution off; widen them if the physics allows")
+        lines.append(
+            f"  warning: {name} lies on its {side} bound "
+            f"({bound.lower if side == 'lower' else bound.upper:g}): the bounds may cut the "
+            f"solution off; widen them if the physics allows"
+        )
     predicted = (best or {}).get("predicted_responses", {})
     if record.get("status") == Status.OK:
         header = f"  {'response':34s} {'simulated':>14s}"
@@ -74,12 +84,16 @@ def evaluation_summary(study: Study, record: dict, where: Path, best: dict | Non
         lines.append(header + f" {'target':>14s} {'error':>8s}")
         for t in study.targets:
             unit = study.scenes[t.scene].responses[t.response].unit
-            line = (f"  {t.key + ' [' + unit + ']':34s} "
-                    f"{with_sd(record['responses'][t.key], record.get('spread', {}).get(t.key)):>14s}")
+            line = (
+                f"  {t.key + ' [' + unit + ']':34s} "
+                f"{with_sd(record['responses'][t.key], record.get('spread', {}).get(t.key)):>14s}"
+            )
             if predicted:
                 line += f" {with_sd(predicted[t.key]['mean'], predicted[t.key]['sd']):>16s}"
-            lines.append(line + f" {with_sd(t.value, t.spread):>14s} "
-                         f"{100 * record['relative_errors'][t.key]:>+7.1f}%")
+            lines.append(
+                line + f" {with_sd(t.value, t.spread):>14s} "
+                f"{100 * record['relative_errors'][t.key]:>+7.1f}%"
+            )
     else:
         lines.append(f"  reason: {record.get('reason', '')}")
     cost = record.get("cost", {})
@@ -92,16 +106,20 @@ def confirmation_summary(study: Study, best: dict) -> str | None:
     confirmation = best.get("confirmation")
     if not confirmation:
         return None
-    lines = [f"confirmed by {len(confirmation['evaluations'])} more simulations of {confirmation['of']} "
-             f"({', '.join(confirmation['evaluations'])}; {confirmation['failed']} failed, "
-             f"{confirmation['pending']} still running):"]
+    lines = [
+        f"confirmed by {len(confirmation['evaluations'])} more simulations of {confirmation['of']} "
+        f"({', '.join(confirmation['evaluations'])}; {confirmation['failed']} failed, "
+        f"{confirmation['pending']} still running):"
+    ]
     for t in study.targets:
         entry = confirmation["responses"].get(t.key)
         if entry:
             unit = study.scenes[t.scene].responses[t.response].unit
-            lines.append(f"  {t.key + ' [' + unit + ']':34s} mean {with_sd(entry['mean'], entry['sd']):>16s} "
-                         f"(n = {entry['count']})  target {with_sd(t.value, t.spread)}  "
-                         f"{100 * relative_error(entry['mean'], t.value):+.1f}%")
+            lines.append(
+                f"  {t.key + ' [' + unit + ']':34s} mean {with_sd(entry['mean'], entry['sd']):>16s} "
+                f"(n = {entry['count']})  target {with_sd(t.value, t.spread)}  "
+                f"{100 * relative_error(entry['mean'], t.value):+.1f}%"
+            )
     return "\n".join(lines)
 
 
@@ -122,10 +140,24 @@ def write_report(study: Study) -> str:
     """Run ``snakemake --report`` for the frozen study; return a line saying where it is."""
     report = study.files.report
     proc = subprocess.run(
-        [sys.executable, "-m", "snakemake", "-s", str(SNAKEFILE), "--config",
-         f"study_file={study.files.study}", f"study={study.name}",
-         "--nolock", "--report", str(report)],
-        stdin=subprocess.DEVNULL, capture_output=True, text=True, check=False)
+        [
+            sys.executable,
+            "-m",
+            "snakemake",
+            "-s",
+            str(SNAKEFILE),
+            "--config",
+            f"study_file={study.files.study}",
+            f"study={study.name}",
+            "--nolock",
+            "--report",
+            str(report),
+        ],
+        stdin=subprocess.DEVNULL,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
     if proc.returncode != 0:
         tail = " | ".join(proc.stderr.strip().splitlines()[-3:])
         return f"demcal: the report could not be made ({tail}); figures in {report.parent}/plots/"

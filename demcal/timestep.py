@@ -18,8 +18,9 @@ def shear_modulus(youngs_modulus: float, poisson_ratio: float) -> float:
     return youngs_modulus / (2.0 * (1.0 + poisson_ratio))
 
 
-def rayleigh_time(radius: float, density: float, youngs_modulus: float,
-                  poisson_ratio: float) -> float:
+def rayleigh_time(
+    radius: float, density: float, youngs_modulus: float, poisson_ratio: float
+) -> float:
     """Rayleigh time [s] of a sphere: T_R = pi r sqrt(rho / G) / (0.1631 nu + 0.8766).
 
     Rackl & Hanley (2017), eq. 1; use the smallest radius of the packing.
@@ -28,8 +29,7 @@ def rayleigh_time(radius: float, density: float, youngs_modulus: float,
     return math.pi * radius * math.sqrt(density / g) / (0.1631 * poisson_ratio + 0.8766)
 
 
-def check_fraction(fraction: float, default: float, field: str = "timestep_fraction"
-                   ) -> str | None:
+def check_fraction(fraction: float, default: float, field: str = "timestep_fraction") -> str | None:
     """Refuse an unsafe fraction of the Rayleigh time; return a warning text or None.
 
     ``default`` is the study file's default fraction, recommended in the messages.
@@ -41,10 +41,13 @@ def check_fraction(fraction: float, default: float, field: str = "timestep_fract
             f"{field}: {fraction:g} is above {MAX_FRACTION:g} of the Rayleigh time. "
             f"Larger steps run but give wrong results (measured: 0.5 already packs "
             f"5-7 % too dense, 0.75 and above lose particles); use {default:g} "
-            f"(default) up to {MAX_FRACTION:g}.")
+            f"(default) up to {MAX_FRACTION:g}."
+        )
     if fraction > WARN_FRACTION:
-        return (f"{field}: {fraction:g} of the Rayleigh time is above {WARN_FRACTION:g}; "
-                f"check the responses against a run at {default:g}")
+        return (
+            f"{field}: {fraction:g} of the Rayleigh time is above {WARN_FRACTION:g}; "
+            f"check the responses against a run at {default:g}"
+        )
     return None
 
 
@@ -59,13 +62,18 @@ def rayleigh_time_range(bounds: dict[str, tuple[float, float]]) -> tuple[float, 
     ratio (equal for a fixed one); T_R is monotone in each, so the extremes
     lie at corners of the box.
     """
-    corners = [rayleigh_time(1.0, rho, e, nu) for rho in bounds["particle_density"]
-               for e in bounds["youngs_modulus"] for nu in bounds["poisson_ratio"]]
+    corners = [
+        rayleigh_time(1.0, rho, e, nu)
+        for rho in bounds["particle_density"]
+        for e in bounds["youngs_modulus"]
+        for nu in bounds["poisson_ratio"]
+    ]
     return min(corners), max(corners)
 
 
-def rayleigh_cost(parameters: dict[str, float], time_range: tuple[float, float],
-                  weight: float) -> float:
+def rayleigh_cost(
+    parameters: dict[str, float], time_range: tuple[float, float], weight: float
+) -> float:
     """Rackl & Hanley (2017), eq. 10: W_RL (r_max - dt_R) / (r_max - r_min), in [0, W_RL].
 
     Zero at the largest Rayleigh time the bounds allow, W_RL at the smallest;
@@ -75,6 +83,10 @@ def rayleigh_cost(parameters: dict[str, float], time_range: tuple[float, float],
     low, high = time_range
     if weight == 0.0 or high <= low:
         return 0.0
-    time = rayleigh_time(1.0, parameters["particle_density"], parameters["youngs_modulus"],
-                         parameters["poisson_ratio"])
+    time = rayleigh_time(
+        1.0,
+        parameters["particle_density"],
+        parameters["youngs_modulus"],
+        parameters["poisson_ratio"],
+    )
     return weight * (high - time) / (high - low)

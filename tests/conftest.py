@@ -18,8 +18,10 @@ from demcal.scenes import SCENES
 ANALYTIC_STUDY = {
     "study": "unit",
     "engine": {"name": "analytic", "noise": 0.0},
-    "parameters": {"sliding_friction_pp": {"lower": 0.1, "upper": 0.9},
-                   "rolling_friction_pp": {"lower": 0.02, "upper": 0.3}},
+    "parameters": {
+        "sliding_friction_pp": {"lower": 0.1, "upper": 0.9},
+        "rolling_friction_pp": {"lower": 0.02, "upper": 0.3},
+    },
     "fixed": {"restitution": 0.5},
     "targets": [
         {"scene": "cylinder_lift", "response": "angle_of_repose", "value": 25.0},
@@ -28,7 +30,6 @@ ANALYTIC_STUDY = {
     "replicates": 2,
     "seed": 3,
 }
-
 
 
 def run_and_extract(engine, job):
@@ -41,20 +42,31 @@ def run_and_extract(engine, job):
     result = engine.run(job, RunMonitor(job), scene.driver(engine.name))
     responses = {}
     if result.status == Status.OK:
-        responses = scene_responses(scene, job.responses, result.measurements,
-                                    lambda: result.arrays, job.settings)
+        responses = scene_responses(
+            scene, job.responses, result.measurements, lambda: result.arrays, job.settings
+        )
     return result, responses
+
 
 #: Corners of the parameter box every scene must survive (stable, plausible responses).
 PARAMETER_CORNERS = {
-    "frictionless": dict(sliding_friction_pp=0.0, sliding_friction_pw=0.0,
-                         rolling_friction_pp=0.0, rolling_friction_pw=0.0),
-    "full_friction": dict(sliding_friction_pp=1.0, sliding_friction_pw=1.0,
-                          rolling_friction_pp=1.0, rolling_friction_pw=1.0),
+    "frictionless": dict(
+        sliding_friction_pp=0.0,
+        sliding_friction_pw=0.0,
+        rolling_friction_pp=0.0,
+        rolling_friction_pw=0.0,
+    ),
+    "full_friction": dict(
+        sliding_friction_pp=1.0,
+        sliding_friction_pw=1.0,
+        rolling_friction_pp=1.0,
+        rolling_friction_pw=1.0,
+    ),
     "restitution_0.05": dict(restitution=0.05),
     "restitution_0.95": dict(restitution=0.95),
     "stiff_5e8_Pa": dict(youngs_modulus=5.0e8),
 }
+
 
 @pytest.fixture
 def analytic_config():
@@ -62,8 +74,9 @@ def analytic_config():
     return copy.deepcopy(ANALYTIC_STUDY)
 
 
-def cone_of_spheres(angle_deg: float, base_radius: float, d: float,
-                    plateau_radius: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+def cone_of_spheres(
+    angle_deg: float, base_radius: float, d: float, plateau_radius: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
     """Spheres of diameter d stacked in columns so the surface is a cone (or a mesa).
 
     Surface height at distance rho: (base_radius - max(rho, plateau_radius)) tan(angle);
@@ -93,19 +106,30 @@ TRUTH = {"sliding_friction_pp": 0.4, "rolling_friction_pp": 0.1}
 
 def true_targets():
     """Responses of the closed form at TRUTH: the calibration's known optimum."""
-    params = {"sliding_friction_pw": 0.5, "rolling_friction_pw": 0.1, "restitution": 0.5,
-              "youngs_modulus": 5e6, "poisson_ratio": 0.3, "particle_density": 2500.0, **TRUTH}
+    params = {
+        "sliding_friction_pw": 0.5,
+        "rolling_friction_pw": 0.1,
+        "restitution": 0.5,
+        "youngs_modulus": 5e6,
+        "poisson_ratio": 0.3,
+        "particle_density": 2500.0,
+        **TRUTH,
+    }
     exact = SCENES["cylinder_lift"].analytic_model(params, {})
-    return [{"scene": "cylinder_lift", "response": name, "value": value}
-            for name, value in exact.items()]
+    return [
+        {"scene": "cylinder_lift", "response": name, "value": value}
+        for name, value in exact.items()
+    ]
 
 
 def study(tmp_path, name, **overrides):
     config = {
         "study": name,
         "engine": {"name": "analytic", "noise": 0.0, "duration": 0.5},
-        "parameters": {"sliding_friction_pp": {"lower": 0.1, "upper": 0.9},
-                       "rolling_friction_pp": {"lower": 0.02, "upper": 0.3}},
+        "parameters": {
+            "sliding_friction_pp": {"lower": 0.1, "upper": 0.9},
+            "rolling_friction_pp": {"lower": 0.02, "upper": 0.3},
+        },
         "targets": true_targets(),
         # the fast response model: these tests are about the daemon, not the model
         # (Kriging per response is tested in tests/optimizer)
@@ -122,8 +146,15 @@ def study(tmp_path, name, **overrides):
 
 def demcal(tmp_path, *args, **popen):
     command = [sys.executable, "-m", "demcal.cli", *map(str, args)]
-    return subprocess.Popen(command, cwd=tmp_path, stdin=subprocess.DEVNULL,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **popen)
+    return subprocess.Popen(
+        command,
+        cwd=tmp_path,
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        **popen,
+    )
 
 
 def finish(proc, timeout=240):

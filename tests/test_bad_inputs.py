@@ -29,11 +29,19 @@ def test_the_corpus_is_large_and_its_messages_distinct():
 @pytest.mark.parametrize("case", CASES, ids=lambda c: c.name)
 def test_every_route_refuses_a_bad_study_in_one_line(tmp_path, case):
     with ThreadPoolExecutor(len(ROUTES)) as pool:
-        outcomes = dict(zip(ROUTES, pool.map(
-            lambda route: run_route(route, case, tmp_path / route.replace(" ", "_")), ROUTES)))
+        outcomes = dict(
+            zip(
+                ROUTES,
+                pool.map(
+                    lambda route: run_route(route, case, tmp_path / route.replace(" ", "_")), ROUTES
+                ),
+            )
+        )
     verdicts = {route: outcome.verdict(case.message) for route, outcome in outcomes.items()}
     assert set(verdicts.values()) == {"clean"}, {r: (verdicts[r], o) for r, o in outcomes.items()}
-    lines = {o.lines[0].replace(str(tmp_path / r.replace(" ", "_")), "") for r, o in outcomes.items()}
+    lines = {
+        o.lines[0].replace(str(tmp_path / r.replace(" ", "_")), "") for r, o in outcomes.items()
+    }
     assert len(lines) == 1, lines  # the same line on every route
 
 
@@ -41,8 +49,13 @@ def test_every_route_refuses_a_bad_study_in_one_line(tmp_path, case):
 def test_a_bad_hand_written_point_is_a_failed_evaluation_with_its_reason(tmp_path, point):
     """The README's "evaluate your own point": recorded as failed, summarised, exit 0."""
     study, target = write_point(tmp_path, point)
-    done = subprocess.run(route_command("snakemake local", study, target=target), cwd=tmp_path,
-                          capture_output=True, text=True, timeout=120)
+    done = subprocess.run(
+        route_command("snakemake local", study, target=target),
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     output = done.stdout + done.stderr
     assert done.returncode == 0 and "Traceback" not in output, output
     assert f"evaluation '{point.name}' of study 'corpus': failed" in output, output
@@ -63,18 +76,26 @@ def test_an_alias_bomb_is_refused_in_well_under_a_second_and_little_memory(tmp_p
     assert seconds < 0.5 and peak < 20e6, (seconds, peak)
     # whole processes, both routes: each under a small parent that reports its child's peak
     # resident size (RUSAGE_CHILDREN of this test's own process would include earlier tests)
-    peak_of_child = ("import resource, subprocess, sys; subprocess.run(sys.argv[1:], "
-                     "capture_output=True, timeout=60); "
-                     "print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)")
+    peak_of_child = (
+        "import resource, subprocess, sys; subprocess.run(sys.argv[1:], "
+        "capture_output=True, timeout=60); "
+        "print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)"
+    )
     for route in ("demcal run", "snakemake local"):
-        done = subprocess.run([sys.executable, "-c", peak_of_child, *route_command(route, path)],
-                              cwd=tmp_path, capture_output=True, text=True, timeout=90)
+        done = subprocess.run(
+            [sys.executable, "-c", peak_of_child, *route_command(route, path)],
+            cwd=tmp_path,
+            capture_output=True,
+            text=True,
+            timeout=90,
+        )
         assert int(done.stdout) < 200 * 1024, (route, f"{int(done.stdout) / 1024:.0f} MB")
 
 
 def test_the_bomb_would_expand_to_billions(tmp_path):
     """The bomb is real: its expanded size, counted, is 9**10 values."""
     from demcal.config import StrictLoader, expanded_size
+
     bomb: BadInput = next(c for c in CASES if c.name == "alias_bomb")
     loader = StrictLoader(bomb.raw.decode())
     assert expanded_size(loader.get_single_node(), 10**12) > 3 * 10**9

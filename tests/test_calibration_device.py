@@ -52,7 +52,8 @@ def test_slide_time_penalty_when_material_stays():
     times = np.array([0.0, 0.5, 1.0])
     remaining = np.array([2.0, 0.6, 0.5])
     assert measure.slide_time_with_penalty(times, remaining, 2.0, 0.003, 3.0) == pytest.approx(
-        3.0 + 10.0 * 0.25)
+        3.0 + 10.0 * 0.25
+    )
 
 
 @pytest.mark.parametrize("angle", [10.0, 25.0, 40.0])
@@ -70,8 +71,9 @@ def test_sigmoid_fit_needs_a_profile():
 
 
 def test_surface_profile_along_x_takes_the_top_of_each_bin():
-    x = np.array([[0.001, 0.0, 0.001], [0.001, 0.005, 0.003], [0.0035, 0.0, 0.001],
-                  [0.009, 0.0, 0.001]])
+    x = np.array(
+        [[0.001, 0.0, 0.001], [0.001, 0.005, 0.003], [0.0035, 0.0, 0.001], [0.009, 0.0, 0.001]]
+    )
     r = np.full(4, 0.001)
     position, height = measure.surface_profile_along_x(x, r, 0.002, (0.0, 0.006))
     assert position == pytest.approx([0.001, 0.003])
@@ -90,23 +92,42 @@ def test_hopper_holds_the_insertion_volume(wall_angle):
     g = device_geometry(s, volume, d_max, fraction)
     h = g.fill_top - g.hopper_bottom - 0.6 * d_max
     width = s["orifice_width"] - 1.2 * d_max
-    area = width * h + (0.0 if wall_angle == 90.0 else h * h / (2 * math.tan(math.radians(wall_angle))))
+    area = width * h + (
+        0.0 if wall_angle == 90.0 else h * h / (2 * math.tan(math.radians(wall_angle)))
+    )
     assert area * (s["depth"] - d_max) * fraction == pytest.approx(volume, rel=1e-6)
     # the outlet is above the slide, the slide's edge above the floor
     slide_below_outlet = g.slide_edge_height + math.tan(math.radians(s["slide_angle"])) * (
-        g.outlet_left + s["orifice_width"] - g.slide_edge)
-    assert g.hopper_bottom - g.wall_thickness == pytest.approx(slide_below_outlet + s["drop_height"])
+        g.outlet_left + s["orifice_width"] - g.slide_edge
+    )
+    assert g.hopper_bottom - g.wall_thickness == pytest.approx(
+        slide_below_outlet + s["drop_height"]
+    )
     assert g.box_right > g.outlet_left + s["orifice_width"]
 
 
-@pytest.mark.parametrize("given, message", [
-    ({"orifice_width": 4.0e-3}, "orifice_width: 0.004 m is less than 3 of the largest particles"),
-    ({"depth": 5.0e-3, "d50": 2.0e-3}, "depth: 0.005 m is less than 3 of the largest particles"),
-    ({"slide_length": 5.0e-3}, "slide_length: 0.005 m puts the outlet past the slide's edge"),
-    ({"slide_angle": 85.0}, r"slide_angle: 85.0 is outside the allowed range: a number in \[5, 80\]"),
-    ({"slide_angle": 50.0, "hopper_wall_angle": 45.0},
-     "slide_angle: 50 deg is not below hopper_wall_angle \\(45 deg\\)"),
-])
+@pytest.mark.parametrize(
+    "given, message",
+    [
+        (
+            {"orifice_width": 4.0e-3},
+            "orifice_width: 0.004 m is less than 3 of the largest particles",
+        ),
+        (
+            {"depth": 5.0e-3, "d50": 2.0e-3},
+            "depth: 0.005 m is less than 3 of the largest particles",
+        ),
+        ({"slide_length": 5.0e-3}, "slide_length: 0.005 m puts the outlet past the slide's edge"),
+        (
+            {"slide_angle": 85.0},
+            r"slide_angle: 85.0 is outside the allowed range: a number in \[5, 80\]",
+        ),
+        (
+            {"slide_angle": 50.0, "hopper_wall_angle": 45.0},
+            "slide_angle: 50 deg is not below hopper_wall_angle \\(45 deg\\)",
+        ),
+    ],
+)
 def test_bad_settings_name_field_and_range(given, message):
     with pytest.raises(ConfigError, match=message):
         settings(**given)
@@ -123,17 +144,30 @@ def test_analytic_model_trends():
 
 
 # -- real LAMMPS on a tiny device ------------------------------------------------
-TINY = {"particle_count": 300, "d50": 2.0e-3, "floor_length": 0.08, "slide_length": 0.03,
-        "slide_edge_height": 0.02, "max_time": 1.0, "max_settle_time": 0.5}
+TINY = {
+    "particle_count": 300,
+    "d50": 2.0e-3,
+    "floor_length": 0.08,
+    "slide_length": 0.03,
+    "slide_edge_height": 0.02,
+    "max_time": 1.0,
+    "max_settle_time": 0.5,
+}
 
 
 def tiny_job(tmp_path, responses, fraction=0.25, **params):
     values = {name: spec.default for name, spec in CATALOG.items()}
     values.update({"youngs_modulus": 5.0e6, **params})
-    return SimulationJob(scene="calibration_device", parameters=values,
-                         settings=settings(**TINY), seed=3, responses=list(responses),
-                         timestep_fraction=fraction, workdir=str(tmp_path),
-                         stop_file=str(tmp_path / "STOP"))
+    return SimulationJob(
+        scene="calibration_device",
+        parameters=values,
+        settings=settings(**TINY),
+        seed=3,
+        responses=list(responses),
+        timestep_fraction=fraction,
+        workdir=str(tmp_path),
+        stop_file=str(tmp_path / "STOP"),
+    )
 
 
 def run_lammps(job):
@@ -167,7 +201,8 @@ def test_mass_flow_alone_ends_when_the_hopper_is_empty(tmp_path):
     assert short_result.cost["steps"] < full_result.cost["steps"]
     # same seed, same discharge: the mass flow does not depend on what else is measured
     assert short_result.measurements["mass_flow"] == pytest.approx(
-        full_result.measurements["mass_flow"], rel=1e-9)
+        full_result.measurements["mass_flow"], rel=1e-9
+    )
 
 
 @pytest.mark.lammps

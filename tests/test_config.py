@@ -40,7 +40,8 @@ def test_seeds_differ_per_replicate_and_repeat(analytic_config):
     seeds = {study.simulation_seed("e1", "cylinder_lift", r) for r in range(5)}
     assert len(seeds) == 5
     assert study.simulation_seed("e1", "cylinder_lift", 0) == study.simulation_seed(
-        "e1", "cylinder_lift", 0)
+        "e1", "cylinder_lift", 0
+    )
 
 
 @pytest.mark.parametrize("case", FIELDS + NON_FINITE + ESCAPING, ids=lambda c: c.name)
@@ -59,16 +60,23 @@ def test_bad_messages_are_distinct():
     assert len(messages) == len(FIELDS + NON_FINITE)
 
 
-def test_a_target_from_the_lab_tests_repeats_takes_their_mean_and_standard_deviation(analytic_config):
-    analytic_config["targets"][0] = {"scene": "cylinder_lift", "response": "angle_of_repose",
-                                     "repeats": [24.0, 26.0, 25.5, 24.5]}
+def test_a_target_from_the_lab_tests_repeats_takes_their_mean_and_standard_deviation(
+    analytic_config,
+):
+    analytic_config["targets"][0] = {
+        "scene": "cylinder_lift",
+        "response": "angle_of_repose",
+        "repeats": [24.0, 26.0, 25.5, 24.5],
+    }
     target = load_study(analytic_config).targets[0]
     assert target.value == pytest.approx(25.0) and target.spread == pytest.approx(0.9128709)
     analytic_config["targets"][0]["value"] = 25.0
     with pytest.raises(ConfigError, match=r"targets\[0\].value: given together with repeats"):
         load_study(analytic_config)
     analytic_config["targets"][0] = {"scene": "cylinder_lift", "response": "angle_of_repose"}
-    with pytest.raises(ConfigError, match=r"targets\[0\]: give the measured value .* or the lab test's repeats"):
+    with pytest.raises(
+        ConfigError, match=r"targets\[0\]: give the measured value .* or the lab test's repeats"
+    ):
         load_study(analytic_config)
 
 
@@ -98,7 +106,9 @@ def test_rayleigh_cost_enters_the_objective_of_a_stiff_point(analytic_config):
 def test_centre_point_with_overrides_names_a_bad_one(analytic_config):
     study = load_study(analytic_config)
     assert study.centre_point(["rolling_friction_pp=0.05"]) == {
-        "sliding_friction_pp": 0.5, "rolling_friction_pp": 0.05}
+        "sliding_friction_pp": 0.5,
+        "rolling_friction_pp": 0.05,
+    }
     with pytest.raises(ConfigError, match="--point restitution=0.3: 'restitution' is not a free"):
         study.centre_point(["restitution=0.3"])
     with pytest.raises(ConfigError, match="--point rolling_friction_pp=x: 'x' is not a number"):
@@ -106,9 +116,12 @@ def test_centre_point_with_overrides_names_a_bad_one(analytic_config):
 
 
 def test_simulator_file_in_a_subfolder_is_fine(analytic_config):
-    analytic_config["engine"] = {"name": "command", "command": "python3 sim.py",
-                                 "responses_file": "out/responses.json",
-                                 "partial_file": "progress.csv"}
+    analytic_config["engine"] = {
+        "name": "command",
+        "command": "python3 sim.py",
+        "responses_file": "out/responses.json",
+        "partial_file": "progress.csv",
+    }
     assert load_study(analytic_config, check_engine=False).engine.name == "command"
 
 
@@ -118,7 +131,9 @@ def test_rayleigh_cost_keeps_a_strategy_that_models_it(analytic_config):
     analytic_config["rayleigh_cost_weight"] = 0.5
     assert load_study(analytic_config).optimizer.strategy == "dycors"
     analytic_config["optimizer"] = {"strategy": "response_ei"}
-    with pytest.raises(ConfigError, match="optimizer.strategy: response_ei does not model the Rayleigh"):
+    with pytest.raises(
+        ConfigError, match="optimizer.strategy: response_ei does not model the Rayleigh"
+    ):
         load_study(analytic_config)
     del analytic_config["rayleigh_cost_weight"]
     assert load_study(analytic_config).optimizer.strategy == "response_ei"

@@ -24,26 +24,44 @@ def test_local_calibration_reaches_the_known_optimum(tmp_path):
     the found point is near the valley, not necessarily at TRUTH: the
     optimizer's own quality is measured in benchmarks/optimizer.
     """
-    config = study(tmp_path, "conv", optimizer={"max_evaluations": 20, "confirm_replicates": 2,
-                                                 "early_termination": {"enabled": False}})
+    config = study(
+        tmp_path,
+        "conv",
+        optimizer={
+            "max_evaluations": 20,
+            "confirm_replicates": 2,
+            "early_termination": {"enabled": False},
+        },
+    )
     out = finish(demcal(tmp_path, "run", config, "--profile", ROOT / "profiles" / "local"))
     best = json.loads((tmp_path / "results/conv/best.json").read_text())
     table = evaluations(tmp_path, "conv")
-    assert len(table) == 22 and set(table["status"]) == {"ok"}  # 20 + 2 re-simulations of the best point
+    assert len(table) == 22 and set(table["status"]) == {
+        "ok"
+    }  # 20 + 2 re-simulations of the best point
     assert best["stop_reason"] == "evaluation budget reached (20 of 20)"
-    assert best["units"] == {"sliding_friction_pp": "-", "rolling_friction_pp": "-",
-                             "cylinder_lift.angle_of_repose": "deg", "cylinder_lift.bulk_density": "kg/m^3"}
+    assert best["units"] == {
+        "sliding_friction_pp": "-",
+        "rolling_friction_pp": "-",
+        "cylinder_lift.angle_of_repose": "deg",
+        "cylinder_lift.bulk_density": "kg/m^3",
+    }
     # evaluations.csv: ISO times, a duration, short numbers; units in the sidecar
     text = (tmp_path / "results/conv/evaluations.csv").read_text()
     assert re.search(r",20\d\d-\d\d-\d\dT\d\d:\d\d:\d\dZ,20\d\d-", text)
     mantissas = re.findall(r"(?<![\w.])(\d+\.\d+)(?:e[-+]\d+)?(?![\w.])", text)
-    assert mantissas and max(len(m.replace(".", "").lstrip("0")) for m in mantissas) <= 7  # not 0.8611111111111112
+    assert (
+        mantissas and max(len(m.replace(".", "").lstrip("0")) for m in mantissas) <= 7
+    )  # not 0.8611111111111112
     assert (table["wall_s"] > 0).all()
     columns = pd.read_csv(tmp_path / "results/conv/evaluations.columns.csv")
     assert list(columns["column"]) == list(table.columns)
     assert columns.set_index("column").loc["cylinder_lift.bulk_density", "unit"] == "kg/m^3"
     confirmation = best["confirmation"]
-    assert confirmation["of"] == best["evaluation"] and confirmation["evaluations"] == ["e0020", "e0021"]
+    assert confirmation["of"] == best["evaluation"] and confirmation["evaluations"] == [
+        "e0020",
+        "e0021",
+    ]
     assert confirmation["responses"]["cylinder_lift.bulk_density"]["count"] == 2
     assert f"confirmed by 2 more simulations of {best['evaluation']} (e0020, e0021; 0 failed" in out
     again = json.loads((tmp_path / "results/conv/evals/e0021/params.json").read_text())
@@ -59,7 +77,12 @@ def test_local_calibration_reaches_the_known_optimum(tmp_path):
     truth = (np.array(list(TRUTH.values())) - [0.1, 0.02]) / [0.8, 0.28]
     assert len(sets) >= 20 and np.min(np.linalg.norm(unit - truth, axis=1)) < 0.05
     assert all(f"  {name}: " in out for name in TRUTH)
-    for figure in ("solution_space.png", "sensitivity.png", "sensitivity.csv", "objective_slices.png"):
+    for figure in (
+        "solution_space.png",
+        "sensitivity.png",
+        "sensitivity.csv",
+        "objective_slices.png",
+    ):
         assert (tmp_path / "results/conv/plots" / figure).stat().st_size > 0
 
 
@@ -73,28 +96,43 @@ def test_kill_9_then_resume_loses_and_repeats_nothing(tmp_path):
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
     # what a redone evaluation would change: its records (times, seeds, results)
-    done_before = {p.parent.name: (p.read_text(), (p.parent / "cylinder_lift/rep0/simulation.json")
-                                   .read_text()) for p in evals.glob("*/objective.json")}
+    done_before = {
+        p.parent.name: (
+            p.read_text(),
+            (p.parent / "cylinder_lift/rep0/simulation.json").read_text(),
+        )
+        for p in evals.glob("*/objective.json")
+    }
     assert len(done_before) >= 4
     finish(demcal(tmp_path, "run", config))
     table = evaluations(tmp_path, "crash")
     assert sorted(table["evaluation"]) == [f"e{i:04d}" for i in range(14)]
     assert set(table["status"]) <= {"ok", "terminated"}
     for name, records in done_before.items():
-        assert ((evals / name / "objective.json").read_text(),
-                (evals / name / "cylinder_lift/rep0/simulation.json").read_text()) == records, name
+        assert (
+            (evals / name / "objective.json").read_text(),
+            (evals / name / "cylinder_lift/rep0/simulation.json").read_text(),
+        ) == records, name
     state = json.loads((tmp_path / "results/crash/optimizer.json").read_text())
     assert [r["id"] for r in state["records"]] == list(range(14))
     assert all(r["status"] in ("ok", "terminated") for r in state["records"])
 
 
 def test_failures_are_retried_up_to_the_cap_with_reasons(tmp_path):
-    failures = [{"when": {"sliding_friction_pp": [0.7, 0.9]}, "mode": "always",
-                 "reason": "particles escaped"},
-                {"when": {"sliding_friction_pp": [0.1, 0.3]}, "mode": "once",
-                 "reason": "node lost"}]
-    config = study(tmp_path, "fail", engine={"failures": failures},
-                   optimizer={"max_evaluations": 10, "early_termination": {"enabled": False}})
+    failures = [
+        {
+            "when": {"sliding_friction_pp": [0.7, 0.9]},
+            "mode": "always",
+            "reason": "particles escaped",
+        },
+        {"when": {"sliding_friction_pp": [0.1, 0.3]}, "mode": "once", "reason": "node lost"},
+    ]
+    config = study(
+        tmp_path,
+        "fail",
+        engine={"failures": failures},
+        optimizer={"max_evaluations": 10, "early_termination": {"enabled": False}},
+    )
     finish(demcal(tmp_path, "run", config))
     table = evaluations(tmp_path, "fail")
     # evaluations.csv rounds to 7 digits: leave out points within that of the windows' edges
@@ -111,26 +149,35 @@ def test_failures_are_retried_up_to_the_cap_with_reasons(tmp_path):
 
 def test_early_termination_stops_hopeless_runs_and_saves_time(tmp_path):
     duration = 4.0
-    config = study(tmp_path, "et", engine={"duration": duration, "chunks": 40},
-                   optimizer={"max_evaluations": 12,
-                              "early_termination": {"thresholds": [1.0],
-                                                    "progress_boundaries": []}})
+    config = study(
+        tmp_path,
+        "et",
+        engine={"duration": duration, "chunks": 40},
+        optimizer={
+            "max_evaluations": 12,
+            "early_termination": {"thresholds": [1.0], "progress_boundaries": []},
+        },
+    )
     finish(demcal(tmp_path, "run", config))
     table = evaluations(tmp_path, "et")
     stopped = table[table["status"] == "terminated"]
     assert len(stopped) >= 1
     state = json.loads((tmp_path / "results/et/optimizer.json").read_text())
     assert {r["id"] for r in state["records"] if r["status"] == "terminated"} == {
-        int(name[1:]) for name in stopped["evaluation"]}
+        int(name[1:]) for name in stopped["evaluation"]
+    }
     for record in state["records"]:  # what a stopped run reported reaches the optimizer
         if record["status"] == "terminated":
-            assert set(record["responses"]) == {"cylinder_lift.angle_of_repose",
-                                                "cylinder_lift.bulk_density"}
+            assert set(record["responses"]) == {
+                "cylinder_lift.angle_of_repose",
+                "cylinder_lift.bulk_density",
+            }
             assert all(entry["final"] and entry["values"] for entry in record["responses"].values())
     walls = []
     for name in stopped["evaluation"]:
-        sim = json.loads((tmp_path / f"results/et/evals/{name}/cylinder_lift/rep0/"
-                                     "simulation.json").read_text())
+        sim = json.loads(
+            (tmp_path / f"results/et/evals/{name}/cylinder_lift/rep0/simulation.json").read_text()
+        )
         assert sim["status"] == "terminated"
         walls.append(sim["cost"]["wall_s"])
     # a run can be stopped late when a better evaluation finishes late (the bar drops)
@@ -138,7 +185,11 @@ def test_early_termination_stops_hopeless_runs_and_saves_time(tmp_path):
     initial = state["initial_size"]
     assert all(int(name[1:]) >= initial for name in stopped["evaluation"])
     # stopped runs teach the response models: no region is proposed and stopped again and again
-    consecutive = [len(list(run)) for status, run in itertools.groupby(table["status"]) if status == "terminated"]
+    consecutive = [
+        len(list(run))
+        for status, run in itertools.groupby(table["status"])
+        if status == "terminated"
+    ]
     assert max(consecutive) <= 3, table["status"].tolist()
     # the estimates and limits over time are kept; every stopped run has the row that stopped it
     trace = pd.read_csv(tmp_path / "results/et/early_termination.csv")
@@ -147,7 +198,11 @@ def test_early_termination_stops_hopeless_runs_and_saves_time(tmp_path):
     assert (stopping["estimate"] > stopping["limit"]).all()
     held = trace[(trace["stop"] == 0) & trace["limit"].notna()]  # the initial design has no limit
     assert len(held) and (held["estimate"] <= held["limit"]).all()
-    assert trace.loc[trace["evaluation"].map(lambda e: int(e[1:])) < state["initial_size"], "limit"].isna().all()
+    assert (
+        trace.loc[trace["evaluation"].map(lambda e: int(e[1:])) < state["initial_size"], "limit"]
+        .isna()
+        .all()
+    )
     # the live view of the (now ended) study: state, both figures, and it says it is not running
     watched = finish(demcal(tmp_path, "watch", "et", "--every", "1"))
     assert "is not running (ended: evaluation budget reached" in watched
@@ -173,16 +228,23 @@ def test_bad_config_is_one_message(tmp_path):
     proc = demcal(tmp_path, "run", config)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 2
-    assert err.strip() == ("demcal: optimizer.strategy: 'guess' is not one of dycors, "
-                           "kriging_ei, response_ei, rackl_hanley")
+    assert err.strip() == (
+        "demcal: optimizer.strategy: 'guess' is not one of dycors, "
+        "kriging_ei, response_ei, rackl_hanley"
+    )
     proc = demcal(tmp_path, "run", study(tmp_path, "good"), "--workers", "-1")
     _, err = proc.communicate(timeout=60)
-    assert (proc.returncode, err.strip()) == (2, "demcal: --workers -1: give at least 1 (evaluations in flight)")
+    assert (proc.returncode, err.strip()) == (
+        2,
+        "demcal: --workers -1: give at least 1 (evaluations in flight)",
+    )
     for every in ("nan", "inf", "0"):
         proc = demcal(tmp_path, "watch", study(tmp_path, "good"), "--every", every)
         _, err = proc.communicate(timeout=60)
         assert (proc.returncode, err.strip()) == (
-            2, f"demcal: --every {float(every)}: give 1 to 3600 s between updates")
+            2,
+            f"demcal: --every {float(every)}: give 1 to 3600 s between updates",
+        )
 
 
 def test_resume_with_a_changed_study_is_refused_but_budget_may_grow(tmp_path):
@@ -216,11 +278,15 @@ def test_new_target_values_rescore_stored_simulations_without_simulating(tmp_pat
     table = evaluations(tmp_path, "rescore")
     assert len(table) == 5
     first, second = changed["targets"]
-    records = [json.loads((evals / name / "objective.json").read_text()) for name in table["evaluation"]]
+    records = [
+        json.loads((evals / name / "objective.json").read_text()) for name in table["evaluation"]
+    ]
     responses = pd.DataFrame([r["responses"] for r in records])  # every digit (the CSV keeps 7)
-    expected = ((responses[f"cylinder_lift.{first['response']}"] - first["value"]) / first["value"]) ** 2 \
-        + 3.0 * ((responses[f"cylinder_lift.{second['response']}"] - second["value"])
-                 / second["value"]) ** 2
+    expected = (
+        (responses[f"cylinder_lift.{first['response']}"] - first["value"]) / first["value"]
+    ) ** 2 + 3.0 * (
+        (responses[f"cylinder_lift.{second['response']}"] - second["value"]) / second["value"]
+    ) ** 2
     assert np.allclose([r["objective"] for r in records], expected, rtol=1e-9)
     assert np.allclose(table["objective"], expected, rtol=1e-6)
     state = json.loads((tmp_path / "results/rescore/optimizer.json").read_text())
@@ -234,11 +300,16 @@ def test_new_target_values_rescore_stored_simulations_without_simulating(tmp_pat
 
 
 def test_rerun_failed_reruns_them_with_new_seeds(tmp_path):
-    failures = [{"when": {"sliding_friction_pp": [0.1, 0.3]}, "mode": "once",
-                 "reason": "node lost"}]
-    config = study(tmp_path, "again", engine={"failures": failures},
-                   optimizer={"max_evaluations": 5, "early_termination": {"enabled": False}},
-                   calibration={"retries": 0})
+    failures = [
+        {"when": {"sliding_friction_pp": [0.1, 0.3]}, "mode": "once", "reason": "node lost"}
+    ]
+    config = study(
+        tmp_path,
+        "again",
+        engine={"failures": failures},
+        optimizer={"max_evaluations": 5, "early_termination": {"enabled": False}},
+        calibration={"retries": 0},
+    )
     finish(demcal(tmp_path, "run", config))
     failed = set(evaluations(tmp_path, "again").query("status == 'failed'")["evaluation"])
     assert failed
@@ -253,9 +324,22 @@ def test_rerun_failed_reruns_them_with_new_seeds(tmp_path):
 def snakemake_calibration(tmp_path, config):
     """The README's command: snakemake with the local profile on a study file."""
     return subprocess.Popen(
-        [sys.executable, "-m", "snakemake", "-s", ROOT / "Snakefile", "--profile",
-         ROOT / "profiles" / "local", f"--configfile={config}"], cwd=tmp_path,
-        stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        [
+            sys.executable,
+            "-m",
+            "snakemake",
+            "-s",
+            ROOT / "Snakefile",
+            "--profile",
+            ROOT / "profiles" / "local",
+            f"--configfile={config}",
+        ],
+        cwd=tmp_path,
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
 
 
 def wait_for_objectives(evals, count, proc=None, timeout=120):
@@ -289,8 +373,9 @@ def test_killed_snakemake_leaves_no_orphan_and_no_lock_the_same_command_finishes
     assert (results / "report.html").exists()
 
 
-def test_a_daemon_that_dies_on_a_disk_error_leaves_the_calibration_unfinished(tmp_path,
-                                                                              monkeypatch):
+def test_a_daemon_that_dies_on_a_disk_error_leaves_the_calibration_unfinished(
+    tmp_path, monkeypatch
+):
     """Results folder unwritable mid-run (EROFS), then repaired: the same command resumes."""
     from demcal.config import load_study_file
     from demcal.daemon import loop as daemon
@@ -321,8 +406,11 @@ def test_a_daemon_that_dies_on_a_disk_error_leaves_the_calibration_unfinished(tm
 
 def test_editing_the_study_file_during_a_run_does_not_reach_the_running_calibration(tmp_path):
     """Jobs read the frozen results/<study>/study.json, never the YAML."""
-    config = study(tmp_path, "frozen", optimizer={"max_evaluations": 8,
-                                                  "early_termination": {"enabled": False}})
+    config = study(
+        tmp_path,
+        "frozen",
+        optimizer={"max_evaluations": 8, "early_termination": {"enabled": False}},
+    )
     original = yaml.safe_load(config.read_text())
     proc = demcal(tmp_path, "run", config)
     results = tmp_path / "results" / "frozen"
@@ -355,8 +443,10 @@ def test_a_failure_after_demcal_stop_is_recorded_not_retried(tmp_path, monkeypat
     failed = {"status": "failed", "reason": "cylinder_lift rep0: node lost"}
     for proposal in calibration.optimizer.ask(2):
         evaluation = evaluation_id(proposal.id)
-        write_point(calibration.files.evaluation(evaluation),
-                    PointRecord(dict(zip(calibration.names, proposal.x))))
+        write_point(
+            calibration.files.evaluation(evaluation),
+            PointRecord(dict(zip(calibration.names, proposal.x))),
+        )
     calibration.finish("e0000", failed)
     assert launched == ["e0000"]  # retried while the calibration runs (retries: 1)
     calibration.files.stop_calibration.touch()  # demcal stop
@@ -373,12 +463,20 @@ def test_status_and_stop_say_what_runs_and_what_stop_means(tmp_path):
         assert time.monotonic() < deadline and daemon.poll() is None
         time.sleep(0.2)
     status = finish(demcal(tmp_path, "status", "halting"))  # by name, not by file
-    assert f"study 'halting': running (daemon pid {daemon.pid})" in status and " running (budget 14)" in status
+    assert (
+        f"study 'halting': running (daemon pid {daemon.pid})" in status
+        and " running (budget 14)" in status
+    )
     stop = finish(demcal(tmp_path, "stop", config))
-    assert "asked the daemon of 'halting'" in stop and "'demcal run' continues the calibration" in stop
+    assert (
+        "asked the daemon of 'halting'" in stop and "'demcal run' continues the calibration" in stop
+    )
     assert "finished: stopped on request (demcal stop)" in finish(daemon)
     status = finish(demcal(tmp_path, "status", "halting"))
-    assert "study 'halting': ended: stopped on request (demcal stop)" in status and "pending" not in status
+    assert (
+        "study 'halting': ended: stopped on request (demcal stop)" in status
+        and "pending" not in status
+    )
     assert "nothing to stop" in finish(demcal(tmp_path, "stop", "halting"))
     listing = finish(demcal(tmp_path, "studies"))
     assert listing.startswith("halting: ended: stopped on request (demcal stop)\n  ")
@@ -387,10 +485,18 @@ def test_status_and_stop_say_what_runs_and_what_stop_means(tmp_path):
 def test_a_point_added_by_hand_is_evaluated_by_the_next_run_and_joins_the_data(tmp_path):
     config = study(tmp_path, "byhand", optimizer={"max_evaluations": 6})
     finish(demcal(tmp_path, "run", config))
-    proc = demcal(tmp_path, "add-point", "byhand", "sliding_friction_pp=0.95", "rolling_friction_pp=0.1")
+    proc = demcal(
+        tmp_path, "add-point", "byhand", "sliding_friction_pp=0.95", "rolling_friction_pp=0.1"
+    )
     _, err = proc.communicate(timeout=60)
-    assert proc.returncode == 2 and "sliding_friction_pp=0.95 is outside its bounds [0.1, 0.9]" in err
-    out = finish(demcal(tmp_path, "add-point", "byhand", "sliding_friction_pp=0.4", "rolling_friction_pp=0.1"))
+    assert (
+        proc.returncode == 2 and "sliding_friction_pp=0.95 is outside its bounds [0.1, 0.9]" in err
+    )
+    out = finish(
+        demcal(
+            tmp_path, "add-point", "byhand", "sliding_friction_pp=0.4", "rolling_friction_pp=0.1"
+        )
+    )
     assert "point e0006 added to study 'byhand'" in out
     assert not (tmp_path / "results/byhand/finished.json").exists()
     finish(demcal(tmp_path, "run", config))

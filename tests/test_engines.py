@@ -33,10 +33,16 @@ SCENE = SCENES["cylinder_lift"]
 def make_job(tmp_path, **parameters):
     values = {name: spec.default for name, spec in CATALOG.items()}
     values.update(parameters)
-    return SimulationJob(scene="cylinder_lift", parameters=values,
-                         settings=SCENE.resolve_settings({}, "s"), seed=11,
-                         responses=["bulk_density", "angle_of_repose"], timestep_fraction=0.25,
-                         workdir=str(tmp_path), stop_file=str(tmp_path / "STOP"))
+    return SimulationJob(
+        scene="cylinder_lift",
+        parameters=values,
+        settings=SCENE.resolve_settings({}, "s"),
+        seed=11,
+        responses=["bulk_density", "angle_of_repose"],
+        timestep_fraction=0.25,
+        workdir=str(tmp_path),
+        stop_file=str(tmp_path / "STOP"),
+    )
 
 
 def run(engine, job):
@@ -65,9 +71,15 @@ def test_analytic_streams_progress_and_early_estimates(tmp_path):
     rows = read_partial(job.partial_file)
     assert result.status == Status.OK
     assert [r["progress"] for r in rows if r["response"] in (None, "bulk_density")] == [
-        0.25, 0.5, 0.75, 1.0]
+        0.25,
+        0.5,
+        0.75,
+        1.0,
+    ]
     assert {r["response"] for r in rows if r["progress"] >= 0.5} == {
-        "bulk_density", "angle_of_repose"}
+        "bulk_density",
+        "angle_of_repose",
+    }
 
 
 def test_analytic_honours_stop(tmp_path):
@@ -82,8 +94,10 @@ def test_analytic_honours_stop(tmp_path):
 
 
 def test_analytic_failure_injection_always_and_once(tmp_path):
-    rules = [{"when": {"sliding_friction_pp": [0.4, 0.6]}, "mode": "once", "reason": "flaky"},
-             {"when": {"sliding_friction_pp": [0.8, 1.0]}, "reason": "always broken"}]
+    rules = [
+        {"when": {"sliding_friction_pp": [0.4, 0.6]}, "mode": "once", "reason": "flaky"},
+        {"when": {"sliding_friction_pp": [0.8, 1.0]}, "reason": "always broken"},
+    ]
     engine = AnalyticEngine({"failures": rules})
     once_dir, always_dir, fine_dir = (tmp_path / n for n in ("once", "always", "fine"))
     for d in (once_dir, always_dir, fine_dir):
@@ -142,9 +156,13 @@ SIMULATOR = textwrap.dedent("""
 def command_engine(tmp_path, mode):
     script = tmp_path / "sim.py"
     script.write_text(SIMULATOR)
-    return CommandEngine({"command": f"{sys.executable} {script} {{sliding_friction_pp}} {{seed}} "
-                                     f"{mode}", "responses_file": "out.json",
-                          "partial_file": "progress.csv"})
+    return CommandEngine(
+        {
+            "command": f"{sys.executable} {script} {{sliding_friction_pp}} {{seed}} {mode}",
+            "responses_file": "out.json",
+            "partial_file": "progress.csv",
+        }
+    )
 
 
 def test_command_engine_reads_responses(tmp_path):
@@ -156,19 +174,28 @@ def test_command_engine_reads_responses(tmp_path):
     assert result.measurements == {"bulk_density": 1400.25, "angle_of_repose": 20.25}
 
 
-@pytest.mark.parametrize("mode,reason", [
-    ("crash", r"simulator exited with code 1: solver diverged"),
-    ("silent", r"simulator responses file missing"),
-    ("true", r"out.json: 'bulk_density' is true \(bool\), not a number$"),
-    ("text", r"out.json: 'bulk_density' is \"1400 kg/m3\" \(str\), not a number$"),
-    ("null", r"out.json: 'bulk_density' is null, not a number$"),
-    ("nan", r"out.json: 'bulk_density' is nan, not a finite number$"),
-    ("list", r"out.json: 'bulk_density' is \[1400\] \(list\), not a number$"),
-    ("array", r"simulator responses file is not a JSON object"),
-    ("flood", r"simulator exited with code 1: \.\.\.x+ solver diverged \(its output: command.log"),
-    ("segv", r"^simulator died from SIGSEGV \(no output\)$"),
-    ("huge", r"^simulator responses file \S+/out.json is 1.91 MB, more than the limit of 1 MB$"),
-])
+@pytest.mark.parametrize(
+    "mode,reason",
+    [
+        ("crash", r"simulator exited with code 1: solver diverged"),
+        ("silent", r"simulator responses file missing"),
+        ("true", r"out.json: 'bulk_density' is true \(bool\), not a number$"),
+        ("text", r"out.json: 'bulk_density' is \"1400 kg/m3\" \(str\), not a number$"),
+        ("null", r"out.json: 'bulk_density' is null, not a number$"),
+        ("nan", r"out.json: 'bulk_density' is nan, not a finite number$"),
+        ("list", r"out.json: 'bulk_density' is \[1400\] \(list\), not a number$"),
+        ("array", r"simulator responses file is not a JSON object"),
+        (
+            "flood",
+            r"simulator exited with code 1: \.\.\.x+ solver diverged \(its output: command.log",
+        ),
+        ("segv", r"^simulator died from SIGSEGV \(no output\)$"),
+        (
+            "huge",
+            r"^simulator responses file \S+/out.json is 1.91 MB, more than the limit of 1 MB$",
+        ),
+    ],
+)
 def test_command_engine_failures_have_reasons(tmp_path, mode, reason):
     result = run(command_engine(tmp_path, mode), make_job(tmp_path))
     assert result.status == Status.FAILED
@@ -190,8 +217,9 @@ def test_a_flooding_partial_file_fails_the_run_in_bounded_memory(tmp_path, monke
     finally:
         tracemalloc.stop()
     assert result.status == Status.FAILED
-    assert result.reason.startswith("partial file progress.csv grew beyond 1 MB; the simulator "
-                                    "was stopped"), result.reason
+    assert result.reason.startswith(
+        "partial file progress.csv grew beyond 1 MB; the simulator was stopped"
+    ), result.reason
     assert peak < 8 * 2**20
     assert {r["response"] for r in read_partial(job.partial_file)} == {"bulk_density"}
     assert job.partial_file.stat().st_size < 10_000
@@ -206,12 +234,21 @@ def test_simulator_progress_reads_on_from_where_it_stopped(tmp_path):
     """Read in pieces, a half-written last line waiting for its end, it learns what one read of
     the whole file does; a file cut short or replaced is read again from its start."""
     path = tmp_path / "progress.csv"
-    pieces = ["progress,response,value\n0.1,bulk_density,1401\n0.2,", "", "angle_of_repose,2",
-              "1\n0.3,bulk_density,14", "02\n0.4,made_up,7\n0.5,,\n0.6,bulk_density,nan\n"]
-    seen = [(None, {}), (0.1, {"bulk_density": 1401.0}), (0.1, {"bulk_density": 1401.0}),
-            (0.1, {"bulk_density": 1401.0}),
-            (0.2, {"bulk_density": 1401.0, "angle_of_repose": 21.0}),
-            (0.6, {"bulk_density": 1402.0, "angle_of_repose": 21.0})]
+    pieces = [
+        "progress,response,value\n0.1,bulk_density,1401\n0.2,",
+        "",
+        "angle_of_repose,2",
+        "1\n0.3,bulk_density,14",
+        "02\n0.4,made_up,7\n0.5,,\n0.6,bulk_density,nan\n",
+    ]
+    seen = [
+        (None, {}),
+        (0.1, {"bulk_density": 1401.0}),
+        (0.1, {"bulk_density": 1401.0}),
+        (0.1, {"bulk_density": 1401.0}),
+        (0.2, {"bulk_density": 1401.0, "angle_of_repose": 21.0}),
+        (0.6, {"bulk_density": 1402.0, "angle_of_repose": 21.0}),
+    ]
     progress = SimulatorProgress(path, "progress.csv", ["bulk_density", "angle_of_repose"])
     progress.read_on()  # not written yet
     assert (progress.progress, progress.estimates) == seen[0]
@@ -245,36 +282,46 @@ def test_the_daemon_reads_partial_csv_on_as_a_whole_read_would(tmp_path):
     complete = tmp_path / "complete.csv"
     for end in range(0, len(text) + 1, 7):
         growing.write_bytes(text[:end])  # rewritten in place, its start unchanged: an append
-        complete.write_bytes(text[:text.rfind(b"\n", 0, end) + 1])
-        whole = {f"cylinder_lift.{r['response']}": [r["value"]] for r in read_partial(complete)
-                 if r["response"] is not None and r["value"] is not None}
+        complete.write_bytes(text[: text.rfind(b"\n", 0, end) + 1])
+        whole = {
+            f"cylinder_lift.{r['response']}": [r["value"]]
+            for r in read_partial(complete)
+            if r["response"] is not None and r["value"] is not None
+        }
         assert latest_estimates(files, ["cylinder_lift"], 1) == whole
     assert set(whole) == {"cylinder_lift.bulk_density", "cylinder_lift.angle_of_repose"}
 
 
-@pytest.mark.parametrize("executable,message", [
-    ("/no/such/simulator", r"executable '/no/such/simulator' not found$"),
-    ("no_such_simulator_on_path", r"executable 'no_such_simulator_on_path' not found on PATH"),
-    ("{tmp}/sim.py", r"'\S+/sim.py' is not executable \(no execute permission: chmod \+x it"),
-    ("{tmp}", r"'\S+' is not executable \(a directory\)$"),
-])
+@pytest.mark.parametrize(
+    "executable,message",
+    [
+        ("/no/such/simulator", r"executable '/no/such/simulator' not found$"),
+        ("no_such_simulator_on_path", r"executable 'no_such_simulator_on_path' not found on PATH"),
+        ("{tmp}/sim.py", r"'\S+/sim.py' is not executable \(no execute permission: chmod \+x it"),
+        ("{tmp}", r"'\S+' is not executable \(a directory\)$"),
+    ],
+)
 def test_command_engine_says_why_it_cannot_run_the_executable(tmp_path, executable, message):
     (tmp_path / "sim.py").write_text(SIMULATOR)
-    engine = CommandEngine({"command": f"{executable.format(tmp=tmp_path)} {{seed}}",
-                            "responses_file": "out.json"})
+    engine = CommandEngine(
+        {"command": f"{executable.format(tmp=tmp_path)} {{seed}}", "responses_file": "out.json"}
+    )
     with pytest.raises(ConfigError, match=message):
         engine.check([SCENE])
 
 
-def test_a_relative_executable_path_is_taken_from_where_the_study_was_checked(tmp_path, monkeypatch):
+def test_a_relative_executable_path_is_taken_from_where_the_study_was_checked(
+    tmp_path, monkeypatch
+):
     """bin/sim passes the check in the project folder and runs from there, not from the run dir."""
     simulator = tmp_path / "bin" / "sim"
     simulator.parent.mkdir()
     simulator.write_text(f"#!{sys.executable}\n" + SIMULATOR)
     simulator.chmod(0o755)
     monkeypatch.chdir(tmp_path)
-    engine = CommandEngine({"command": "bin/sim {sliding_friction_pp} {seed} ok",
-                            "responses_file": "out.json"})
+    engine = CommandEngine(
+        {"command": "bin/sim {sliding_friction_pp} {seed} ok", "responses_file": "out.json"}
+    )
     engine.check([SCENE])
     run_directory = tmp_path / "results" / "rep0"
     run_directory.mkdir(parents=True)
@@ -333,8 +380,9 @@ def test_engines_never_import_scenes():
     for path in ENGINES_DIR.glob("*.py"):
         for node in ast.walk(ast.parse(path.read_text())):
             if isinstance(node, ast.ImportFrom):
-                module = importlib.util.resolve_name("." * node.level + (node.module or ""),
-                                                     "demcal.engines")
+                module = importlib.util.resolve_name(
+                    "." * node.level + (node.module or ""), "demcal.engines"
+                )
                 names = [module] + [f"{module}.{a.name}" for a in node.names]
             elif isinstance(node, ast.Import):
                 names = [a.name for a in node.names]
@@ -342,9 +390,16 @@ def test_engines_never_import_scenes():
                 continue
             assert not any(n.startswith("demcal.scenes") for n in names), (path.name, names)
     loaded = subprocess.run(
-        [sys.executable, "-c", "import sys, demcal.engines, demcal.engines.lammps_worker, "
-                               "demcal.engines.lammps_driver; print(sorted(sys.modules))"],
-        capture_output=True, text=True, check=True).stdout
+        [
+            sys.executable,
+            "-c",
+            "import sys, demcal.engines, demcal.engines.lammps_worker, "
+            "demcal.engines.lammps_driver; print(sorted(sys.modules))",
+        ],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
     assert "demcal.scenes" not in loaded
 
 
@@ -361,8 +416,10 @@ def test_scenes_name_their_drivers_per_engine():
 def test_lammps_engine_without_a_driver_fails_with_a_reason(tmp_path):
     job = make_job(tmp_path)
     result = LammpsEngine().run(job, RunMonitor(job), None)
-    assert (result.status, result.reason) == (Status.FAILED, "LAMMPS engine has no driver for scene "
-                                                             "'cylinder_lift'")
+    assert (result.status, result.reason) == (
+        Status.FAILED,
+        "LAMMPS engine has no driver for scene 'cylinder_lift'",
+    )
 
 
 def test_recorded_reasons_are_bounded_and_keep_both_ends():

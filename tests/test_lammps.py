@@ -22,8 +22,14 @@ from demcal.scenes import SCENES
 pytestmark = pytest.mark.lammps
 
 SCENE = SCENES["cylinder_lift"]
-TINY = {"particle_count": 200, "d50": 3.0e-3, "cylinder_diameter": 24.0e-3, "plate_width": 0.08,
-        "lift_speed": 0.05, "max_settle_time": 0.6}
+TINY = {
+    "particle_count": 200,
+    "d50": 3.0e-3,
+    "cylinder_diameter": 24.0e-3,
+    "plate_width": 0.08,
+    "lift_speed": 0.05,
+    "max_settle_time": 0.6,
+}
 #: Solid fraction bounds of the fill. Dense random packing is 0.64; the loose
 #: bound is below bulk random loose packing (0.55) because in a cylinder only
 #: 8 diameters wide the wall zone and the top layer are loosely packed.
@@ -33,18 +39,26 @@ LOOSE, DENSE = 0.42, 0.66
 def tiny_job(tmp_path, fraction=0.25, responses=("bulk_density", "angle_of_repose"), **params):
     values = {name: spec.default for name, spec in CATALOG.items()}
     values.update(params)
-    return SimulationJob(scene="cylinder_lift", parameters=values,
-                         settings=SCENE.resolve_settings(TINY, "s"), seed=7,
-                         responses=list(responses), timestep_fraction=fraction,
-                         workdir=str(tmp_path), stop_file=str(tmp_path / "STOP"))
+    return SimulationJob(
+        scene="cylinder_lift",
+        parameters=values,
+        settings=SCENE.resolve_settings(TINY, "s"),
+        seed=7,
+        responses=list(responses),
+        timestep_fraction=fraction,
+        workdir=str(tmp_path),
+        stop_file=str(tmp_path / "STOP"),
+    )
 
 
 def simulate(job):
     return run_and_extract(LammpsEngine(), job)
 
 
-CORNERS = {**PARAMETER_CORNERS,
-           "stiff_6.5e8_Pa": dict(youngs_modulus=6.5e8)}  # top of Rackl & Hanley's range
+CORNERS = {
+    **PARAMETER_CORNERS,
+    "stiff_6.5e8_Pa": dict(youngs_modulus=6.5e8),
+}  # top of Rackl & Hanley's range
 
 
 @pytest.mark.parametrize("corner", CORNERS)
@@ -104,5 +118,7 @@ def test_a_run_beyond_the_wall_clock_limit_is_killed_and_recorded_as_failed(tmp_
     start = time.monotonic()
     result, _ = run_and_extract(LammpsEngine({"timeout": 1}), job)
     assert result.status == Status.FAILED
-    assert result.reason.startswith("LAMMPS run exceeded the engine timeout of 1 s (engine.timeout)")
+    assert result.reason.startswith(
+        "LAMMPS run exceeded the engine timeout of 1 s (engine.timeout)"
+    )
     assert time.monotonic() - start < 4.0

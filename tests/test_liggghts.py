@@ -23,27 +23,48 @@ from demcal.files import read_partial
 from demcal.parameters import CATALOG
 from demcal.records import Status
 from demcal.scenes import SCENES
-from demcal.scenes.cylinder_lift.liggghts import CylinderLiftInput, cylinder_triangles, place_spheres, polygon_segments
+from demcal.scenes.cylinder_lift.liggghts import (
+    CylinderLiftInput,
+    cylinder_triangles,
+    place_spheres,
+    polygon_segments,
+)
 from demcal.timestep import rayleigh_time
 
 SCENE = SCENES["cylinder_lift"]
-TINY = {"particle_count": 200, "d50": 3.0e-3, "cylinder_diameter": 24.0e-3, "plate_width": 0.08,
-        "lift_speed": 0.05, "max_settle_time": 0.6}
-needs_liggghts = pytest.mark.skipif(shutil.which(liggghts.BINARY) is None,
-                                    reason="LIGGGHTS not installed (apt-get install liggghts)")
+TINY = {
+    "particle_count": 200,
+    "d50": 3.0e-3,
+    "cylinder_diameter": 24.0e-3,
+    "plate_width": 0.08,
+    "lift_speed": 0.05,
+    "max_settle_time": 0.6,
+}
+needs_liggghts = pytest.mark.skipif(
+    shutil.which(liggghts.BINARY) is None,
+    reason="LIGGGHTS not installed (apt-get install liggghts)",
+)
 
 
-def tiny_job(tmp_path, fraction=0.25, responses=("bulk_density", "angle_of_repose"),
-             settings=None, **params):
+def tiny_job(
+    tmp_path, fraction=0.25, responses=("bulk_density", "angle_of_repose"), settings=None, **params
+):
     values = {name: spec.default for name, spec in CATALOG.items()}
     values.update(params)
-    return SimulationJob(scene="cylinder_lift", parameters=values,
-                         settings=SCENE.resolve_settings({**TINY, **(settings or {})}, "s"),
-                         seed=7, responses=list(responses), timestep_fraction=fraction,
-                         workdir=str(tmp_path), stop_file=str(tmp_path / "STOP"))
+    return SimulationJob(
+        scene="cylinder_lift",
+        parameters=values,
+        settings=SCENE.resolve_settings({**TINY, **(settings or {})}, "s"),
+        seed=7,
+        responses=list(responses),
+        timestep_fraction=fraction,
+        workdir=str(tmp_path),
+        stop_file=str(tmp_path / "STOP"),
+    )
 
 
 # -- no binary needed ----------------------------------------------------------
+
 
 def read_stl(path):
     """Normals (n, 3) and vertices (n, 3, 3) of an ASCII STL file."""
@@ -86,13 +107,20 @@ def test_polygon_stays_within_tolerance_of_the_circle():
 
 
 def test_script_time_step_walls_and_contact_model(tmp_path):
-    job = tiny_job(tmp_path, fraction=0.2, sliding_friction_pp=0.45, sliding_friction_pw=0.6,
-                   rolling_friction_pp=0.16, rolling_friction_pw=0.07)
+    job = tiny_job(
+        tmp_path,
+        fraction=0.2,
+        sliding_friction_pp=0.45,
+        sliding_friction_pw=0.6,
+        rolling_friction_pp=0.16,
+        rolling_friction_pw=0.07,
+    )
     case = CylinderLiftInput(job)
     lines = case.script().splitlines()
     p = job.parameters
-    dt = 0.2 * rayleigh_time(TINY["d50"] / 2, p["particle_density"], p["youngs_modulus"],
-                             p["poisson_ratio"])
+    dt = 0.2 * rayleigh_time(
+        TINY["d50"] / 2, p["particle_density"], p["youngs_modulus"], p["poisson_ratio"]
+    )
     assert f"timestep {dt:.10g}" in lines
     model = "model hertz tangential history rolling_friction epsd"
     assert f"pair_style gran {model}" in lines
@@ -100,14 +128,19 @@ def test_script_time_step_walls_and_contact_model(tmp_path):
     assert "fix tube all mesh/surface file tube.stl type 2" in lines
     assert "fix ring all mesh/surface file ring.stl type 2" in lines
     assert f"fix walls all wall/gran {model} mesh n_meshes 2 meshes tube ring" in lines
-    assert ("fix m4 all property/global coefficientFriction peratomtypepair 2 0.45 0.6 0.6 0.6"
-            in lines)
-    assert ("fix m5 all property/global coefficientRollingFriction peratomtypepair 2 "
-            "0.16 0.07 0.07 0.07" in lines)
+    assert (
+        "fix m4 all property/global coefficientFriction peratomtypepair 2 0.45 0.6 0.6 0.6" in lines
+    )
+    assert (
+        "fix m5 all property/global coefficientRollingFriction peratomtypepair 2 "
+        "0.16 0.07 0.07 0.07" in lines
+    )
     assert "fix lift all move/mesh mesh tube linear 0 0 0.05" in lines
-    assert lines.index("thermo_modify lost error norm no") < lines.index(
-        "write_dump all custom fill.dump id x y z radius mass") < lines.index(
-        "thermo_modify lost ignore norm no")  # losses are errors until the lift
+    assert (
+        lines.index("thermo_modify lost error norm no")
+        < lines.index("write_dump all custom fill.dump id x y z radius mass")
+        < lines.index("thermo_modify lost ignore norm no")
+    )  # losses are errors until the lift
     assert "write_dump all custom heap.dump id x y z radius mass" in lines
 
 
@@ -135,10 +168,12 @@ def test_placement_keeps_spheres_apart_inside_the_cylinder():
 
 
 def test_read_dump_sorts_by_id(tmp_path):
-    (tmp_path / "d").write_text("ITEM: TIMESTEP\n5\nITEM: NUMBER OF ATOMS\n2\n"
-                                "ITEM: BOX BOUNDS ff ff ff\n0 1\n0 1\n0 1\n"
-                                "ITEM: ATOMS id x y z radius mass\n"
-                                "2 0.2 0 0 0.001 1e-5\n1 0.1 0 0 0.002 2e-5\n")
+    (tmp_path / "d").write_text(
+        "ITEM: TIMESTEP\n5\nITEM: NUMBER OF ATOMS\n2\n"
+        "ITEM: BOX BOUNDS ff ff ff\n0 1\n0 1\n0 1\n"
+        "ITEM: ATOMS id x y z radius mass\n"
+        "2 0.2 0 0 0.001 1e-5\n1 0.1 0 0 0.002 2e-5\n"
+    )
     data = read_dump(tmp_path / "d")
     assert data["id"].tolist() == [1.0, 2.0]
     assert data["radius"].tolist() == [0.002, 0.001]
@@ -173,17 +208,28 @@ def test_run_uses_the_driver_it_is_given(tmp_path, monkeypatch):
     assert result.reason == f"fake driver asked to write into {tmp_path.name}"
 
 
-@pytest.mark.parametrize("body, expected", [
-    ('echo "ERROR: Lost atoms: original 200 current 199 (src/thermo.cpp:445)" > liggghts.log\n'
-     "exit 1", "LIGGGHTS error: Lost atoms: original 200 current 199"),
-    ("kill -SEGV $$", "LIGGGHTS died from SIGSEGV"),
-    ('echo "demcal-unstable fill 3.5" > liggghts.log',
-     "unstable during fill: kinetic energy 3.5 J"),
-    ('echo "demcal-progress fill 1 30 0.1" > liggghts.log',
-     "stopped before the end of its script"),
-])
-def test_failures_of_the_child_are_failed_results_with_reasons(tmp_path, monkeypatch, body,
-                                                               expected):
+@pytest.mark.parametrize(
+    "body, expected",
+    [
+        (
+            'echo "ERROR: Lost atoms: original 200 current 199 (src/thermo.cpp:445)" > liggghts.log\n'
+            "exit 1",
+            "LIGGGHTS error: Lost atoms: original 200 current 199",
+        ),
+        ("kill -SEGV $$", "LIGGGHTS died from SIGSEGV"),
+        (
+            'echo "demcal-unstable fill 3.5" > liggghts.log',
+            "unstable during fill: kinetic energy 3.5 J",
+        ),
+        (
+            'echo "demcal-progress fill 1 30 0.1" > liggghts.log',
+            "stopped before the end of its script",
+        ),
+    ],
+)
+def test_failures_of_the_child_are_failed_results_with_reasons(
+    tmp_path, monkeypatch, body, expected
+):
     fake = tmp_path / "fake-liggghts"
     fake.write_text("#!/bin/sh\n" + body + "\n")
     fake.chmod(0o755)
@@ -208,6 +254,7 @@ def test_study_config_selects_the_engine(analytic_config):
 
 # -- the real binary ------------------------------------------------------------
 
+
 def simulate(job):
     return run_and_extract(LiggghtsEngine(), job)
 
@@ -229,7 +276,8 @@ def test_tiny_cylinder_lift_is_plausible(tmp_path):
     assert result.measurements["fill_at_rest"] == 1.0
     assert result.measurements["lost_particles"] < 10
     assert result.cost["steps"] > 0 and result.cost["timestep_s"] == pytest.approx(
-        0.25 * result.cost["rayleigh_time_s"])
+        0.25 * result.cost["rayleigh_time_s"]
+    )
     rows = read_partial(job.partial_file)
     assert rows[-1]["progress"] == 1.0
     estimate = [r["value"] for r in rows if r["response"] == "bulk_density"]

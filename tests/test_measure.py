@@ -35,8 +35,9 @@ def test_height_radius_agrees_on_a_cone_but_not_on_a_mesa():
     assert cone_ratio == pytest.approx(30.0, abs=3.0)
     assert mesa_flank == pytest.approx(30.0, abs=2.0)
     # the mesa's crest-to-toe slope: 20 D of height over a 40 D radius
-    assert mesa_ratio == pytest.approx(math.degrees(math.atan(0.5 * math.tan(math.radians(30)))),
-                                       abs=3.0)
+    assert mesa_ratio == pytest.approx(
+        math.degrees(math.atan(0.5 * math.tan(math.radians(30)))), abs=3.0
+    )
     assert mesa_ratio < mesa_flank - 8.0
 
 
@@ -54,8 +55,13 @@ def test_bulk_density_of_a_simple_cubic_fill():
     """Fill height is the mean top of the columns; density is mass / (pi R^2 H)."""
     radius, layers = 20 * D, 10
     grid = np.arange(-radius, radius, D) + D / 2
-    pts = [(gx, gy, D / 2 + k * D) for gx in grid for gy in grid
-           if math.hypot(gx, gy) < radius - D / 2 for k in range(layers)]
+    pts = [
+        (gx, gy, D / 2 + k * D)
+        for gx in grid
+        for gy in grid
+        if math.hypot(gx, gy) < radius - D / 2
+        for k in range(layers)
+    ]
     x = np.array(pts)
     r = np.full(len(x), D / 2)
     mass = np.full(len(x), 2500.0 * math.pi / 6 * D**3)

@@ -10,13 +10,29 @@ from pathlib import Path
 import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
-SOURCE_ONLY = shutil.ignore_patterns(".git", ".venv", "venv", "results", ".snakemake", "build",
-                                     "*.egg-info", "__pycache__", ".pytest_cache", "benchmarks")
+SOURCE_ONLY = shutil.ignore_patterns(
+    ".git",
+    ".venv",
+    "venv",
+    "results",
+    ".snakemake",
+    "build",
+    "*.egg-info",
+    "__pycache__",
+    ".pytest_cache",
+    "benchmarks",
+)
 
 
 def run(*command, **kwargs):
-    proc = subprocess.run([str(c) for c in command], capture_output=True, text=True,
-                          stdin=subprocess.DEVNULL, timeout=600, **kwargs)
+    proc = subprocess.run(
+        [str(c) for c in command],
+        capture_output=True,
+        text=True,
+        stdin=subprocess.DEVNULL,
+        timeout=600,
+        **kwargs,
+    )
     assert proc.returncode == 0, (proc.stdout[-2000:], proc.stderr[-3000:])
     return proc
 
@@ -24,14 +40,27 @@ def run(*command, **kwargs):
 def test_wheel_install_runs_the_analytic_example(tmp_path):
     source = tmp_path / "source"
     shutil.copytree(ROOT, source, ignore=SOURCE_ONLY)
-    run(sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "--no-build-isolation",
-        "-w", tmp_path / "dist", source)
+    run(
+        sys.executable,
+        "-m",
+        "pip",
+        "wheel",
+        "-q",
+        "--no-deps",
+        "--no-build-isolation",
+        "-w",
+        tmp_path / "dist",
+        source,
+    )
     wheel = next((tmp_path / "dist").glob("demcal-*.whl"))
     venv = tmp_path / "venv"
     run(sys.executable, "-m", "venv", venv)
     python = venv / "bin" / "python"
-    site = Path(run(python, "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])")
-                .stdout.strip())
+    site = Path(
+        run(
+            python, "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"
+        ).stdout.strip()
+    )
     # demcal's dependencies come from the test's environment; demcal itself only from the wheel
     (site / "demcal_test_dependencies.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
     run(python, "-m", "pip", "install", "-q", "--no-deps", "--no-index", wheel)

@@ -4,8 +4,17 @@ import io
 
 from demcal.daemon.progress import Progress, ProgressDisplay, clock
 
-PROGRESS = Progress("unit", 3, 20, 1, 1, 2, "best 0.01 at sliding_friction_pp=0.35, "
-                    "rolling_friction_pp=0.07", 75.0, 425.0)
+PROGRESS = Progress(
+    "unit",
+    3,
+    20,
+    1,
+    1,
+    2,
+    "best 0.01 at sliding_friction_pp=0.35, rolling_friction_pp=0.07",
+    75.0,
+    425.0,
+)
 
 
 class Terminal(io.StringIO):
@@ -14,9 +23,11 @@ class Terminal(io.StringIO):
 
 
 def test_the_plain_line_says_counts_best_and_time_to_budget():
-    assert PROGRESS.line() == ("[demcal unit] 3/20 done, 2 running, 1 failed, 1 stopped early | "
-                               "0:01:15 elapsed, ~0:07:05 to budget | "
-                               "best 0.01 at sliding_friction_pp=0.35, rolling_friction_pp=0.07")
+    assert PROGRESS.line() == (
+        "[demcal unit] 3/20 done, 2 running, 1 failed, 1 stopped early | "
+        "0:01:15 elapsed, ~0:07:05 to budget | "
+        "best 0.01 at sliding_friction_pp=0.35, rolling_friction_pp=0.07"
+    )
     other_rule = Progress(**{**PROGRESS.__dict__, "to_budget_s": None})
     assert "to budget" not in other_rule.line()
     assert clock(3 * 3600 + 61) == "3:01:01" and clock(-5) == "0:00:00"

@@ -33,6 +33,7 @@ def settings(**given):
 
 # -- declaration --------------------------------------------------------------
 
+
 def test_box_is_scaled_to_ten_largest_particles_by_default():
     # gravel 8/16: d_max = 11.16 mm exp(1.5 * 0.26) = 16.483 mm; base 100 x 100 x 150 mm
     length, width, height = box_dimensions(settings())
@@ -49,24 +50,37 @@ def test_mean_sphere_volume_of_the_truncated_lognormal():
     assert mean_sphere_volume(d50, 0.0, 2.0) == pytest.approx(math.pi / 6 * d50**3)
     # no truncation to speak of: E[d^3] = d50^3 exp(4.5 sigma^2)
     assert mean_sphere_volume(d50, 0.3, 30.0) == pytest.approx(
-        math.pi / 6 * d50**3 * math.exp(4.5 * 0.09))
+        math.pi / 6 * d50**3 * math.exp(4.5 * 0.09)
+    )
     sample = sample_diameters(200_000, d50, 0.4, 1.5, np.random.default_rng(1))
     assert mean_sphere_volume(d50, 0.4, 1.5) == pytest.approx(
-        float(np.mean(math.pi / 6 * sample**3)), rel=0.01)
+        float(np.mean(math.pi / 6 * sample**3)), rel=0.01
+    )
 
 
-@pytest.mark.parametrize("given,message", [
-    ({"angle_band_lower": 0.8, "angle_band_upper": 0.5},
-     "s.angle_band_lower: 0.8 must be below angle_band_upper (0.5)"),
-    ({"box_size_dmax": 4.0, "sigma_ln": 0.0, "d50": 3.0e-3},
-     "s.box_size_dmax: the box is only 4 median diameters long (0.012 m); the slope fit needs "
-     "at least 5: raise box_size_dmax"),
-    ({"sigma_ln": 1.2, "psd_truncation": 4.0},
-     "s.sigma_ln: the box (smallest side 10 largest particles) needs 7697268 spheres of this "
-     "PSD, more than 100000; narrow the PSD (sigma_ln, psd_truncation) or lower box_size_dmax"),
-    ({"box_size_dmax": 2.0},
-     "s.box_size_dmax: 2.0 is outside the allowed range: a number in [4, 40] d_max"),
-])
+@pytest.mark.parametrize(
+    "given,message",
+    [
+        (
+            {"angle_band_lower": 0.8, "angle_band_upper": 0.5},
+            "s.angle_band_lower: 0.8 must be below angle_band_upper (0.5)",
+        ),
+        (
+            {"box_size_dmax": 4.0, "sigma_ln": 0.0, "d50": 3.0e-3},
+            "s.box_size_dmax: the box is only 4 median diameters long (0.012 m); the slope fit needs "
+            "at least 5: raise box_size_dmax",
+        ),
+        (
+            {"sigma_ln": 1.2, "psd_truncation": 4.0},
+            "s.sigma_ln: the box (smallest side 10 largest particles) needs 7697268 spheres of this "
+            "PSD, more than 100000; narrow the PSD (sigma_ln, psd_truncation) or lower box_size_dmax",
+        ),
+        (
+            {"box_size_dmax": 2.0},
+            "s.box_size_dmax: 2.0 is outside the allowed range: a number in [4, 40] d_max",
+        ),
+    ],
+)
 def test_settings_checks_name_the_field_and_the_allowed_range(given, message):
     with pytest.raises(ConfigError) as error:
         settings(**given)
@@ -75,43 +89,62 @@ def test_settings_checks_name_the_field_and_the_allowed_range(given, message):
 
 # -- analytic model -----------------------------------------------------------
 
-@pytest.mark.parametrize("name", ["sliding_friction_pp", "rolling_friction_pp",
-                                  "sliding_friction_pw", "rolling_friction_pw"])
+
+@pytest.mark.parametrize(
+    "name",
+    ["sliding_friction_pp", "rolling_friction_pp", "sliding_friction_pw", "rolling_friction_pw"],
+)
 def test_analytic_shear_angle_rises_with_friction(name):
-    angles = [SCENE.analytic_model({**DEFAULTS, name: v}, settings())["shear_angle"]
-              for v in np.linspace(0.0, 1.0, 11)]
+    angles = [
+        SCENE.analytic_model({**DEFAULTS, name: v}, settings())["shear_angle"]
+        for v in np.linspace(0.0, 1.0, 11)
+    ]
     assert np.all(np.diff(angles) > 0.0)
     assert 5.0 < angles[0] and angles[-1] < 60.0
 
 
 @pytest.mark.parametrize("name", ["sliding_friction_pp", "rolling_friction_pp"])
 def test_analytic_packing_loosens_with_friction(name):
-    density = [SCENE.analytic_model({**DEFAULTS, name: v}, settings())["bulk_density"]
-               for v in np.linspace(0.0, 1.0, 11)]
+    density = [
+        SCENE.analytic_model({**DEFAULTS, name: v}, settings())["bulk_density"]
+        for v in np.linspace(0.0, 1.0, 11)
+    ]
     assert np.all(np.diff(density) < 0.0)
 
 
 def test_analytic_angle_ignores_size_stiffness_and_density():
     base = SCENE.analytic_model(DEFAULTS, settings())
-    other = SCENE.analytic_model({**DEFAULTS, "youngs_modulus": 5e8, "particle_density": 1000.0},
-                                 settings(d50=2.0e-3))
+    other = SCENE.analytic_model(
+        {**DEFAULTS, "youngs_modulus": 5e8, "particle_density": 1000.0}, settings(d50=2.0e-3)
+    )
     assert other["shear_angle"] == base["shear_angle"]
     assert other["bulk_density"] == pytest.approx(base["bulk_density"] * 1000.0 / 2500.0)
 
 
 def test_analytic_engine_runs_the_scene_with_early_estimates(tmp_path):
-    job = SimulationJob(scene="shear_box", parameters=DEFAULTS, settings=settings(), seed=3,
-                        responses=["bulk_density", "shear_angle"], timestep_fraction=0.25,
-                        workdir=str(tmp_path), stop_file=str(tmp_path / "STOP"))
-    result = AnalyticEngine({"noise": 0.0, "chunks": 4}).run(job, RunMonitor(job),
-                                                             SCENE.driver("analytic"))
+    job = SimulationJob(
+        scene="shear_box",
+        parameters=DEFAULTS,
+        settings=settings(),
+        seed=3,
+        responses=["bulk_density", "shear_angle"],
+        timestep_fraction=0.25,
+        workdir=str(tmp_path),
+        stop_file=str(tmp_path / "STOP"),
+    )
+    result = AnalyticEngine({"noise": 0.0, "chunks": 4}).run(
+        job, RunMonitor(job), SCENE.driver("analytic")
+    )
     assert result.status == Status.OK
     assert result.measurements == pytest.approx(SCENE.analytic_model(DEFAULTS, job.settings))
-    assert {r["response"] for r in read_partial(job.partial_file)} >= {"bulk_density",
-                                                                       "shear_angle"}
+    assert {r["response"] for r in read_partial(job.partial_file)} >= {
+        "bulk_density",
+        "shear_angle",
+    }
 
 
 # -- measures -------------------------------------------------------------------
+
 
 def test_column_tops_takes_the_highest_point_per_column():
     x = np.array([[0.5, 0.5, 1.0], [0.6, 0.4, 3.0], [1.5, 0.5, 2.0]])
@@ -137,8 +170,7 @@ def stacked_slope(angle_deg, length=0.04, width=0.01, d=1.0e-3, cap=None):
         for j in range(int(width / d)):
             x = (i + 0.5) * d
             height = (length - x) * slope if cap is None else min(cap, (length - x) * slope)
-            centres += [(x, (j + 0.5) * d, (k + 0.5) * d)
-                        for k in range(max(1, round(height / d)))]
+            centres += [(x, (j + 0.5) * d, (k + 0.5) * d) for k in range(max(1, round(height / d)))]
     x = np.array(centres)
     return x, np.full(len(x), d / 2)
 
@@ -150,7 +182,7 @@ def test_box_slope_angle_of_a_plane_slope(angle):
 
 
 def test_box_slope_angle_leaves_out_the_plateau_and_spheres_past_the_lip():
-    x, r = stacked_slope(35.0, cap=0.015)        # struck-off plateau at the back wall
+    x, r = stacked_slope(35.0, cap=0.015)  # struck-off plateau at the back wall
     falling = np.array([[0.045, 0.005, -0.002]])  # a sphere past the opening
     x, r = np.vstack([x, falling]), np.append(r, 5e-4)
     assert measure.box_slope_angle(x, r, 1.0e-3, 0.04) == pytest.approx(35.0, abs=1.5)
@@ -158,7 +190,7 @@ def test_box_slope_angle_leaves_out_the_plateau_and_spheres_past_the_lip():
 
 def test_box_slope_angle_rising_surface_is_zero_and_empty_box_fails():
     x, r = stacked_slope(30.0)
-    x[:, 0] = 0.04 - x[:, 0]                     # mirrored: rises towards the opening
+    x[:, 0] = 0.04 - x[:, 0]  # mirrored: rises towards the opening
     assert measure.box_slope_angle(x, r, 1.0e-3, 0.04) == 0.0
     with pytest.raises(SimulationFailed, match="no particles left in the box"):
         measure.box_slope_angle(x + [1.0, 0.0, 0.0], r, 1.0e-3, 0.04)
@@ -184,10 +216,16 @@ TINY = {"d50": 3.0e-3, "sigma_ln": 0.0, "box_size_dmax": 5.0, "max_settle_time":
 
 
 def tiny_job(tmp_path, fraction=0.25, responses=("bulk_density", "shear_angle"), **params):
-    return SimulationJob(scene="shear_box", parameters={**DEFAULTS, **params},
-                         settings=settings(**TINY), seed=7, responses=list(responses),
-                         timestep_fraction=fraction, workdir=str(tmp_path),
-                         stop_file=str(tmp_path / "STOP"))
+    return SimulationJob(
+        scene="shear_box",
+        parameters={**DEFAULTS, **params},
+        settings=settings(**TINY),
+        seed=7,
+        responses=list(responses),
+        timestep_fraction=fraction,
+        workdir=str(tmp_path),
+        stop_file=str(tmp_path / "STOP"),
+    )
 
 
 def simulate(job):

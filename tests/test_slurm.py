@@ -17,8 +17,10 @@ from conftest import ROOT, demcal, evaluations, study
 
 pytestmark = [
     pytest.mark.slurm,
-    pytest.mark.skipif(not os.environ.get("DEMCAL_SLURM"),
-                       reason="needs a SLURM: set DEMCAL_SLURM=1 after .ci/slurm/start.sh"),
+    pytest.mark.skipif(
+        not os.environ.get("DEMCAL_SLURM"),
+        reason="needs a SLURM: set DEMCAL_SLURM=1 after .ci/slurm/start.sh",
+    ),
 ]
 
 EVALUATIONS = 8
@@ -31,8 +33,12 @@ TIME_LIMIT_S = 170  # the whole calibration: 8 one-second simulations, two at a 
 
 def slurm(*args: str, limit: int = 30) -> str:
     """Output of a SLURM client command; a failing command fails the test."""
-    result = subprocess.run(["timeout", "-k", "10", str(limit), *args], capture_output=True,
-                            text=True, stdin=subprocess.DEVNULL)
+    result = subprocess.run(
+        ["timeout", "-k", "10", str(limit), *args],
+        capture_output=True,
+        text=True,
+        stdin=subprocess.DEVNULL,
+    )
     assert result.returncode == 0, f"{' '.join(args)} failed: {result.stderr.strip()}"
     return result.stdout
 
@@ -54,20 +60,44 @@ def finished_jobs_in(workdir: Path) -> dict[str, str]:
 
 def test_calibration_runs_its_simulations_as_slurm_jobs(tmp_path):
     slurm("sinfo", "-h", "-o", "%P %a %D")  # SLURM answers at all
-    config = study(tmp_path, "slurm", engine={"duration": 1.0},
-                   optimizer={"max_evaluations": EVALUATIONS,
-                              "early_termination": {"enabled": False}},
-                   calibration={"workers": 2, "poll_seconds": 0.5})
-    command = ["timeout", "-k", "30", str(TIME_LIMIT_S), sys.executable, "-m", "snakemake",
-               "-s", ROOT / "Snakefile", f"--configfile={config}",
-               "--profile", ROOT / "profiles" / "slurm", "results/slurm/finished.json"]
-    proc = subprocess.run(list(map(str, command)), cwd=tmp_path, capture_output=True, text=True,
-                          stdin=subprocess.DEVNULL, timeout=TIME_LIMIT_S + 60)
+    config = study(
+        tmp_path,
+        "slurm",
+        engine={"duration": 1.0},
+        optimizer={"max_evaluations": EVALUATIONS, "early_termination": {"enabled": False}},
+        calibration={"workers": 2, "poll_seconds": 0.5},
+    )
+    command = [
+        "timeout",
+        "-k",
+        "30",
+        str(TIME_LIMIT_S),
+        sys.executable,
+        "-m",
+        "snakemake",
+        "-s",
+        ROOT / "Snakefile",
+        f"--configfile={config}",
+        "--profile",
+        ROOT / "profiles" / "slurm",
+        "results/slurm/finished.json",
+    ]
+    proc = subprocess.run(
+        list(map(str, command)),
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        stdin=subprocess.DEVNULL,
+        timeout=TIME_LIMIT_S + 60,
+    )
     if proc.returncode != 0:  # stop evaluations a killed daemon left running
         demcal(tmp_path, "stop", config).communicate(timeout=60)
-    assert proc.returncode == 0, (f"snakemake exit {proc.returncode} (124: over "
-                                  f"{TIME_LIMIT_S} s)\n{proc.stderr[-4000:]}")
-    assert f"evaluation budget reached ({EVALUATIONS} of {EVALUATIONS})" in proc.stdout + proc.stderr
+    assert proc.returncode == 0, (
+        f"snakemake exit {proc.returncode} (124: over {TIME_LIMIT_S} s)\n{proc.stderr[-4000:]}"
+    )
+    assert (
+        f"evaluation budget reached ({EVALUATIONS} of {EVALUATIONS})" in proc.stdout + proc.stderr
+    )
 
     table = evaluations(tmp_path, "slurm")
     assert len(table) == EVALUATIONS
@@ -77,7 +107,8 @@ def test_calibration_runs_its_simulations_as_slurm_jobs(tmp_path):
 
     # every simulation was a SLURM job that completed, started from this directory
     jobs = finished_jobs_in(tmp_path)
-    simulations = len(list((tmp_path / "results/slurm/evals").glob("*/cylinder_lift/rep0/"
-                                                                      "simulation.json")))
+    simulations = len(
+        list((tmp_path / "results/slurm/evals").glob("*/cylinder_lift/rep0/simulation.json"))
+    )
     assert simulations == EVALUATIONS
     assert len(jobs) == simulations and set(jobs.values()) == {"COMPLETED"}, jobs

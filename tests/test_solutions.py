@@ -31,7 +31,11 @@ def analyse(responses, targets):
     noise = {key: 0.0 for key in responses}
     solutions = sample_solutions(predictor, 2, noise, k=2.0, samples=4096, seed=1)
     indices = sensitivity_indices(predictor, NAMES, base_samples=256, seed=1)
-    return solutions, indices, identifiability(solutions, NAMES, UNITS, LOWER, UPPER, largest_total_index(indices))
+    return (
+        solutions,
+        indices,
+        identifiability(solutions, NAMES, UNITS, LOWER, UPPER, largest_total_index(indices)),
+    )
 
 
 def test_a_response_of_one_parameter_pins_it_and_leaves_the_other_free():
@@ -41,9 +45,14 @@ def test_a_response_of_one_parameter_pins_it_and_leaves_the_other_free():
     assert pp.verdict == "pinned" and pw.verdict == "not identified"
     assert 0.2 + 0.7 * 0.44 < pp.low < pp.high < 0.2 + 0.7 * 0.56
     assert pw.share > 0.9
-    assert "no targeted response is sensitive to it" in pw.sentence and "sliding_friction_pw" in pw.sentence
+    assert (
+        "no targeted response is sensitive to it" in pw.sentence
+        and "sliding_friction_pw" in pw.sentence
+    )
     by_name = {row["parameter"]: row for row in indices}
-    assert by_name["sliding_friction_pp"]["ST"] > 0.9 and by_name["sliding_friction_pw"]["ST"] < 0.05
+    assert (
+        by_name["sliding_friction_pp"]["ST"] > 0.9 and by_name["sliding_friction_pw"]["ST"] < 0.05
+    )
     assert np.all(np.abs(solutions.means[target.key] - 5.0) <= 2 * 0.2 + 1e-9)
 
 

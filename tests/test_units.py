@@ -79,8 +79,11 @@ def test_rayleigh_cost_is_zero_at_the_largest_time_step_and_the_weight_at_the_sm
     """Rackl & Hanley (2017) eq. 10 over E in [5e6, 5e8] Pa, rho 2500, nu 0.3."""
     from demcal.timestep import rayleigh_cost, rayleigh_time_range
 
-    bounds = {"particle_density": (2500.0, 2500.0), "youngs_modulus": (5.0e6, 5.0e8),
-              "poisson_ratio": (0.3, 0.3)}
+    bounds = {
+        "particle_density": (2500.0, 2500.0),
+        "youngs_modulus": (5.0e6, 5.0e8),
+        "poisson_ratio": (0.3, 0.3),
+    }
     low, high = rayleigh_time_range(bounds)
     assert high / low == pytest.approx(10.0)  # T_R ~ E^-1/2
     soft = {"particle_density": 2500.0, "youngs_modulus": 5.0e6, "poisson_ratio": 0.3}
@@ -88,8 +91,7 @@ def test_rayleigh_cost_is_zero_at_the_largest_time_step_and_the_weight_at_the_sm
     middle = {**soft, "youngs_modulus": 5.0e7}  # T_R = high / sqrt(10)
     assert rayleigh_cost(soft, (low, high), 1.0) == pytest.approx(0.0)
     assert rayleigh_cost(stiff, (low, high), 0.5) == pytest.approx(0.5)
-    assert rayleigh_cost(middle, (low, high), 1.0) == pytest.approx(
-        (1 - 10 ** -0.5) / (1 - 0.1))
+    assert rayleigh_cost(middle, (low, high), 1.0) == pytest.approx((1 - 10**-0.5) / (1 - 0.1))
 
 
 def test_objective_forms_agree_with_eq_3_3():
@@ -99,7 +101,8 @@ def test_objective_forms_agree_with_eq_3_3():
     targets = [Target("s", "a", 20.0), Target("s", "b", 1000.0, weight=2.0)]
     replicates = {"s.a": [22.0, 18.0], "s.b": [900.0, 1100.0]}
     assert replicate_objectives(targets, replicates, cost=0.5) == pytest.approx(
-        [0.01 + 0.02 + 0.5, 0.01 + 0.02 + 0.5])
+        [0.01 + 0.02 + 0.5, 0.01 + 0.02 + 0.5]
+    )
     assert replicate_objectives(targets, {"s.a": [22.0], "s.b": [900.0]}) == []
     # only 'a' estimated so far: a lower bound from the mean of its replicates
     assert estimated_objective(targets, {"s.a": [21.0, 23.0]}) == pytest.approx(0.01)

@@ -19,9 +19,23 @@ SNAKEMAKE = [sys.executable, "-m", "snakemake"]
 def run_snakemake(workdir, config, *args):
     (workdir / "study.yaml").write_text(yaml.safe_dump(config))
     return subprocess.run(
-        [*SNAKEMAKE, "-s", str(ROOT / "Snakefile"), "--directory", str(workdir),
-         "--configfile", str(workdir / "study.yaml"), "--cores", "2", *args],
-        capture_output=True, text=True, timeout=300, stdin=subprocess.DEVNULL)
+        [
+            *SNAKEMAKE,
+            "-s",
+            str(ROOT / "Snakefile"),
+            "--directory",
+            str(workdir),
+            "--configfile",
+            str(workdir / "study.yaml"),
+            "--cores",
+            "2",
+            *args,
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        stdin=subprocess.DEVNULL,
+    )
 
 
 def write_point(workdir, study, evaluation, **point):
@@ -37,12 +51,20 @@ def test_objective_matches_eq_3_3_of_the_closed_form(tmp_path, analytic_config):
     proc = run_snakemake(tmp_path, analytic_config, "results/unit/evals/e1/objective.json")
     assert proc.returncode == 0, proc.stderr[-3000:]
     record = json.loads((evaldir / "objective.json").read_text())
-    params = {"sliding_friction_pp": 0.4, "rolling_friction_pp": 0.1,
-              "sliding_friction_pw": 0.5, "rolling_friction_pw": 0.1, "restitution": 0.5,
-              "youngs_modulus": 5e6, "poisson_ratio": 0.3, "particle_density": 2500.0}
+    params = {
+        "sliding_friction_pp": 0.4,
+        "rolling_friction_pp": 0.1,
+        "sliding_friction_pw": 0.5,
+        "rolling_friction_pw": 0.1,
+        "restitution": 0.5,
+        "youngs_modulus": 5e6,
+        "poisson_ratio": 0.3,
+        "particle_density": 2500.0,
+    }
     exact = SCENES["cylinder_lift"].analytic_model(params, {})
     expected = ((exact["angle_of_repose"] - 25.0) / 25.0) ** 2 + (
-        (exact["bulk_density"] - 1450.0) / 1450.0) ** 2
+        (exact["bulk_density"] - 1450.0) / 1450.0
+    ) ** 2
     assert record["status"] == "ok"
     assert record["objective"] == pytest.approx(expected)
     assert len(record["replicates"]["cylinder_lift.bulk_density"]) == 2
@@ -61,9 +83,11 @@ def test_evaluate_centre_runs_the_middle_of_the_bounds(tmp_path, analytic_config
 
 def test_failed_simulation_is_recorded_not_raised(tmp_path, analytic_config):
     analytic_config["engine"]["failures"] = [
-        {"when": {"sliding_friction_pp": [0.8, 0.9]}, "reason": "particles escaped"}]
-    evaldir = write_point(tmp_path, "unit", "bad", sliding_friction_pp=0.85,
-                          rolling_friction_pp=0.1)
+        {"when": {"sliding_friction_pp": [0.8, 0.9]}, "reason": "particles escaped"}
+    ]
+    evaldir = write_point(
+        tmp_path, "unit", "bad", sliding_friction_pp=0.85, rolling_friction_pp=0.1
+    )
     proc = run_snakemake(tmp_path, analytic_config, "results/unit/evals/bad/objective.json")
     assert proc.returncode == 0, proc.stderr[-3000:]
     record = json.loads((evaldir / "objective.json").read_text())
@@ -73,8 +97,7 @@ def test_failed_simulation_is_recorded_not_raised(tmp_path, analytic_config):
 
 
 def test_out_of_range_point_is_a_failure_with_reason(tmp_path, analytic_config):
-    evaldir = write_point(tmp_path, "unit", "odd", sliding_friction_pp=7.0,
-                          rolling_friction_pp=0.1)
+    evaldir = write_point(tmp_path, "unit", "odd", sliding_friction_pp=7.0, rolling_friction_pp=0.1)
     proc = run_snakemake(tmp_path, analytic_config, "results/unit/evals/odd/objective.json")
     assert proc.returncode == 0, proc.stderr[-3000:]
     record = json.loads((evaldir / "objective.json").read_text())
@@ -84,8 +107,7 @@ def test_out_of_range_point_is_a_failure_with_reason(tmp_path, analytic_config):
 
 def test_stop_file_ends_the_evaluation_as_terminated(tmp_path, analytic_config):
     analytic_config["engine"]["duration"] = 30.0
-    evaldir = write_point(tmp_path, "unit", "st", sliding_friction_pp=0.3,
-                          rolling_friction_pp=0.1)
+    evaldir = write_point(tmp_path, "unit", "st", sliding_friction_pp=0.3, rolling_friction_pp=0.1)
     (evaldir / "STOP").touch()
     proc = run_snakemake(tmp_path, analytic_config, "results/unit/evals/st/objective.json")
     assert proc.returncode == 0, proc.stderr[-3000:]
@@ -94,10 +116,11 @@ def test_stop_file_ends_the_evaluation_as_terminated(tmp_path, analytic_config):
 
 def test_dag_of_one_evaluation_renders(tmp_path, analytic_config):
     write_point(tmp_path, "unit", "e1", sliding_friction_pp=0.4, rolling_friction_pp=0.1)
-    proc = run_snakemake(tmp_path, analytic_config, "--dag", "dot",
-                         "results/unit/evals/e1/objective.json")
+    proc = run_snakemake(
+        tmp_path, analytic_config, "--dag", "dot", "results/unit/evals/e1/objective.json"
+    )
     assert proc.returncode == 0, proc.stderr[-3000:]
-    dot = proc.stdout[proc.stdout.index("digraph"):]
+    dot = proc.stdout[proc.stdout.index("digraph") :]
     for rule in ("simulate", "extract", "objective"):
         assert rule in dot
     if shutil.which("dot") is None:
@@ -111,11 +134,19 @@ def test_real_lammps_evaluation_through_the_dag(tmp_path, analytic_config):
     """One tiny cylinder lift on the embedded LAMMPS engine, through Snakemake."""
     analytic_config["engine"] = {"name": "lammps"}
     analytic_config["replicates"] = 1
-    analytic_config["scenes"] = {"cylinder_lift": {"settings": {
-        "particle_count": 150, "d50": 3.0e-3, "cylinder_diameter": 21.0e-3, "plate_width": 0.08,
-        "lift_speed": 0.05, "max_settle_time": 0.5}}}
-    evaldir = write_point(tmp_path, "unit", "lmp", sliding_friction_pp=0.5,
-                          rolling_friction_pp=0.1)
+    analytic_config["scenes"] = {
+        "cylinder_lift": {
+            "settings": {
+                "particle_count": 150,
+                "d50": 3.0e-3,
+                "cylinder_diameter": 21.0e-3,
+                "plate_width": 0.08,
+                "lift_speed": 0.05,
+                "max_settle_time": 0.5,
+            }
+        }
+    }
+    evaldir = write_point(tmp_path, "unit", "lmp", sliding_friction_pp=0.5, rolling_friction_pp=0.1)
     proc = run_snakemake(tmp_path, analytic_config, "results/unit/evals/lmp/objective.json")
     assert proc.returncode == 0, proc.stderr[-3000:]
     record = json.loads((evaldir / "objective.json").read_text())
@@ -147,8 +178,12 @@ def reported(tmp_path_factory):
     """A 5-evaluation calibration on the analytic engine through the default target (report made)."""
     from conftest import ANALYTIC_STUDY
 
-    config = {**ANALYTIC_STUDY, "optimizer": {"max_evaluations": 5}, "replicates": 1,
-              "calibration": {"workers": 2, "poll_seconds": 0.3}}
+    config = {
+        **ANALYTIC_STUDY,
+        "optimizer": {"max_evaluations": 5},
+        "replicates": 1,
+        "calibration": {"workers": 2, "poll_seconds": 0.3},
+    }
     workdir = tmp_path_factory.mktemp("reported")
     return workdir, run_snakemake(workdir, config, "--profile", str(ROOT / "profiles" / "local"))
 
@@ -161,14 +196,25 @@ def test_default_target_calibrates_and_reports(reported):
     assert (study / "report.html").stat().st_size > 100_000
     # the landing page opens with the answer; docutils rendered it without complaint
     landing = (study / "report.html").read_text()
-    landing = landing[landing.index("var workflow_desc"):landing.index("</script>", landing.index("var workflow_desc"))]
+    landing = landing[
+        landing.index("var workflow_desc") : landing.index(
+            "</script>", landing.index("var workflow_desc")
+        )
+    ]
     assert "<h1>The answer</h1>" in landing and "Best parameters" in landing
     assert "cylinder_lift.angle_of_repose [deg]" in landing and "data:image/png;base64," in landing
     assert "System Message" not in landing
-    for name in ("objective_vs_evaluation", "objective_vs_time", "parameter_traces",
-                 "responses_vs_targets", "parallel_coordinates", "early_termination", "solution_space",
-                 "sensitivity",
-                 "objective_slices"):
+    for name in (
+        "objective_vs_evaluation",
+        "objective_vs_time",
+        "parameter_traces",
+        "responses_vs_targets",
+        "parallel_coordinates",
+        "early_termination",
+        "solution_space",
+        "sensitivity",
+        "objective_slices",
+    ):
         assert (study / "plots" / f"{name}.png").read_bytes()[:4] == b"\x89PNG"
     assert "<svg" in (study / "plots" / "evaluation_dag.svg").read_text()
     table = (study / "plots" / "best_point.csv").read_text()
@@ -184,12 +230,31 @@ def test_the_report_opens_with_the_answer_in_a_browser(reported):
     tmp_path, proc = reported
     assert proc.returncode == 0, proc.stderr[-3000:]
     shown = subprocess.run(
-        [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run", "--disable-quic",
-         "--disable-background-networking", "--disable-component-update", "--disable-sync",
-         f"--user-data-dir={tmp_path / 'chromium'}", "--virtual-time-budget=5000", "--dump-dom",
-         (tmp_path / "results/unit/report.html").as_uri()],
-        capture_output=True, text=True, timeout=120, stdin=subprocess.DEVNULL).stdout
-    assert "The answer" in shown and "Best parameters" in shown and "Responses against the targets" in shown
+        [
+            CHROMIUM,
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--no-first-run",
+            "--disable-quic",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            f"--user-data-dir={tmp_path / 'chromium'}",
+            "--virtual-time-budget=5000",
+            "--dump-dom",
+            (tmp_path / "results/unit/report.html").as_uri(),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        stdin=subprocess.DEVNULL,
+    ).stdout
+    assert (
+        "The answer" in shown
+        and "Best parameters" in shown
+        and "Responses against the targets" in shown
+    )
     assert shown.index("The answer") < shown.index("How it was calibrated")
     assert "System Message" not in shown
 
@@ -205,31 +270,46 @@ def test_dag_drawing_without_graphviz_says_how_to_get_it(monkeypatch):
 
 def test_joint_study_runs_every_scene_replicate_in_parallel(tmp_path, analytic_config):
     """Two scenes x 2 replicates in one evaluation: four simulate/extract pairs, two at a time."""
-    config = {**analytic_config, "engine": {"name": "analytic", "noise": 0.0, "duration": 1.5},
-              "parameters": {**analytic_config["parameters"],
-                             "sliding_friction_pw": {"lower": 0.2, "upper": 0.9}},
-              "targets": [*analytic_config["targets"],
-                          {"scene": "calibration_device", "response": "mass_flow",
-                           "value": 0.02, "unit": "kg/s"},
-                          {"scene": "calibration_device", "response": "slide_time",
-                           "value": 0.6, "unit": "s"}]}
-    evaldir = write_point(tmp_path, "unit", "e1", sliding_friction_pp=0.4,
-                          rolling_friction_pp=0.1, sliding_friction_pw=0.4)
+    config = {
+        **analytic_config,
+        "engine": {"name": "analytic", "noise": 0.0, "duration": 1.5},
+        "parameters": {
+            **analytic_config["parameters"],
+            "sliding_friction_pw": {"lower": 0.2, "upper": 0.9},
+        },
+        "targets": [
+            *analytic_config["targets"],
+            {"scene": "calibration_device", "response": "mass_flow", "value": 0.02, "unit": "kg/s"},
+            {"scene": "calibration_device", "response": "slide_time", "value": 0.6, "unit": "s"},
+        ],
+    }
+    evaldir = write_point(
+        tmp_path,
+        "unit",
+        "e1",
+        sliding_friction_pp=0.4,
+        rolling_friction_pp=0.1,
+        sliding_friction_pw=0.4,
+    )
     proc = run_snakemake(tmp_path, config, "results/unit/evals/e1/objective.json")
     assert proc.returncode == 0, proc.stderr[-3000:]
     record = json.loads((evaldir / "objective.json").read_text())
     assert record["status"] == "ok"
-    assert set(record["responses"]) == {"cylinder_lift.angle_of_repose",
-                                        "cylinder_lift.bulk_density",
-                                        "calibration_device.mass_flow",
-                                        "calibration_device.slide_time"}
+    assert set(record["responses"]) == {
+        "cylinder_lift.angle_of_repose",
+        "cylinder_lift.bulk_density",
+        "calibration_device.mass_flow",
+        "calibration_device.slide_time",
+    }
     spans = []
     for scene in ("cylinder_lift", "calibration_device"):
         for rep in (0, 1):
             sim = json.loads((evaldir / scene / f"rep{rep}" / "simulation.json").read_text())
-            assert sim["responses_needed"] == (["bulk_density", "angle_of_repose"]
-                                               if scene == "cylinder_lift"
-                                               else ["mass_flow", "slide_time"])
+            assert sim["responses_needed"] == (
+                ["bulk_density", "angle_of_repose"]
+                if scene == "cylinder_lift"
+                else ["mass_flow", "slide_time"]
+            )
             spans.append((sim["started_at"], sim["ended_at"]))
     # two at a time with 2 cores: some ran side by side, never three at once (which pairs
     # run together is the scheduler's choice between ready simulate and extract jobs)
@@ -239,11 +319,22 @@ def test_joint_study_runs_every_scene_replicate_in_parallel(tmp_path, analytic_c
 
 def test_rayleigh_cost_is_added_to_the_objective(tmp_path, analytic_config):
     """Rackl & Hanley eq. 10 at the stiffest E of the bounds: the cost is W^2 on top of eq. 3.3."""
-    config = {**analytic_config, "rayleigh_cost_weight": 0.5,
-              "parameters": {**analytic_config["parameters"],
-                             "youngs_modulus": {"lower": 5.0e6, "upper": 5.0e8}}}
-    evaldir = write_point(tmp_path, "unit", "e1", sliding_friction_pp=0.4,
-                          rolling_friction_pp=0.1, youngs_modulus=5.0e8)
+    config = {
+        **analytic_config,
+        "rayleigh_cost_weight": 0.5,
+        "parameters": {
+            **analytic_config["parameters"],
+            "youngs_modulus": {"lower": 5.0e6, "upper": 5.0e8},
+        },
+    }
+    evaldir = write_point(
+        tmp_path,
+        "unit",
+        "e1",
+        sliding_friction_pp=0.4,
+        rolling_friction_pp=0.1,
+        youngs_modulus=5.0e8,
+    )
     proc = run_snakemake(tmp_path, config, "results/unit/evals/e1/objective.json")
     assert proc.returncode == 0, proc.stderr[-3000:]
     record = json.loads((evaldir / "objective.json").read_text())
@@ -259,14 +350,31 @@ def test_the_readme_analytic_command_prints_a_short_terminal_story(tmp_path):
     example["engine"]["duration"] = 0.3
     example["optimizer"]["max_evaluations"] = 8
     (tmp_path / "analytic.yaml").write_text(yaml.safe_dump(example))
-    proc = subprocess.run([*SNAKEMAKE, "-s", str(ROOT / "Snakefile"), "--profile", str(ROOT / "profiles/local"),
-                           "--configfile=analytic.yaml"], cwd=tmp_path, capture_output=True, text=True,
-                          timeout=600, stdin=subprocess.DEVNULL)
+    proc = subprocess.run(
+        [
+            *SNAKEMAKE,
+            "-s",
+            str(ROOT / "Snakefile"),
+            "--profile",
+            str(ROOT / "profiles/local"),
+            "--configfile=analytic.yaml",
+        ],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        stdin=subprocess.DEVNULL,
+    )
     assert proc.returncode == 0, proc.stderr[-3000:]
-    lines = [line for line in (proc.stdout + proc.stderr).splitlines() if not line.startswith("[demcal ")]
+    lines = [
+        line for line in (proc.stdout + proc.stderr).splitlines() if not line.startswith("[demcal ")
+    ]
     assert len(lines) <= 30, "\n".join(lines)
     text = "\n".join(lines)
-    assert "finished: evaluation budget reached (8 of 8)" in text and "cylinder_lift.bulk_density [kg/m^3]" in text
+    assert (
+        "finished: evaluation budget reached (8 of 8)" in text
+        and "cylinder_lift.bulk_density [kg/m^3]" in text
+    )
     assert "report: results/analytic-demo/report.html" in text
 
 
@@ -274,17 +382,33 @@ def test_when_every_evaluation_fails_the_run_ends_with_the_commonest_reason(tmp_
     """No Snakemake 'missing output / filesystem latency' story: the calibration ends, says that
     nothing succeeded and why, and still makes its report."""
     example = yaml.safe_load((ROOT / "config/examples/analytic.yaml").read_text())
-    example["engine"].update(duration=0.2, failures=[{"when": {"sliding_friction_pp": [0.0, 1.0]},
-                                                      "reason": "solver diverged"}])
+    example["engine"].update(
+        duration=0.2,
+        failures=[{"when": {"sliding_friction_pp": [0.0, 1.0]}, "reason": "solver diverged"}],
+    )
     example["optimizer"]["max_evaluations"] = 3
     example["calibration"] = {"retries": 0, "poll_seconds": 0.3}
     (tmp_path / "failing.yaml").write_text(yaml.safe_dump(example))
-    proc = subprocess.run([*SNAKEMAKE, "-s", str(ROOT / "Snakefile"), "--profile", str(ROOT / "profiles/local"),
-                           "--configfile=failing.yaml"], cwd=tmp_path, capture_output=True, text=True,
-                          timeout=600, stdin=subprocess.DEVNULL)
+    proc = subprocess.run(
+        [
+            *SNAKEMAKE,
+            "-s",
+            str(ROOT / "Snakefile"),
+            "--profile",
+            str(ROOT / "profiles/local"),
+            "--configfile=failing.yaml",
+        ],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        stdin=subprocess.DEVNULL,
+    )
     assert proc.returncode == 0, proc.stderr[-3000:]
     text = proc.stdout + proc.stderr
-    assert re.search(r"no evaluation succeeded, most often: 'cylinder_lift rep0: solver diverged[^']*' \(3 of 3\)",
-                     text), text
+    assert re.search(
+        r"no evaluation succeeded, most often: 'cylinder_lift rep0: solver diverged[^']*' \(3 of 3\)",
+        text,
+    ), text
     assert "latency" not in text and "Traceback" not in text and "Exception" not in text
     assert (tmp_path / "results/analytic-demo/report.html").exists()

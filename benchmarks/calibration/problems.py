@@ -114,8 +114,10 @@ class Problem:
         rng = np.random.default_rng([NOISE_KEY, zlib.crc32(self.name.encode()), int(seed), int(k)])
         draws = rng.standard_normal((self.replicates, len(self.responses)))
         clean, sd = self.response_values(x), self.noise_sd
-        return {key: [clean[key] + sd[key] * float(draws[i, j]) for i in range(self.replicates)]
-                for j, key in enumerate(self.keys)}
+        return {
+            key: [clean[key] + sd[key] * float(draws[i, j]) for i in range(self.replicates)]
+            for j, key in enumerate(self.keys)
+        }
 
 
 def mean_responses(responses: dict[str, list[float]]) -> dict[str, float]:
@@ -213,8 +215,13 @@ PROBLEMS = {
             "5 parameters / 2 responses, non-unique (a 3-D manifold of solutions): particle density, "
             "sliding and rolling friction particle-particle and particle-wall against angle of repose and "
             "bulk density (cylinder lift, as in Rackl & Hanley 2017)",
-            ("particle_density", "sliding_friction_pp", "sliding_friction_pw", "rolling_friction_pp",
-             "rolling_friction_pw"),
+            (
+                "particle_density",
+                "sliding_friction_pp",
+                "sliding_friction_pw",
+                "rolling_friction_pp",
+                "rolling_friction_pw",
+            ),
             (2000.0, 0.1, 0.1, 0.02, 0.02),
             (3000.0, 0.9, 0.9, 0.3, 0.3),
             (2600.0, 0.5, 0.35, 0.12, 0.08),

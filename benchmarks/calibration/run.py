@@ -57,14 +57,28 @@ from versions import installed_versions  # noqa: E402
 NP1_PYTHON = Path("/work/bench-venv-np1/bin/python")
 WORKER = HERE / "worker_np1.py"
 WORKER_TIMEOUT = 3600  # seconds for one subprocess run
-WORKER_MEMORY = 6 * 2**30  # address-space cap of a worker (a runaway allocation fails there, not on the machine)
+WORKER_MEMORY = (
+    6 * 2**30
+)  # address-space cap of a worker (a runaway allocation fails there, not on the machine)
 PEERS = ("optuna_gp", "pysot_dycors", "grainlearning", "acces")
 SUBPROCESS_PEERS = ("grainlearning", "acces")
 FIELDS = [
-    "tool", "problem", "budget", "seed", "status", "evaluations", "noise_level", "true_objective",
-    "at_noise_level", "best_evaluated_true_objective", "evaluations_to_noise_level", "worst_miss_in_spreads",
+    "tool",
+    "problem",
+    "budget",
+    "seed",
+    "status",
+    "evaluations",
+    "noise_level",
+    "true_objective",
+    "at_noise_level",
+    "best_evaluated_true_objective",
+    "evaluations_to_noise_level",
+    "worst_miss_in_spreads",
     "seconds_per_proposal",
-    "wall_seconds", "answer", "extra",
+    "wall_seconds",
+    "answer",
+    "extra",
 ]
 
 
@@ -76,18 +90,27 @@ def demcal_strategies() -> list[str]:
 
 # ------------------------------------------------------------ demcal adapter
 # The two functions that stand between this benchmark and demcal's Optimizer.
-def make_demcal_optimizer(problem: Problem, strategy: str, budget: int, seed: int, form: str = "relative"):
+def make_demcal_optimizer(
+    problem: Problem, strategy: str, budget: int, seed: int, form: str = "relative"
+):
     """A demcal optimizer for ``problem`` with strategy ``strategy``, ``budget`` evaluations and objective form."""
     from demcal.objective import ResponseObjective
     from demcal.optimizer import Optimizer
 
     settings = {"strategy": strategy, "max_evaluations": budget}
     objective = ResponseObjective(tuple(demcal_targets(problem)), form)
-    return Optimizer(list(problem.lower), list(problem.upper), settings, seed=seed, objective=objective)
+    return Optimizer(
+        list(problem.lower), list(problem.upper), settings, seed=seed, objective=objective
+    )
 
 
-def tell_demcal(opt, proposal_id: int, responses: dict[str, list[float]], objective_value: float,
-                replicate_objectives: list[float]) -> None:
+def tell_demcal(
+    opt,
+    proposal_id: int,
+    responses: dict[str, list[float]],
+    objective_value: float,
+    replicate_objectives: list[float],
+) -> None:
     """Report one finished evaluation to a demcal optimizer.
 
     ``responses``: this evaluation's replicate values per response, keyed
@@ -102,19 +125,27 @@ def tell_demcal(opt, proposal_id: int, responses: dict[str, list[float]], object
     objectives (its noise estimate) and the responses, as demcal's daemon
     tells it.
     """
-    opt.tell(proposal_id, value=objective_value, replicates=replicate_objectives or None,
-             responses=responses)
+    opt.tell(
+        proposal_id,
+        value=objective_value,
+        replicates=replicate_objectives or None,
+        responses=responses,
+    )
 
 
 def demcal_targets(problem: Problem):
     from demcal.objective import Target
 
     targets, spreads = problem.targets, problem.spreads
-    return [Target(*key.split(".", 1), value=targets[key], spread=spreads[key]) for key in problem.keys]
+    return [
+        Target(*key.split(".", 1), value=targets[key], spread=spreads[key]) for key in problem.keys
+    ]
 
 
 # --------------------------------------------------------------------- tools
-def run_demcal(problem: Problem, evaluator: Evaluator, seed: int, budget: int, strategy: str) -> dict:
+def run_demcal(
+    problem: Problem, evaluator: Evaluator, seed: int, budget: int, strategy: str
+) -> dict:
     """demcal ask/tell, one simulation at a time; the running answer is ``opt.best()`` after each tell.
 
     ``strategy``: a registered name, optionally ``@precision`` for that objective form.
@@ -133,11 +164,15 @@ def run_demcal(problem: Problem, evaluator: Evaluator, seed: int, budget: int, s
         responses, value_here, _ = evaluator(proposal.x)
         value = objective_value(targets, mean_responses(responses))
         if not math.isclose(value, value_here, rel_tol=1e-9, abs_tol=1e-15):
-            raise RuntimeError(f"demcal's eq. 3.3 {value} differs from the benchmark's {value_here}")
+            raise RuntimeError(
+                f"demcal's eq. 3.3 {value} differs from the benchmark's {value_here}"
+            )
         if form:  # the precision form: the optimizer computes its objective from the responses
             opt.tell(proposal.id, responses=responses)
         else:
-            tell_demcal(opt, proposal.id, responses, value, replicate_objectives(targets, responses))
+            tell_demcal(
+                opt, proposal.id, responses, value, replicate_objectives(targets, responses)
+            )
         best = opt.best()
         running.append(None if best is None else best["x"])
     best = opt.best()
@@ -156,7 +191,10 @@ def run_optuna_gp(problem: Problem, evaluator: Evaluator, seed: int, budget: int
     optuna.logging.set_verbosity(optuna.logging.WARNING)
 
     def trial_objective(trial):
-        x = [trial.suggest_float(n, lo, hi) for n, lo, hi in zip(problem.parameters, problem.lower, problem.upper)]
+        x = [
+            trial.suggest_float(n, lo, hi)
+            for n, lo, hi in zip(problem.parameters, problem.lower, problem.upper)
+        ]
         return evaluator(x)[1]
 
     study = optuna.create_study(sampler=optuna.samplers.GPSampler(seed=seed))
@@ -186,7 +224,11 @@ def run_pysot_dycors(problem: Problem, evaluator: Evaluator, seed: int, budget: 
     np.random.seed(seed)  # pySOT draws from NumPy's global generator
     wrapped = Wrapped()
     surrogate = RBFInterpolant(
-        dim=wrapped.dim, lb=wrapped.lb, ub=wrapped.ub, kernel=CubicKernel(), tail=LinearTail(wrapped.dim)
+        dim=wrapped.dim,
+        lb=wrapped.lb,
+        ub=wrapped.ub,
+        kernel=CubicKernel(),
+        tail=LinearTail(wrapped.dim),
     )
     controller = SerialController(objective=wrapped.eval)
     controller.strategy = DYCORSStrategy(
@@ -209,16 +251,36 @@ def _cap_memory() -> None:
     resource.setrlimit(resource.RLIMIT_AS, (WORKER_MEMORY, WORKER_MEMORY))
 
 
-def run_subprocess_peer(tool: str, problem: Problem, seed: int, budget: int, np1_python: Path) -> dict:
+def run_subprocess_peer(
+    tool: str, problem: Problem, seed: int, budget: int, np1_python: Path
+) -> dict:
     """Run worker_np1.py in the NumPy-1 venv; its JSON has evaluations, answer, extra, tool_seconds."""
     if not np1_python.exists():
         return {"error": f"not installed: no {np1_python} (see README.md: requirements-np1.txt)"}
     with tempfile.TemporaryDirectory(prefix="calibration_worker_") as folder:
         out = Path(folder) / "result.json"
-        command = [str(np1_python), str(WORKER), "--tool", tool, "--problem", problem.name,
-                   "--seed", str(seed), "--budget", str(budget), "--json", str(out)]
-        completed = subprocess.run(command, cwd=folder, capture_output=True, text=True, timeout=WORKER_TIMEOUT,
-                                   preexec_fn=_cap_memory)
+        command = [
+            str(np1_python),
+            str(WORKER),
+            "--tool",
+            tool,
+            "--problem",
+            problem.name,
+            "--seed",
+            str(seed),
+            "--budget",
+            str(budget),
+            "--json",
+            str(out),
+        ]
+        completed = subprocess.run(
+            command,
+            cwd=folder,
+            capture_output=True,
+            text=True,
+            timeout=WORKER_TIMEOUT,
+            preexec_fn=_cap_memory,
+        )
         if not out.exists():
             tail = (completed.stderr or completed.stdout).strip().splitlines()[-3:]
             return {"error": f"worker exited {completed.returncode}: {' | '.join(tail)}"}
@@ -237,8 +299,13 @@ def best_so_far(log: list[dict]) -> list[list[float]]:
 
 
 def one_run(tool: str, problem: Problem, budget: int, seed: int, np1_python: Path) -> dict:
-    row = {"tool": tool, "problem": problem.name, "budget": budget, "seed": seed,
-           "noise_level": problem.noise_level}
+    row = {
+        "tool": tool,
+        "problem": problem.name,
+        "budget": budget,
+        "seed": seed,
+        "noise_level": problem.noise_level,
+    }
     start = time.perf_counter()
     try:
         if tool in SUBPROCESS_PEERS:
@@ -258,14 +325,23 @@ def one_run(tool: str, problem: Problem, budget: int, seed: int, np1_python: Pat
             tool_seconds = time.perf_counter() - start - evaluator.seconds
     except Exception as error:  # one tool's failure is a row of the table, not the end of the run
         traceback.print_exc()
-        row.update(status=f"failed: {type(error).__name__}: {error}"[:300], wall_seconds=time.perf_counter() - start)
+        row.update(
+            status=f"failed: {type(error).__name__}: {error}"[:300],
+            wall_seconds=time.perf_counter() - start,
+        )
         return row
     running = result.get("running") or best_so_far(log)
     noise_level = problem.noise_level
-    reached = [n for n, x in enumerate(running, 1) if x is not None and problem.true_objective(x) <= noise_level]
+    reached = [
+        n
+        for n, x in enumerate(running, 1)
+        if x is not None and problem.true_objective(x) <= noise_level
+    ]
     true_objective = problem.true_objective(result["answer"])
     extra = dict(result.get("extra") or {})
-    for key, value in list(extra.items()):  # alternative answers (posterior mean, ...): their true objective
+    for key, value in list(
+        extra.items()
+    ):  # alternative answers (posterior mean, ...): their true objective
         if isinstance(value, list) and len(value) == problem.dimension:
             extra[f"{key}_true_objective"] = problem.true_objective(value)
     row.update(
@@ -299,22 +375,37 @@ def summarise(rows: list[dict], tools: list[str]) -> list[dict]:
     for problem in problems:
         for budget in budgets:
             for tool in tools:
-                selected = [r for r in rows if r["problem"] == problem and int(r["budget"]) == budget
-                            and r["tool"] == tool]
+                selected = [
+                    r
+                    for r in rows
+                    if r["problem"] == problem and int(r["budget"]) == budget and r["tool"] == tool
+                ]
                 if not selected:
                     continue
                 ok = [r for r in selected if r["status"] == "ok"]
-                entry = {"problem": problem, "budget": budget, "tool": tool, "runs": len(selected), "ok": len(ok),
-                         "failure": next((r["status"] for r in selected if r["status"] != "ok"), "")}
+                entry = {
+                    "problem": problem,
+                    "budget": budget,
+                    "tool": tool,
+                    "runs": len(selected),
+                    "ok": len(ok),
+                    "failure": next((r["status"] for r in selected if r["status"] != "ok"), ""),
+                }
                 if ok:
                     values = np.array([float(r["true_objective"]) for r in ok])
                     entry.update(
                         median=float(np.median(values)),
                         worst=float(np.max(values)),
                         at_noise=sum(str(r["at_noise_level"]) == "True" for r in ok),
-                        to_noise=median_evaluations([r["evaluations_to_noise_level"] for r in ok], budget),
-                        best_evaluated=float(np.median([float(r["best_evaluated_true_objective"]) for r in ok])),
-                        worst_miss=float(np.median([float(r["worst_miss_in_spreads"]) for r in ok])),
+                        to_noise=median_evaluations(
+                            [r["evaluations_to_noise_level"] for r in ok], budget
+                        ),
+                        best_evaluated=float(
+                            np.median([float(r["best_evaluated_true_objective"]) for r in ok])
+                        ),
+                        worst_miss=float(
+                            np.median([float(r["worst_miss_in_spreads"]) for r in ok])
+                        ),
                         seconds=float(np.median([float(r["seconds_per_proposal"]) for r in ok])),
                     )
                 table.append(entry)
@@ -322,18 +413,29 @@ def summarise(rows: list[dict], tools: list[str]) -> list[dict]:
 
 
 def package_versions() -> dict[str, str]:
-    return {"python": platform.python_version(),
-            **installed_versions(("numpy", "scipy", "smt", "optuna", "torch", "pySOT", "POAP"))}
+    return {
+        "python": platform.python_version(),
+        **installed_versions(("numpy", "scipy", "smt", "optuna", "torch", "pySOT", "POAP")),
+    }
 
 
 def np1_versions(np1_python: Path) -> str:
     if not np1_python.exists():
         return f"no venv at {np1_python}"
     try:
-        out = subprocess.run([str(np1_python), str(WORKER), "--versions"], capture_output=True, text=True,
-                             timeout=120, check=True).stdout
-        python = subprocess.run([str(np1_python), "-c", "import platform; print(platform.python_version())"],
-                                capture_output=True, text=True, timeout=60).stdout.strip()
+        out = subprocess.run(
+            [str(np1_python), str(WORKER), "--versions"],
+            capture_output=True,
+            text=True,
+            timeout=120,
+            check=True,
+        ).stdout
+        python = subprocess.run(
+            [str(np1_python), "-c", "import platform; print(platform.python_version())"],
+            capture_output=True,
+            text=True,
+            timeout=60,
+        ).stdout.strip()
         return f"python {python}, " + ", ".join(f"{k} {v}" for k, v in json.loads(out).items())
     except (subprocess.SubprocessError, json.JSONDecodeError, OSError) as error:
         return f"could not be queried ({error})"
@@ -341,7 +443,9 @@ def np1_versions(np1_python: Path) -> str:
 
 def demcal_revision() -> str:
     def git(*args):
-        return subprocess.run(["git", "-C", str(REPOSITORY), *args], capture_output=True, text=True).stdout.strip()
+        return subprocess.run(
+            ["git", "-C", str(REPOSITORY), *args], capture_output=True, text=True
+        ).stdout.strip()
 
     head = git("rev-parse", "--short", "HEAD") or "unknown"
     changed = git("status", "--porcelain", "--", "demcal")
@@ -349,19 +453,29 @@ def demcal_revision() -> str:
 
 
 def problem_lines() -> list[str]:
-    lines = ["| problem | parameters (bounds) | responses: target, simulation noise sd, measurement spread | "
-             "replicates | noise level |", "|---|---|---|---|---|"]
+    lines = [
+        "| problem | parameters (bounds) | responses: target, simulation noise sd, measurement spread | "
+        "replicates | noise level |",
+        "|---|---|---|---|---|",
+    ]
     for p in PROBLEMS.values():
-        parameters = ", ".join(f"{n} [{lo:g}, {hi:g}]" for n, lo, hi in zip(p.parameters, p.lower, p.upper))
+        parameters = ", ".join(
+            f"{n} [{lo:g}, {hi:g}]" for n, lo, hi in zip(p.parameters, p.lower, p.upper)
+        )
         targets = p.targets
-        responses = "; ".join(f"{r.key} {targets[r.key]:.4g} {r.unit}, {100 * r.sd_rel:g} %, {100 * r.spread_rel:g} %"
-                              for r in p.responses)
-        lines.append(f"| {p.name} | {parameters} | {responses} | {p.replicates} | {p.noise_level:.4g} |")
+        responses = "; ".join(
+            f"{r.key} {targets[r.key]:.4g} {r.unit}, {100 * r.sd_rel:g} %, {100 * r.spread_rel:g} %"
+            for r in p.responses
+        )
+        lines.append(
+            f"| {p.name} | {parameters} | {responses} | {p.replicates} | {p.noise_level:.4g} |"
+        )
     return lines
 
 
-def write_report(table: list[dict], command: str, out: Path, elapsed: float, np1_python: Path,
-                 revision: str) -> None:
+def write_report(
+    table: list[dict], command: str, out: Path, elapsed: float, np1_python: Path, revision: str
+) -> None:
     versions = package_versions()
     main_venv = ", ".join(f"{k} {v}" for k, v in versions.items())
     lines = [
@@ -403,8 +517,12 @@ def write_report(table: list[dict], command: str, out: Path, elapsed: float, np1
     failures = []
     for e in table:
         if not e["ok"]:
-            lines.append(f"| {e['problem']} | {e['budget']} | {e['tool']} | {e['runs']} | failed | | | | | | |")
-            failures.append(f"- {e['tool']} on {e['problem']}, budget {e['budget']}: {e['failure']}")
+            lines.append(
+                f"| {e['problem']} | {e['budget']} | {e['tool']} | {e['runs']} | failed | | | | | | |"
+            )
+            failures.append(
+                f"- {e['tool']} on {e['problem']}, budget {e['budget']}: {e['failure']}"
+            )
             continue
         runs = f"{e['ok']}" if e["ok"] == e["runs"] else f"{e['ok']} of {e['runs']} ok"
         lines.append(
@@ -413,7 +531,9 @@ def write_report(table: list[dict], command: str, out: Path, elapsed: float, np1
             f"| {e['seconds']:.3g} |"
         )
         if e["ok"] < e["runs"]:
-            failures.append(f"- {e['tool']} on {e['problem']}, budget {e['budget']}: {e['failure']}")
+            failures.append(
+                f"- {e['tool']} on {e['problem']}, budget {e['budget']}: {e['failure']}"
+            )
     if failures:
         lines += ["", "## Runs that failed", "", *failures]
     lines += [
@@ -422,7 +542,7 @@ def write_report(table: list[dict], command: str, out: Path, elapsed: float, np1
         "",
         "- demcal:<strategy>: `Optimizer(lower, upper, {strategy, max_evaluations: budget}, seed)`, other settings "
         "at their defaults; one simulation at a time; told the eq. 3.3 of the replicate means and the per-replicate "
-        "values (run.py: `tell_demcal`); answer `opt.best()[\"x\"]`. Its tool time includes the `opt.best()` call "
+        'values (run.py: `tell_demcal`); answer `opt.best()["x"]`. Its tool time includes the `opt.best()` call '
         "after each tell (for the running answer).",
         "- optuna_gp: `GPSampler(seed=seed)` defaults, objective = noisy eq. 3.3; answer `study.best_params`.",
         "- pysot_dycors: DYCORS, cubic RBF with linear tail, symmetric Latin hypercube of 2(d+1) points, 100 d "
@@ -444,34 +564,59 @@ def write_report(table: list[dict], command: str, out: Path, elapsed: float, np1
 
 # --------------------------------------------------------------------- main
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--problems", default=",".join(PROBLEMS),
-                        help=f"comma-separated subset of {', '.join(PROBLEMS)}")
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument(
+        "--problems",
+        default=",".join(PROBLEMS),
+        help=f"comma-separated subset of {', '.join(PROBLEMS)}",
+    )
     parser.add_argument("--budgets", default="20,40", help="comma-separated evaluation budgets")
-    parser.add_argument("--seeds", type=int, default=10, help="number of seeds (seeded noise and seeded tools)")
-    parser.add_argument("--first-seed", type=int, default=0, help="seeds are first-seed .. first-seed + seeds - 1")
+    parser.add_argument(
+        "--seeds", type=int, default=10, help="number of seeds (seeded noise and seeded tools)"
+    )
+    parser.add_argument(
+        "--first-seed", type=int, default=0, help="seeds are first-seed .. first-seed + seeds - 1"
+    )
     parser.add_argument(
         "--tools",
         help="comma-separated: demcal:<strategy> for any registered strategy, and/or "
-             f"{', '.join(PEERS)}; default: every registered demcal strategy and every peer",
+        f"{', '.join(PEERS)}; default: every registered demcal strategy and every peer",
     )
-    parser.add_argument("--np1-python", type=Path, default=NP1_PYTHON,
-                        help="python of the NumPy-1 venv that runs grainlearning and acces")
-    parser.add_argument("--out", type=Path, default=HERE, help="folder for results.csv and RESULTS.md")
+    parser.add_argument(
+        "--np1-python",
+        type=Path,
+        default=NP1_PYTHON,
+        help="python of the NumPy-1 venv that runs grainlearning and acces",
+    )
+    parser.add_argument(
+        "--out", type=Path, default=HERE, help="folder for results.csv and RESULTS.md"
+    )
     args = parser.parse_args(argv)
 
     strategies = demcal_strategies()
-    tools = [t for t in (args.tools or ",".join([f"demcal:{s}" for s in strategies] + list(PEERS))).split(",") if t]
+    tools = [
+        t
+        for t in (args.tools or ",".join([f"demcal:{s}" for s in strategies] + list(PEERS))).split(
+            ","
+        )
+        if t
+    ]
     for tool in tools:
         if tool.startswith("demcal:"):
             strategy, _, form = tool.split(":", 1)[1].partition("@")
             if form not in ("", "precision"):
                 parser.error(f"{tool}: the objective form after @ can only be precision")
             if strategy not in strategies:
-                parser.error(f"{tool}: demcal has no strategy {tool.split(':', 1)[1]!r}; registered: "
-                             f"{', '.join(strategies)}")
+                parser.error(
+                    f"{tool}: demcal has no strategy {tool.split(':', 1)[1]!r}; registered: "
+                    f"{', '.join(strategies)}"
+                )
         elif tool not in PEERS:
-            parser.error(f"unknown tool {tool!r}; choose demcal:<{'|'.join(strategies)}> or {', '.join(PEERS)}")
+            parser.error(
+                f"unknown tool {tool!r}; choose demcal:<{'|'.join(strategies)}> or {', '.join(PEERS)}"
+            )
     problems = []
     for name in (p for p in args.problems.split(",") if p):
         if name not in PROBLEMS:
@@ -480,7 +625,9 @@ def main(argv: list[str] | None = None) -> None:
     budgets = [int(b) for b in args.budgets.split(",") if b]
     seeds = list(range(args.first_seed, args.first_seed + args.seeds))
     args.out.mkdir(parents=True, exist_ok=True)
-    command = "python benchmarks/calibration/run.py " + " ".join(argv if argv is not None else sys.argv[1:])
+    command = "python benchmarks/calibration/run.py " + " ".join(
+        argv if argv is not None else sys.argv[1:]
+    )
 
     started, revision = time.perf_counter(), demcal_revision()
     rows = []
@@ -496,14 +643,26 @@ def main(argv: list[str] | None = None) -> None:
                         writer.writerow(row)
                         handle.flush()
                         if row["status"] == "ok":
-                            print(f"{problem.name} budget={budget} {tool} seed={seed}: true objective "
-                                  f"{row['true_objective']:.3g} (noise level {problem.noise_level:.3g}), "
-                                  f"{row['seconds_per_proposal']:.3g} s/proposal", flush=True)
+                            print(
+                                f"{problem.name} budget={budget} {tool} seed={seed}: true objective "
+                                f"{row['true_objective']:.3g} (noise level {problem.noise_level:.3g}), "
+                                f"{row['seconds_per_proposal']:.3g} s/proposal",
+                                flush=True,
+                            )
                         else:
-                            print(f"{problem.name} budget={budget} {tool} seed={seed}: {row['status']}", flush=True)
+                            print(
+                                f"{problem.name} budget={budget} {tool} seed={seed}: {row['status']}",
+                                flush=True,
+                            )
     rows = [{k: ("" if v is None else v) for k, v in r.items()} for r in rows]
-    write_report(summarise(rows, tools), command, args.out, time.perf_counter() - started, args.np1_python,
-                 revision)
+    write_report(
+        summarise(rows, tools),
+        command,
+        args.out,
+        time.perf_counter() - started,
+        args.np1_python,
+        revision,
+    )
 
 
 if __name__ == "__main__":

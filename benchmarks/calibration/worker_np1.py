@@ -40,7 +40,9 @@ ACCES_POPULATION = 5  # per epoch; epochs = budget // 5
 
 
 def versions() -> dict[str, str]:
-    return installed_versions(("grainlearning", "coexist", "cma", "numpy", "scipy", "scikit-learn", "pandas"))
+    return installed_versions(
+        ("grainlearning", "coexist", "cma", "numpy", "scipy", "scikit-learn", "pandas")
+    )
 
 
 # ------------------------------------------------------------- GrainLearning
@@ -89,7 +91,12 @@ def run_grainlearning(problem: Problem, seed: int, budget: int) -> dict:
             },
             "inference": {
                 "Bayes_filter": {"ess_target": 0.3},
-                "sampling": {"max_num_components": 1, "n_init": 1, "random_state": seed, "slice_sampling": False},
+                "sampling": {
+                    "max_num_components": 1,
+                    "n_init": 1,
+                    "random_state": seed,
+                    "slice_sampling": False,
+                },
                 "initial_sampling": "halton",
             },
             "save_fig": -1,
@@ -103,13 +110,16 @@ def run_grainlearning(problem: Problem, seed: int, budget: int) -> dict:
     return {
         "evaluations": evaluator.log,
         "answer": answer,
-        "extra": {"posterior_mean": posterior_mean, "iterations": len(calibration.inference.sigma_list)},
+        "extra": {
+            "posterior_mean": posterior_mean,
+            "iterations": len(calibration.inference.sigma_list),
+        },
         "tool_seconds": total - evaluator.seconds,
     }
 
 
 # --------------------------------------------------------------------- ACCES
-ACCES_SCRIPT = '''\
+ACCES_SCRIPT = """\
 # One simulation of benchmark problem {name} for ACCES (written by worker_np1.py).
 # ACCESS PARAMETERS START
 import pandas as pd
@@ -134,7 +144,7 @@ x = [float(parameters.at[name, "value"]) for name in problem.parameters]
 responses = problem.noisy_responses(x, {seed!r}, access_id)
 error = problem.squared_errors(mean_responses(responses))  # one per response; Sum() makes eq. 3.3
 extra = responses
-'''
+"""
 
 
 def run_acces(problem: Problem, seed: int, budget: int) -> dict:
@@ -171,21 +181,37 @@ def run_acces(problem: Problem, seed: int, budget: int) -> dict:
         os.chdir(folder)
         try:
             script = Path(folder) / "simulation.py"
-            standard = coexist.create_parameters(list(problem.parameters), list(problem.lower), list(problem.upper))
-            script.write_text(ACCES_SCRIPT.format(
-                name=problem.name, variables=list(standard.index), values=standard["value"].tolist(),
-                minimums=standard["min"].tolist(), maximums=standard["max"].tolist(),
-                sigmas=standard["sigma"].tolist(), here=str(HERE), seed=seed,
-            ))
+            standard = coexist.create_parameters(
+                list(problem.parameters), list(problem.lower), list(problem.upper)
+            )
+            script.write_text(
+                ACCES_SCRIPT.format(
+                    name=problem.name,
+                    variables=list(standard.index),
+                    values=standard["value"].tolist(),
+                    minimums=standard["min"].tolist(),
+                    maximums=standard["max"].tolist(),
+                    sigmas=standard["sigma"].tolist(),
+                    here=str(HERE),
+                    seed=seed,
+                )
+            )
             start = time.perf_counter()
             access = BudgetedAccess(str(script))
             data = access.learn(
-                num_solutions=ACCES_POPULATION, target_sigma=0.0, random_seed=seed, multi_objective=Sum(), verbose=0
+                num_solutions=ACCES_POPULATION,
+                target_sigma=0.0,
+                random_seed=seed,
+                multi_objective=Sum(),
+                verbose=0,
             )
             total = time.perf_counter() - start
             results = data.results
             evaluations = [
-                {"x": [float(results.at[i, n]) for n in problem.parameters], "objective": float(results.at[i, "error"])}
+                {
+                    "x": [float(results.at[i, n]) for n in problem.parameters],
+                    "objective": float(results.at[i, "error"]),
+                }
                 for i in range(len(results))
             ]
             answer = [float(data.parameters.at[n, "value"]) for n in problem.parameters]
@@ -206,21 +232,30 @@ VERSION_OF = {"grainlearning": "grainlearning", "acces": "coexist"}
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--tool", choices=sorted(RUNNERS))
     parser.add_argument("--problem", choices=sorted(PROBLEMS))
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--budget", type=int, default=20)
     parser.add_argument("--json", type=Path, help="write the result here (default: stdout)")
-    parser.add_argument("--versions", action="store_true", help="print the peers' versions as JSON and exit")
+    parser.add_argument(
+        "--versions", action="store_true", help="print the peers' versions as JSON and exit"
+    )
     args = parser.parse_args()
     if args.versions:
         print(json.dumps(versions()))
         return
     if not args.tool or not args.problem:
         parser.error("--tool and --problem are needed")
-    result = {"tool": args.tool, "problem": args.problem, "seed": args.seed, "budget": args.budget,
-              "version": versions()[VERSION_OF[args.tool]]}
+    result = {
+        "tool": args.tool,
+        "problem": args.problem,
+        "seed": args.seed,
+        "budget": args.budget,
+        "version": versions()[VERSION_OF[args.tool]],
+    }
     try:
         # the tools print progress; keep stdout for the JSON
         with contextlib.redirect_stdout(sys.stderr):

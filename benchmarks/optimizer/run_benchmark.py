@@ -45,10 +45,25 @@ from demcal.optimizer import Optimizer  # noqa: E402
 HERE = Path(__file__).resolve().parent
 NOISE_FRACTION = 0.02
 RESULT_FIELDS = [
-    "tool", "problem", "noise", "seed", "evaluations", "regret", "best_evaluated_regret", "seconds_per_proposal",
+    "tool",
+    "problem",
+    "noise",
+    "seed",
+    "evaluations",
+    "regret",
+    "best_evaluated_regret",
+    "seconds_per_proposal",
     "reported_x",
 ]
-TOOLS = ("demcal", "demcal_kriging_ei", "pysot_dycors", "pysot_srbf", "optuna_gp", "optuna_tpe", "skopt_gp")
+TOOLS = (
+    "demcal",
+    "demcal_kriging_ei",
+    "pysot_dycors",
+    "pysot_srbf",
+    "optuna_gp",
+    "optuna_tpe",
+    "skopt_gp",
+)
 
 
 # ----------------------------------------------------------------- problems
@@ -59,7 +74,12 @@ def branin(x) -> float:
 
 
 HARTMANN_A = np.array(
-    [[10, 3, 17, 3.5, 1.7, 8], [0.05, 10, 17, 0.1, 8, 14], [3, 3.5, 1.7, 10, 17, 8], [17, 8, 0.05, 10, 0.1, 14]]
+    [
+        [10, 3, 17, 3.5, 1.7, 8],
+        [0.05, 10, 17, 0.1, 8, 14],
+        [3, 3.5, 1.7, 10, 17, 8],
+        [17, 8, 0.05, 10, 0.1, 14],
+    ]
 )
 HARTMANN_P = 1e-4 * np.array(
     [
@@ -93,8 +113,12 @@ class Problem:
 
 
 PROBLEMS = {
-    "branin": Problem("branin", branin, (-5.0, 0.0), (10.0, 15.0), 40, 0.397887357729739, 308.129 - 0.397887),
-    "hartmann6": Problem("hartmann6", hartmann6, (0.0,) * 6, (1.0,) * 6, 100, -3.32236801141551, 3.32237),
+    "branin": Problem(
+        "branin", branin, (-5.0, 0.0), (10.0, 15.0), 40, 0.397887357729739, 308.129 - 0.397887
+    ),
+    "hartmann6": Problem(
+        "hartmann6", hartmann6, (0.0,) * 6, (1.0,) * 6, 100, -3.32236801141551, 3.32237
+    ),
 }
 
 
@@ -128,7 +152,10 @@ class Objective:
 # -------------------------------------------------------------------- tools
 def run_demcal(problem: Problem, objective: Objective, seed: int, settings: dict | None = None):
     optimizer = Optimizer(
-        list(problem.lower), list(problem.upper), {"max_evaluations": problem.budget, **(settings or {})}, seed=seed
+        list(problem.lower),
+        list(problem.upper),
+        {"max_evaluations": problem.budget, **(settings or {})},
+        seed=seed,
     )
     while True:
         proposals = optimizer.ask()
@@ -159,7 +186,11 @@ def run_pysot(problem: Problem, objective: Objective, seed: int, strategy_name: 
     np.random.seed(seed)  # pySOT draws from numpy's global generator
     wrapped = Wrapped()
     surrogate = RBFInterpolant(
-        dim=wrapped.dim, lb=wrapped.lb, ub=wrapped.ub, kernel=CubicKernel(), tail=LinearTail(wrapped.dim)
+        dim=wrapped.dim,
+        lb=wrapped.lb,
+        ub=wrapped.ub,
+        kernel=CubicKernel(),
+        tail=LinearTail(wrapped.dim),
     )
     design = SymmetricLatinHypercube(dim=wrapped.dim, num_pts=2 * (wrapped.dim + 1))
     strategy_class = DYCORSStrategy if strategy_name == "dycors" else SRBFStrategy
@@ -191,7 +222,12 @@ def run_optuna(problem: Problem, objective: Objective, seed: int, sampler_name: 
     names = [f"x{i}" for i in range(problem.dimension)]
 
     def trial_objective(trial):
-        return objective([trial.suggest_float(n, lo, hi) for n, lo, hi in zip(names, problem.lower, problem.upper)])
+        return objective(
+            [
+                trial.suggest_float(n, lo, hi)
+                for n, lo, hi in zip(names, problem.lower, problem.upper)
+            ]
+        )
 
     study = optuna.create_study(sampler=sampler)
     study.optimize(trial_objective, n_trials=problem.budget)
@@ -202,7 +238,10 @@ def run_skopt(problem: Problem, objective: Objective, seed: int):
     from skopt import gp_minimize
 
     result = gp_minimize(
-        objective, list(zip(problem.lower, problem.upper)), n_calls=problem.budget, random_state=seed
+        objective,
+        list(zip(problem.lower, problem.upper)),
+        n_calls=problem.budget,
+        random_state=seed,
     )
     return list(result.x)
 
@@ -239,7 +278,9 @@ def one_run(tool: str, problem: Problem, noisy: bool, seed: int) -> dict:
 
 
 # ------------------------------------------------------------- asynchronous
-def simulate_workers(problem: Problem, workers: int, seed: int, noisy: bool) -> list[tuple[float, float]]:
+def simulate_workers(
+    problem: Problem, workers: int, seed: int, noisy: bool
+) -> list[tuple[float, float]]:
     """Event simulation of ``workers`` asynchronous workers; durations ~ U(0.5, 1.5).
 
     Returns (simulated time, regret of the reported best) after each finished evaluation.
@@ -247,7 +288,11 @@ def simulate_workers(problem: Problem, workers: int, seed: int, noisy: bool) -> 
     objective = Objective(problem, NOISE_FRACTION * problem.value_range if noisy else 0.0, seed)
     durations = np.random.default_rng(20_000 + seed)
     optimizer = Optimizer(
-        list(problem.lower), list(problem.upper), {"max_evaluations": problem.budget}, seed=seed, workers=workers
+        list(problem.lower),
+        list(problem.upper),
+        {"max_evaluations": problem.budget},
+        seed=seed,
+        workers=workers,
     )
     running: list[tuple[float, int, list[float]]] = []
     now = 0.0
@@ -277,19 +322,34 @@ def time_to_reach(times: np.ndarray, median_regret: np.ndarray, target: float) -
     return float(times[reached[0]]) if len(reached) else math.inf
 
 
-def async_experiment(problem: Problem, seeds: list[int], workers: int, noisy: bool, out: Path) -> dict:
+def async_experiment(
+    problem: Problem, seeds: list[int], workers: int, noisy: bool, out: Path
+) -> dict:
     curves = {p: [simulate_workers(problem, p, s, noisy) for s in seeds] for p in (1, workers)}
     horizon = max(c[-1][0] for c in curves[1])
     times = np.linspace(0.0, horizon, 400)
-    median = {p: np.array([np.median([regret_at(c, t) for c in curves[p]]) for t in times]) for p in curves}
+    median = {
+        p: np.array([np.median([regret_at(c, t) for c in curves[p]]) for t in times])
+        for p in curves
+    }
     target = max(median[1][-1], median[workers][-1])
     t1, tp = time_to_reach(times, median[1], target), time_to_reach(times, median[workers], target)
     with open(out / "async.csv", "a", newline="") as handle:
         writer = csv.writer(handle)
         if handle.tell() == 0:
-            writer.writerow(["problem", "noise", "simulated_time", "median_regret_P1", f"median_regret_P{workers}"])
+            writer.writerow(
+                [
+                    "problem",
+                    "noise",
+                    "simulated_time",
+                    "median_regret_P1",
+                    f"median_regret_P{workers}",
+                ]
+            )
         for t, r1, rp in zip(times[::10], median[1][::10], median[workers][::10]):
-            writer.writerow([problem.name, "2%" if noisy else "none", f"{t:.3f}", f"{r1:.6g}", f"{rp:.6g}"])
+            writer.writerow(
+                [problem.name, "2%" if noisy else "none", f"{t:.3f}", f"{r1:.6g}", f"{rp:.6g}"]
+            )
     return {
         "problem": problem.name,
         "noise": "2%" if noisy else "none",
@@ -309,11 +369,19 @@ def summarise(rows: list[dict]) -> list[dict]:
     keys = sorted({(r["problem"], r["noise"]) for r in rows}, key=lambda k: (k[0], k[1] != "none"))
     for problem, noise in keys:
         for tool in TOOLS:
-            selected = [r for r in rows if r["problem"] == problem and r["noise"] == noise and r["tool"] == tool]
+            selected = [
+                r
+                for r in rows
+                if r["problem"] == problem and r["noise"] == noise and r["tool"] == tool
+            ]
             if not selected:
                 continue
             regrets = np.array([float(r["regret"]) for r in selected])
-            best_evaluated = [float(r["best_evaluated_regret"]) for r in selected if r.get("best_evaluated_regret")]
+            best_evaluated = [
+                float(r["best_evaluated_regret"])
+                for r in selected
+                if r.get("best_evaluated_regret")
+            ]
             table.append(
                 {
                     "problem": problem,
@@ -322,15 +390,24 @@ def summarise(rows: list[dict]) -> list[dict]:
                     "runs": len(selected),
                     "median_regret": float(np.median(regrets)),
                     "worst_regret": float(np.max(regrets)),
-                    "median_best_evaluated": float(np.median(best_evaluated)) if best_evaluated else math.nan,
-                    "median_s_per_proposal": float(np.median([float(r["seconds_per_proposal"]) for r in selected])),
+                    "median_best_evaluated": float(np.median(best_evaluated))
+                    if best_evaluated
+                    else math.nan,
+                    "median_s_per_proposal": float(
+                        np.median([float(r["seconds_per_proposal"]) for r in selected])
+                    ),
                 }
             )
     return table
 
 
 def write_report(
-    table: list[dict], async_rows: list[dict], command: str, out: Path, elapsed: float, note: str = ""
+    table: list[dict],
+    async_rows: list[dict],
+    command: str,
+    out: Path,
+    elapsed: float,
+    note: str = "",
 ) -> None:
     lines = [
         "# Optimizer benchmark",
@@ -396,7 +473,9 @@ def target_lines(table: list[dict], async_rows: list[dict]) -> list[str]:
             lines.append(f"  - not worse than pySOT DYCORS ({dycors:.3g}): {verdict}")
         if problem == "hartmann6":
             seconds = ours["median_s_per_proposal"]
-            lines.append(f"  - seconds per proposal {seconds:.3g} < 0.5: {'met' if seconds < 0.5 else 'MISSED'}")
+            lines.append(
+                f"  - seconds per proposal {seconds:.3g} < 0.5: {'met' if seconds < 0.5 else 'MISSED'}"
+            )
     for a in async_rows:
         lines.append(
             f"- P={a['workers']} speedup on {a['problem']}: {a['speedup']:.2f} >= 3: "
@@ -406,11 +485,19 @@ def target_lines(table: list[dict], async_rows: list[dict]) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--seeds", type=int, default=10, help="number of seeds")
-    parser.add_argument("--first-seed", type=int, default=0, help="seeds are first-seed .. first-seed + seeds - 1")
-    parser.add_argument("--problems", default="branin,hartmann6", help="comma-separated: branin, hartmann6")
-    parser.add_argument("--tools", default=",".join(TOOLS), help=f"comma-separated subset of {', '.join(TOOLS)}")
+    parser.add_argument(
+        "--first-seed", type=int, default=0, help="seeds are first-seed .. first-seed + seeds - 1"
+    )
+    parser.add_argument(
+        "--problems", default="branin,hartmann6", help="comma-separated: branin, hartmann6"
+    )
+    parser.add_argument(
+        "--tools", default=",".join(TOOLS), help=f"comma-separated subset of {', '.join(TOOLS)}"
+    )
     parser.add_argument("--noise", default="none,2%", help="comma-separated: none, 2%%")
     parser.add_argument("--workers", type=int, default=4, help="P for the asynchronous run")
     parser.add_argument("--no-async", action="store_true", help="skip the asynchronous run")
@@ -419,7 +506,9 @@ def main(argv: list[str] | None = None) -> None:
         type=Path,
         help="earlier results.csv: its rows of tools not run now join the table (said in RESULTS.md)",
     )
-    parser.add_argument("--out", type=Path, default=HERE, help="folder for results.csv, async.csv, RESULTS.md")
+    parser.add_argument(
+        "--out", type=Path, default=HERE, help="folder for results.csv, async.csv, RESULTS.md"
+    )
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
     tools = [t for t in args.tools.split(",") if t]
@@ -436,7 +525,9 @@ def main(argv: list[str] | None = None) -> None:
             reused = [row for row in csv.DictReader(handle) if row["tool"] not in tools]
     for name in ("results.csv", "async.csv"):
         (args.out / name).unlink(missing_ok=True)
-    command = "python benchmarks/optimizer/run_benchmark.py " + " ".join(argv if argv is not None else sys.argv[1:])
+    command = "python benchmarks/optimizer/run_benchmark.py " + " ".join(
+        argv if argv is not None else sys.argv[1:]
+    )
     started = time.perf_counter()
     rows = list(reused)
     with open(args.out / "results.csv", "w", newline="") as handle:
@@ -463,8 +554,14 @@ def main(argv: list[str] | None = None) -> None:
             async_rows.append(async_experiment(problem, seeds, args.workers, False, args.out))
             print(f"async {problem.name}: {async_rows[-1]}", flush=True)
     reused_tools = sorted({row["tool"] for row in reused})
-    note = f"Rows of {', '.join(reused_tools)} reused from {args.reuse} (an earlier run)." if reused else ""
-    write_report(summarise(rows), async_rows, command, args.out, time.perf_counter() - started, note)
+    note = (
+        f"Rows of {', '.join(reused_tools)} reused from {args.reuse} (an earlier run)."
+        if reused
+        else ""
+    )
+    write_report(
+        summarise(rows), async_rows, command, args.out, time.perf_counter() - started, note
+    )
 
 
 if __name__ == "__main__":

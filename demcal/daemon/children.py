@@ -58,12 +58,25 @@ def is_snakemake_for(pid: int, target: str) -> bool:
     return any(b"snakemake" in part for part in cmdline) and target.encode() in cmdline
 
 
-def child_command(study_file: Path, target: Path, profile: Path | None,
-                  cores: int | None) -> list[str]:
+def child_command(
+    study_file: Path, target: Path, profile: Path | None, cores: int | None
+) -> list[str]:
     """The child Snakemake that builds one evaluation's objective from the frozen study."""
-    command = [sys.executable, "-m", "snakemake", "-s", str(SNAKEFILE),
-               "--config", f"study_file={Path(study_file).resolve()}", "--nolock",
-               "--rerun-incomplete", "--rerun-triggers", "mtime", "--quiet", "rules"]
+    command = [
+        sys.executable,
+        "-m",
+        "snakemake",
+        "-s",
+        str(SNAKEFILE),
+        "--config",
+        f"study_file={Path(study_file).resolve()}",
+        "--nolock",
+        "--rerun-incomplete",
+        "--rerun-triggers",
+        "mtime",
+        "--quiet",
+        "rules",
+    ]
     if profile is not None:
         command += ["--profile", str(profile)]
     if cores is not None:
@@ -75,8 +88,13 @@ def start_child(files: EvaluationFiles, command: list[str]) -> Child:
     """Start an evaluation's child Snakemake in its own session; record its pid in launch.json."""
     files.logs.mkdir(parents=True, exist_ok=True)
     with open(files.snakemake_log, "a") as out:
-        process = subprocess.Popen(command, stdin=subprocess.DEVNULL, stdout=out,
-                                   stderr=subprocess.STDOUT, start_new_session=True)
+        process = subprocess.Popen(
+            command,
+            stdin=subprocess.DEVNULL,
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+        )
     now = time.time()
     write_json(files.launch, {"pid": process.pid, "started_at": now})
     return Child(files.id, process.pid, process, now)

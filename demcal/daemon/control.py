@@ -14,7 +14,14 @@ from demcal.daemon.children import alive
 from demcal.daemon.tables import write_evaluations_csv
 from demcal.errors import ConfigError, DemcalError, SimulationFailed
 from demcal.files import atomic_write_text
-from demcal.layout import PointRecord, evaluation_id, proposal_id, read_objective, read_point, write_point
+from demcal.layout import (
+    PointRecord,
+    evaluation_id,
+    proposal_id,
+    read_objective,
+    read_point,
+    write_point,
+)
 from demcal.optimizer import Optimizer
 from demcal.records import Status
 from demcal.study import Study
@@ -65,21 +72,30 @@ def add_point(study: Study, values: dict[str, float]) -> str:
     """
     files = study.files
     if not files.optimizer.exists():
-        raise DemcalError(f"study {study.name!r} has not started ({files.optimizer} missing); "
-                          f"start it first, or give the point in the initial design")
+        raise DemcalError(
+            f"study {study.name!r} has not started ({files.optimizer} missing); "
+            f"start it first, or give the point in the initial design"
+        )
     names = [p.name for p in study.free]
     missing = [name for name in names if name not in values]
     unknown = [name for name in values if name not in names]
     if missing or unknown:
-        raise ConfigError(f"the point needs a value for every free parameter ({', '.join(names)}): "
-                          + (f"missing {', '.join(missing)}" if missing else f"unknown {', '.join(unknown)}"))
+        raise ConfigError(
+            f"the point needs a value for every free parameter ({', '.join(names)}): "
+            + (f"missing {', '.join(missing)}" if missing else f"unknown {', '.join(unknown)}")
+        )
     for p in study.free:
         if not p.lower <= values[p.name] <= p.upper:
-            raise ConfigError(f"{p.name}={values[p.name]:g} is outside its bounds [{p.lower:g}, {p.upper:g}]")
+            raise ConfigError(
+                f"{p.name}={values[p.name]:g} is outside its bounds [{p.lower:g}, {p.upper:g}]"
+            )
     optimizer = Optimizer.from_json(files.optimizer.read_text())
     proposal = optimizer.add_point([values[name] for name in names])
     evaluation = evaluation_id(proposal.id)
-    write_point(files.evaluation(evaluation), PointRecord(dict(zip(names, proposal.x)), proposed_by="by hand"))
+    write_point(
+        files.evaluation(evaluation),
+        PointRecord(dict(zip(names, proposal.x)), proposed_by="by hand"),
+    )
     atomic_write_text(files.optimizer, optimizer.to_json())
     files.finished.unlink(missing_ok=True)
     write_evaluations_csv(study)
@@ -119,8 +135,10 @@ def lock_study(study: Study, watch_pid: int | None = None):
         except BlockingIOError:
             watched = _lock_holder(path).get("watch_pid")
             if watched is None or alive(int(watched)) or time.monotonic() > deadline:
-                raise DemcalError(f"another demcal daemon is running study {study.name!r} "
-                                  f"(lock {path}); 'demcal stop' ends it") from None
+                raise DemcalError(
+                    f"another demcal daemon is running study {study.name!r} "
+                    f"(lock {path}); 'demcal stop' ends it"
+                ) from None
             time.sleep(0.5)
     lock.truncate(0)
     lock.write(json.dumps({"pid": os.getpid(), "watch_pid": watch_pid}))

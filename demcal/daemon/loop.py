@@ -60,8 +60,14 @@ class Calibration:
     ``study.json`` is what the children read.
     """
 
-    def __init__(self, study: Study, profile: Path | None, workers: int,
-                 child_cores: int | None = None, watch_pid: int | None = None):
+    def __init__(
+        self,
+        study: Study,
+        profile: Path | None,
+        workers: int,
+        child_cores: int | None = None,
+        watch_pid: int | None = None,
+    ):
         self.study, self.profile, self.workers = study, profile, workers
         self.files = study.files
         self.retries = int(study.calibration["retries"])
@@ -85,16 +91,27 @@ class Calibration:
             try:
                 optimizer = Optimizer.from_json(self.files.optimizer.read_text())
             except (ValueError, KeyError) as exc:
-                raise DemcalError(f"{self.files.optimizer}: optimizer state unreadable ({exc}); "
-                                  f"move it away to start the calibration afresh") from None
-            optimizer.settings = dataclasses.replace(optimizer.settings, **{
-                name: getattr(self.study.optimizer, name)
-                for name in RESUMABLE_OPTIMIZER_SETTINGS})
+                raise DemcalError(
+                    f"{self.files.optimizer}: optimizer state unreadable ({exc}); "
+                    f"move it away to start the calibration afresh"
+                ) from None
+            optimizer.settings = dataclasses.replace(
+                optimizer.settings,
+                **{
+                    name: getattr(self.study.optimizer, name)
+                    for name in RESUMABLE_OPTIMIZER_SETTINGS
+                },
+            )
             optimizer.objective = self.response_objective()  # the targets may have changed
             return optimizer
-        return Optimizer([p.lower for p in self.study.free], [p.upper for p in self.study.free],
-                         self.study.optimizer, seed=self.study.seed, workers=self.workers,
-                         objective=self.response_objective())
+        return Optimizer(
+            [p.lower for p in self.study.free],
+            [p.upper for p in self.study.free],
+            self.study.optimizer,
+            seed=self.study.seed,
+            workers=self.workers,
+            objective=self.response_objective(),
+        )
 
     def response_objective(self) -> ResponseObjective | None:
         """The objective the optimizer applies to responses; None with the Rayleigh cost term,
@@ -129,19 +146,30 @@ class Calibration:
                 scored = read_objective(self.files.evaluation(evaluation))
             except SimulationFailed:
                 continue
-            scored_as = (scored.get("targets"), scored.get("weights", weights),
-                         scored.get("objective_form", "relative"))
-            if "targets" not in scored or scored_as == (targets, weights,
-                                                        self.study.objective_form):
+            scored_as = (
+                scored.get("targets"),
+                scored.get("weights", weights),
+                scored.get("objective_form", "relative"),
+            )
+            if "targets" not in scored or scored_as == (
+                targets,
+                weights,
+                self.study.objective_form,
+            ):
                 continue  # never scored (a failed simulation), or scored as now
             result = objective(self.study, evaluation, response_paths(self.study, evaluation))
-            outcomes[record["id"]] = (result["status"], result.get("objective"),
-                                      self._replicate_values(result))
+            outcomes[record["id"]] = (
+                result["status"],
+                result.get("objective"),
+                self._replicate_values(result),
+            )
         if outcomes:
             self.optimizer.rescore(outcomes)
             self.save_state()
-            log.info("targets changed: re-scored %d evaluations from their stored responses",
-                     len(outcomes))
+            log.info(
+                "targets changed: re-scored %d evaluations from their stored responses",
+                len(outcomes),
+            )
 
     def save_state(self) -> None:
         atomic_write_text(self.files.optimizer, self.optimizer.to_json())
@@ -155,8 +183,9 @@ class Calibration:
 
     def launch(self, evaluation: str) -> None:
         """Start the child Snakemake of an evaluation."""
-        command = child_command(self.files.study, Path(self.target(evaluation)), self.profile,
-                                self.child_cores)
+        command = child_command(
+            self.files.study, Path(self.target(evaluation)), self.profile, self.child_cores
+        )
         child = start_child(self.files.evaluation(evaluation), command)
         self.children[evaluation] = child
         log.info("launched %s (pid %d)", evaluation, child.pid)
@@ -169,9 +198,12 @@ class Calibration:
                 return
             proposal = proposals[0]
             evaluation = evaluation_id(proposal.id)
-            write_point(self.files.evaluation(evaluation),
-                        PointRecord(dict(zip(self.names, proposal.x)),
-                                    in_initial_design=proposal.in_initial_design))
+            write_point(
+                self.files.evaluation(evaluation),
+                PointRecord(
+                    dict(zip(self.names, proposal.x)), in_initial_design=proposal.in_initial_design
+                ),
+            )
             self.save_state()
             self.launch(evaluation)
 
@@ -185,8 +217,10 @@ class Calibration:
             return False
         of = evaluation_id(self.optimizer.confirmation()["confirms"])
         for proposal in proposals:
-            write_point(self.files.evaluation(evaluation_id(proposal.id)),
-                        PointRecord(dict(zip(self.names, proposal.x)), proposed_by=f"confirmation of {of}"))
+            write_point(
+                self.files.evaluation(evaluation_id(proposal.id)),
+                PointRecord(dict(zip(self.names, proposal.x)), proposed_by=f"confirmation of {of}"),
+            )
         self.save_state()
         log.info("confirming the best point with %d more simulations", len(proposals))
         for proposal in proposals:
@@ -200,12 +234,17 @@ class Calibration:
             evaluation = evaluation_id(pid)
             files = self.files.evaluation(evaluation)
             if not files.params.exists():
-                raise DemcalError(f"{files.params} is missing for a pending evaluation; "
-                                  f"the results directory was changed by hand")
+                raise DemcalError(
+                    f"{files.params} is missing for a pending evaluation; "
+                    f"the results directory was changed by hand"
+                )
             launch = read_launch(files)
             running = int(launch.get("pid", -1))
-            if running > 0 and alive(running) and is_snakemake_for(running,
-                                                                    self.target(evaluation)):
+            if (
+                running > 0
+                and alive(running)
+                and is_snakemake_for(running, self.target(evaluation))
+            ):
                 started = float(launch.get("started_at", time.time()))
                 self.children[evaluation] = Child(evaluation, running, None, started)
                 log.info("re-attached %s (pid %d)", evaluation, running)
@@ -227,33 +266,52 @@ class Calibration:
                 record = read_objective(files)
             except SimulationFailed as exc:
                 tail = log_tail(files.snakemake_log, lines=3)
-                record = {"status": Status.FAILED,
-                          "reason": f"workflow ended with code {child.returncode()} and no "
-                                    f"objective ({exc}): {tail}"}
+                record = {
+                    "status": Status.FAILED,
+                    "reason": f"workflow ended with code {child.returncode()} and no "
+                    f"objective ({exc}): {tail}",
+                }
             self.finish(evaluation, record)
 
     def finish(self, evaluation: str, record: dict) -> None:
         point = read_point(self.files.evaluation(evaluation))
         status = record.get("status")
         # after `demcal stop` nothing is launched any more, retries included
-        if status == Status.FAILED and point.attempt < self.retries and not self.files.stop_calibration.exists():
+        if (
+            status == Status.FAILED
+            and point.attempt < self.retries
+            and not self.files.stop_calibration.exists()
+        ):
             self.retry(evaluation, point, record.get("reason", ""))
             return
         pid = proposal_id(evaluation)
         if status == Status.OK:
-            self.optimizer.tell(pid, value=record["objective"],
-                                replicates=self._replicate_values(record),
-                                responses=record.get("replicates"))
+            self.optimizer.tell(
+                pid,
+                value=record["objective"],
+                replicates=self._replicate_values(record),
+                responses=record.get("replicates"),
+            )
         elif status == Status.TERMINATED:  # what it did learn enters the response models
-            self.optimizer.tell(pid, status=Status.TERMINATED, partial=partial_responses(
-                self.files.evaluation(evaluation), list(self.study.scenes),
-                self.study.replicates))
+            self.optimizer.tell(
+                pid,
+                status=Status.TERMINATED,
+                partial=partial_responses(
+                    self.files.evaluation(evaluation),
+                    list(self.study.scenes),
+                    self.study.replicates,
+                ),
+            )
         else:
             self.optimizer.tell(pid, status=Status.FAILED)
         self.save_state()
         self.stop_requested.discard(evaluation)
-        log.info("%s: %s %s", evaluation, status,
-                 record.get("objective", "") if status == Status.OK else record.get("reason", ""))
+        log.info(
+            "%s: %s %s",
+            evaluation,
+            status,
+            record.get("objective", "") if status == Status.OK else record.get("reason", ""),
+        )
         self.write_tables()
 
     def _replicate_values(self, record: dict) -> list[float] | None:
@@ -261,8 +319,12 @@ class Calibration:
         if record.get("status") != Status.OK:
             return None
         cost = self.study.timestep_cost(record["parameters"])
-        return replicate_objectives(self.study.targets, record.get("replicates", {}),
-                                    cost, self.study.objective_form) or None
+        return (
+            replicate_objectives(
+                self.study.targets, record.get("replicates", {}), cost, self.study.objective_form
+            )
+            or None
+        )
 
     def retry(self, evaluation: str, point: PointRecord, reason: str) -> None:
         """Run a failed evaluation again with new seeds (attempt + 1)."""
@@ -275,8 +337,7 @@ class Calibration:
         point.attempt += 1
         point.previous_failures.append(reason)
         write_point(files, point)
-        log.info("%s failed (%s); retry %d of %d", evaluation, reason, point.attempt,
-                 self.retries)
+        log.info("%s failed (%s); retry %d of %d", evaluation, reason, point.attempt, self.retries)
         self.launch(evaluation)
 
     # -- early termination ---------------------------------------------------------
@@ -285,20 +346,29 @@ class Calibration:
         record each new estimate with its limit in early_termination.csv."""
         if self.optimizer.best_observed is None:
             return
-        watched = {evaluation: self._estimate(evaluation) for evaluation in self.children
-                   if evaluation not in self.stop_requested}
+        watched = {
+            evaluation: self._estimate(evaluation)
+            for evaluation in self.children
+            if evaluation not in self.stop_requested
+        }
         decide = lambda evaluation, estimate: self.optimizer.early_termination(  # noqa: E731
-            proposal_id(evaluation), estimate)
+            proposal_id(evaluation), estimate
+        )
         decisions = early_termination_decisions(watched, decide)
         now, rows = time.time(), []
         for evaluation, decision in decisions.items():
             if self.recorded_estimates.get(evaluation) != (watched[evaluation], decision.limit):
                 self.recorded_estimates[evaluation] = (watched[evaluation], decision.limit)
-                rows.append((f"{now - self.started_at:.1f}", evaluation,
-                             f"{now - self.children[evaluation].started:.1f}",
-                             f"{watched[evaluation]:.7g}",
-                             "" if decision.limit is None else f"{decision.limit:.7g}",
-                             int(decision.stop)))
+                rows.append(
+                    (
+                        f"{now - self.started_at:.1f}",
+                        evaluation,
+                        f"{now - self.children[evaluation].started:.1f}",
+                        f"{watched[evaluation]:.7g}",
+                        "" if decision.limit is None else f"{decision.limit:.7g}",
+                        int(decision.stop),
+                    )
+                )
             if decision.stop:
                 self.files.evaluation(evaluation).stop.touch()
                 self.stop_requested.add(evaluation)
@@ -314,10 +384,12 @@ class Calibration:
                 cost = self.study.timestep_cost(read_point(files).parameters)
             except DemcalError:
                 return None  # the evaluation will record why
-        return estimated_objective(self.study.targets,
-                                   latest_estimates(files, list(self.study.scenes),
-                                                    self.study.replicates), cost,
-                                   self.study.objective_form)
+        return estimated_objective(
+            self.study.targets,
+            latest_estimates(files, list(self.study.scenes), self.study.replicates),
+            cost,
+            self.study.objective_form,
+        )
 
     # -- outputs ---------------------------------------------------------------------
     def write_tables(self, stop_reason: str | None = None) -> None:
@@ -331,19 +403,37 @@ class Calibration:
         failed, stopped = counts.get(Status.FAILED, 0), counts.get(Status.TERMINATED, 0)
         budget = self.optimizer.settings.max_evaluations
         best = self.optimizer.best()
-        best_text = "no result yet" if best is None else (
-            f"best {best['value']:.4g} at " + ", ".join(
-                f"{n}={v:.3g}" for n, v in zip(self.names, best["x"])))
+        best_text = (
+            "no result yet"
+            if best is None
+            else (
+                f"best {best['value']:.4g} at "
+                + ", ".join(f"{n}={v:.3g}" for n, v in zip(self.names, best["x"]))
+            )
+        )
         elapsed = self.elapsed()
         finished = self.optimizer.completed_evaluations()
         s = self.optimizer.settings
         # "to budget" only when the budget is the stop to expect: no other rule may end the run first
-        budget_rules = not (s.max_seconds or s.target_objective is not None
-                            or s.no_improvement_evaluations)
-        to_budget = ((budget - finished) * elapsed / finished
-                     if budget_rules and 0 < finished < budget else None)
-        return Progress(self.study.name, finished, budget, failed, stopped, len(self.children),
-                        best_text, elapsed, to_budget)
+        budget_rules = not (
+            s.max_seconds or s.target_objective is not None or s.no_improvement_evaluations
+        )
+        to_budget = (
+            (budget - finished) * elapsed / finished
+            if budget_rules and 0 < finished < budget
+            else None
+        )
+        return Progress(
+            self.study.name,
+            finished,
+            budget,
+            failed,
+            stopped,
+            len(self.children),
+            best_text,
+            elapsed,
+            to_budget,
+        )
 
     # -- the loop ------------------------------------------------------------------
     def run(self, show_progress: Callable[[Progress], None] = lambda p: print(p.line())) -> str:
@@ -366,15 +456,23 @@ class Calibration:
             if reason is None:
                 self.propose()
                 if not self.children:  # e.g. the strategy has converged and says so
-                    reason = self.optimizer.stop_reason(self.elapsed()) or "no more points to evaluate"
+                    reason = (
+                        self.optimizer.stop_reason(self.elapsed()) or "no more points to evaluate"
+                    )
             if reason is not None and not self.children and not self.confirm_best(reason):
                 break
             show_progress(self.progress())
             time.sleep(self.poll_seconds)
         self.write_tables(reason)
         show_progress(self.progress())
-        write_json(self.files.finished, {"reason": reason, "ended_at": time.time(),
-                                         "evaluations": self.optimizer.status_counts()})
+        write_json(
+            self.files.finished,
+            {
+                "reason": reason,
+                "ended_at": time.time(),
+                "evaluations": self.optimizer.status_counts(),
+            },
+        )
         log.info("calibration finished: %s", reason)
         return reason
 
@@ -385,10 +483,11 @@ class Calibration:
         own session, re-attached or read back by the next daemon.
         """
         if self.watch_pid is not None and not alive(self.watch_pid):
-            log.info("the Snakemake that started this daemon (pid %d) is gone; ending",
-                     self.watch_pid)
+            log.info(
+                "the Snakemake that started this daemon (pid %d) is gone; ending", self.watch_pid
+            )
             raise DemcalError(
                 f"the Snakemake that started this daemon (pid {self.watch_pid}) has ended, so "
                 f"the daemon ends too; {len(self.children)} running evaluations go on and are "
-                f"collected when the same command runs again")
-
+                f"collected when the same command runs again"
+            )

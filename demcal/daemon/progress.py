@@ -43,8 +43,10 @@ class Progress:
     def status(self) -> str:
         """Everything but the study and the count of finished evaluations."""
         eta = "" if self.to_budget_s is None else f", ~{clock(self.to_budget_s)} to budget"
-        return (f"{self.running} running, {self.failed} failed, {self.stopped} stopped early | "
-                f"{clock(self.elapsed_s)} elapsed{eta} | {self.best}")
+        return (
+            f"{self.running} running, {self.failed} failed, {self.stopped} stopped early | "
+            f"{clock(self.elapsed_s)} elapsed{eta} | {self.best}"
+        )
 
     def line(self) -> str:
         return f"[demcal {self.study}] {self.finished}/{self.budget} done, {self.status()}"
@@ -53,8 +55,9 @@ class Progress:
 class ProgressDisplay:
     """Shows each ``Progress`` it is called with; ``close()`` ends the bar's line."""
 
-    def __init__(self, stream: TextIO = sys.stderr, log: TextIO | None = None,
-                 every_s: float = PLAIN_EVERY_S):
+    def __init__(
+        self, stream: TextIO = sys.stderr, log: TextIO | None = None, every_s: float = PLAIN_EVERY_S
+    ):
         self.stream, self.log, self.every_s = stream, log, every_s
         self.interactive = stream.isatty()
         self.bar: tqdm | None = None
@@ -77,10 +80,17 @@ class ProgressDisplay:
         # read every time (follows a resize); shutil's fallback covers a terminal of size 0
         width, height = shutil.get_terminal_size()
         if self.bar is None:
-            self.bar = tqdm(total=progress.budget, initial=progress.finished, file=self.stream,
-                            ncols=width - 1, nrows=height, postfix=progress.status(),
-                            desc=f"[demcal {progress.study}]", leave=True,
-                            bar_format="{desc} {bar:12} {n_fmt}/{total_fmt} done{postfix}")
+            self.bar = tqdm(
+                total=progress.budget,
+                initial=progress.finished,
+                file=self.stream,
+                ncols=width - 1,
+                nrows=height,
+                postfix=progress.status(),
+                desc=f"[demcal {progress.study}]",
+                leave=True,
+                bar_format="{desc} {bar:12} {n_fmt}/{total_fmt} done{postfix}",
+            )
         self.bar.ncols = width - 1
         self.bar.total = max(progress.budget, progress.finished)
         self.bar.n = progress.finished

@@ -17,7 +17,11 @@ CSV_DIGITS = 7
 
 
 def _number(value) -> str:
-    return f"{value:.{CSV_DIGITS}g}" if isinstance(value, float) else ("" if value is None else str(value))
+    return (
+        f"{value:.{CSV_DIGITS}g}"
+        if isinstance(value, float)
+        else ("" if value is None else str(value))
+    )
 
 
 def _iso(epoch) -> str:
@@ -34,11 +38,19 @@ def evaluation_columns(study: Study) -> list[tuple[str, str, str]]:
         ("evaluation", "", "evaluation id (results/<study>/evals/<id>/)"),
         ("status", "", "ok, failed, terminated (stopped early) or running"),
         ("reason", "", "why it failed or was stopped"),
-        ("objective", "-", f"objective ({study.objective_form} form) of the replicate-mean responses"),
+        (
+            "objective",
+            "-",
+            f"objective ({study.objective_form} form) of the replicate-mean responses",
+        ),
         ("attempts", "", "runs of this point (retries after failures)"),
         *[(p.name, p.spec.unit, "free parameter") for p in study.free],
         *[(t.key, units[t.key], "replicate mean") for t in study.targets],
-        *[(f"{t.key}.rep{r}", units[t.key], f"replicate {r}") for t in study.targets for r in range(study.replicates)],
+        *[
+            (f"{t.key}.rep{r}", units[t.key], f"replicate {r}")
+            for t in study.targets
+            for r in range(study.replicates)
+        ],
         ("started_at", "UTC", "launch time (ISO 8601)"),
         ("ended_at", "UTC", "time the objective was written (ISO 8601)"),
         ("wall_s", "s", "wall-clock time from launch to objective"),
@@ -66,15 +78,24 @@ def write_evaluations_csv(study: Study) -> None:
         except (SimulationFailed, OSError):
             record, ended = {"status": Status.RUNNING}, ""
         started = read_launch(files).get("started_at", "")
-        row = {"evaluation": files.id, "status": record.get("status"),
-               "reason": record.get("reason", ""), "objective": record.get("objective"),
-               "attempts": point.attempt + 1, **point.parameters,
-               **record.get("responses", {}),
-               **{f"{key}.rep{i}": value for key, values in record.get("replicates", {}).items()
-                  for i, value in enumerate(values)},
-               "started_at": _iso(started), "ended_at": _iso(ended),
-               "wall_s": float(ended) - float(started) if ended != "" and started != "" else None,
-               "cpu_s": (record.get("cost") or {}).get("cpu_s")}
+        row = {
+            "evaluation": files.id,
+            "status": record.get("status"),
+            "reason": record.get("reason", ""),
+            "objective": record.get("objective"),
+            "attempts": point.attempt + 1,
+            **point.parameters,
+            **record.get("responses", {}),
+            **{
+                f"{key}.rep{i}": value
+                for key, values in record.get("replicates", {}).items()
+                for i, value in enumerate(values)
+            },
+            "started_at": _iso(started),
+            "ended_at": _iso(ended),
+            "wall_s": float(ended) - float(started) if ended != "" and started != "" else None,
+            "cpu_s": (record.get("cost") or {}).get("cpu_s"),
+        }
         writer.writerow({key: _number(value) for key, value in row.items()})
     atomic_write_text(study.files.evaluations_csv, buffer.getvalue())
     sidecar = io.StringIO()
@@ -82,27 +103,48 @@ def write_evaluations_csv(study: Study) -> None:
     atomic_write_text(study.files.evaluations_columns, sidecar.getvalue())
 
 
-def write_best(study: Study, best: dict, confirmation: dict | None = None, stop_reason: str | None = None) -> None:
+def write_best(
+    study: Study, best: dict, confirmation: dict | None = None, stop_reason: str | None = None
+) -> None:
     """best.json from the optimizer's best point (``Optimizer.best()``) and its records, with the
     re-simulations that confirm it (``Optimizer.confirmation()``) where there are any, the units
     of every parameter and response, and why the calibration ended (None while it runs)."""
     files = study.files.evaluation(evaluation_id(best["id"]))
     record = read_objective(files)
-    write_json(study.files.best, {
-        "evaluation": files.id, "stop_reason": stop_reason,
-        "parameters": dict(zip([p.name for p in study.free], best["x"])),
-        "units": {**{p.name: p.spec.unit for p in study.free},
-                  **{t.key: study.scenes[t.scene].responses[t.response].unit for t in study.targets}},
-        "objective": best["value"], "predicted_objective": best["predicted"],
-        "chosen_by": best["chosen_by"],
-        "responses": record.get("responses", {}), "targets": record.get("targets", {}),
-        "relative_errors": record.get("relative_errors", {}),
-        "predicted_responses": {key: {"mean": mean, "sd": sd}
-                                for key, (mean, sd) in best.get("responses", {}).items()},
-        "target_spreads": {t.key: t.spread for t in study.targets},
-        "on_bounds": {study.free[i].name: side for i, side in best["on_bounds"]},
-        **({} if confirmation is None else {"confirmation": {
-            "of": evaluation_id(confirmation["confirms"]),
-            "evaluations": [evaluation_id(i) for i in confirmation["ids"]],
-            "pending": confirmation["pending"], "failed": confirmation["failed"],
-            "responses": confirmation["responses"]}})})
+    write_json(
+        study.files.best,
+        {
+            "evaluation": files.id,
+            "stop_reason": stop_reason,
+            "parameters": dict(zip([p.name for p in study.free], best["x"])),
+            "units": {
+                **{p.name: p.spec.unit for p in study.free},
+                **{t.key: study.scenes[t.scene].responses[t.response].unit for t in study.targets},
+            },
+            "objective": best["value"],
+            "predicted_objective": best["predicted"],
+            "chosen_by": best["chosen_by"],
+            "responses": record.get("responses", {}),
+            "targets": record.get("targets", {}),
+            "relative_errors": record.get("relative_errors", {}),
+            "predicted_responses": {
+                key: {"mean": mean, "sd": sd}
+                for key, (mean, sd) in best.get("responses", {}).items()
+            },
+            "target_spreads": {t.key: t.spread for t in study.targets},
+            "on_bounds": {study.free[i].name: side for i, side in best["on_bounds"]},
+            **(
+                {}
+                if confirmation is None
+                else {
+                    "confirmation": {
+                        "of": evaluation_id(confirmation["confirms"]),
+                        "evaluations": [evaluation_id(i) for i in confirmation["ids"]],
+                        "pending": confirmation["pending"],
+                        "failed": confirmation["failed"],
+                        "responses": confirmation["responses"],
+                    }
+                }
+            ),
+        },
+    )

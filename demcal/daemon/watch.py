@@ -42,8 +42,9 @@ def _reports(path: Path) -> LatestReports:
     return LatestReports(path)
 
 
-def _latest(files: EvaluationFiles, scenes: list[str], replicates: int
-            ) -> dict[str, list[tuple[float, bool]]]:
+def _latest(
+    files: EvaluationFiles, scenes: list[str], replicates: int
+) -> dict[str, list[tuple[float, bool]]]:
     """Per ``scene.response``: (value, final) of the latest report of each replicate that has one."""
     reports: dict[str, list[tuple[float, bool]]] = {}
     for scene in scenes:
@@ -55,32 +56,43 @@ def _latest(files: EvaluationFiles, scenes: list[str], replicates: int
     return reports
 
 
-def latest_estimates(files: EvaluationFiles, scenes: list[str], replicates: int
-                     ) -> dict[str, list[float]]:
+def latest_estimates(
+    files: EvaluationFiles, scenes: list[str], replicates: int
+) -> dict[str, list[float]]:
     """Per ``scene.response``: the latest early estimate of each replicate that has one."""
-    return {key: [value for value, _ in reports]
-            for key, reports in _latest(files, scenes, replicates).items()}
+    return {
+        key: [value for value, _ in reports]
+        for key, reports in _latest(files, scenes, replicates).items()
+    }
 
 
-def partial_responses(files: EvaluationFiles, scenes: list[str], replicates: int
-                      ) -> dict[str, dict]:
+def partial_responses(
+    files: EvaluationFiles, scenes: list[str], replicates: int
+) -> dict[str, dict]:
     """What a stopped evaluation learnt, per response: its values and whether they were final."""
-    return {key: {"values": [value for value, _ in reports],
-                  "final": all(final for _, final in reports)}
-            for key, reports in _latest(files, scenes, replicates).items()}
+    return {
+        key: {
+            "values": [value for value, _ in reports],
+            "final": all(final for _, final in reports),
+        }
+        for key, reports in _latest(files, scenes, replicates).items()
+    }
 
 
-def early_termination_decisions(estimates: dict[str, float | None],
-                                 decide: Callable[[str, float], EarlyTerminationDecision]
-                                 ) -> dict[str, EarlyTerminationDecision]:
+def early_termination_decisions(
+    estimates: dict[str, float | None], decide: Callable[[str, float], EarlyTerminationDecision]
+) -> dict[str, EarlyTerminationDecision]:
     """The rule's decision for every watched evaluation that has an objective estimate.
 
     ``estimates`` maps each watched evaluation to its objective estimate
     (None: nothing estimated yet); ``decide(evaluation, estimate)`` is the
     optimizer's early-termination rule.
     """
-    return {evaluation: decide(evaluation, estimate)
-            for evaluation, estimate in estimates.items() if estimate is not None}
+    return {
+        evaluation: decide(evaluation, estimate)
+        for evaluation, estimate in estimates.items()
+        if estimate is not None
+    }
 
 
 #: Columns of early_termination.csv: one row each time a running evaluation's estimate changes.

@@ -25,9 +25,9 @@ from demcal.engines.command import CommandEngine
 from demcal.engines.lammps import LammpsEngine
 from demcal.engines.liggghts import LiggghtsEngine
 
-ENGINES: dict[str, type[Engine]] = {cls.name: cls for cls in
-                                     (LammpsEngine, AnalyticEngine, CommandEngine,
-                                      LiggghtsEngine)}
+ENGINES: dict[str, type[Engine]] = {
+    cls.name: cls for cls in (LammpsEngine, AnalyticEngine, CommandEngine, LiggghtsEngine)
+}
 
 
 def make_engine(name: str, settings: dict) -> Engine:

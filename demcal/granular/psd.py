@@ -13,8 +13,9 @@ def diameter_range(d50: float, sigma_ln: float, truncation: float) -> tuple[floa
     return d50 / spread, d50 * spread
 
 
-def truncated_standard_normal(count: int, truncation: float,
-                              rng: np.random.Generator) -> np.ndarray:
+def truncated_standard_normal(
+    count: int, truncation: float, rng: np.random.Generator
+) -> np.ndarray:
     """``count`` draws of N(0, 1) restricted to [-truncation, truncation] (rejection sampling)."""
     out = np.empty(0)
     while len(out) < count:
@@ -23,8 +24,9 @@ def truncated_standard_normal(count: int, truncation: float,
     return out[:count]
 
 
-def sample_diameters(count: int, d50: float, sigma_ln: float, truncation: float,
-                     rng: np.random.Generator) -> np.ndarray:
+def sample_diameters(
+    count: int, d50: float, sigma_ln: float, truncation: float, rng: np.random.Generator
+) -> np.ndarray:
     """``count`` diameters [m] with ln(d) ~ N(ln d50, sigma_ln^2) cut at +-truncation sigma.
 
     sigma_ln = 0 gives a monodisperse packing of d50. The distribution is by

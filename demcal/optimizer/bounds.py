@@ -23,7 +23,9 @@ class Bounds:
             )
         for index, (low, high) in enumerate(zip(self.lower, self.upper)):
             if not (math.isfinite(low) and math.isfinite(high) and low < high):
-                raise ValueError(f"bounds[{index}]: need finite lower < upper, got {low!r}, {high!r}")
+                raise ValueError(
+                    f"bounds[{index}]: need finite lower < upper, got {low!r}, {high!r}"
+                )
 
     @classmethod
     def of(cls, lower, upper) -> Bounds:
@@ -40,13 +42,16 @@ class Bounds:
             raise ValueError(f"point has {x.shape[1]} values, expected {self.dimension}")
         low, high = np.array(self.lower), np.array(self.upper)
         if np.any(x < low) or np.any(x > high) or not np.all(np.isfinite(x)):
-            raise ValueError(f"point {x.tolist()} is outside the bounds {list(self.lower)} .. {list(self.upper)}")
+            raise ValueError(
+                f"point {x.tolist()} is outside the bounds {list(self.lower)} .. {list(self.upper)}"
+            )
         return (x - low) / (high - low)
 
     def from_unit(self, u) -> np.ndarray:
         """Map unit-box points (rows) back to real units."""
         low, high = np.array(self.lower), np.array(self.upper)
         return low + np.atleast_2d(np.asarray(u, float)) * (high - low)
+
 
 #: Share of a parameter's range within which a point counts as lying on that bound.
 ON_BOUND_SHARE = 0.01
@@ -57,6 +62,8 @@ def on_bounds(unit_point) -> list[tuple[int, str]]:
 
     A best point on a bound often means the bounds cut the solution off.
     """
-    return [(i, "lower" if u <= ON_BOUND_SHARE else "upper") for i, u in enumerate(unit_point)
-            if u <= ON_BOUND_SHARE or u >= 1.0 - ON_BOUND_SHARE]
-
+    return [
+        (i, "lower" if u <= ON_BOUND_SHARE else "upper")
+        for i, u in enumerate(unit_point)
+        if u <= ON_BOUND_SHARE or u >= 1.0 - ON_BOUND_SHARE
+    ]

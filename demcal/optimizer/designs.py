@@ -67,7 +67,9 @@ def minimum_pairwise_distance(points: np.ndarray) -> float:
     return float(pdist(points).min())
 
 
-def maximin_design(generate, size: int, dimension: int, rng: np.random.Generator, tries: int) -> np.ndarray:
+def maximin_design(
+    generate, size: int, dimension: int, rng: np.random.Generator, tries: int
+) -> np.ndarray:
     """Best of ``tries`` random designs by the maximin criterion."""
     best, best_distance = None, -np.inf
     for _ in range(tries):
@@ -101,10 +103,14 @@ def initial_design(
     Latin hypercubes are chosen by maximin; Sobol sequences are used as drawn.
     """
     generate = DESIGNS[kind]
-    include = np.empty((0, dimension)) if include is None else np.atleast_2d(np.asarray(include, float))
+    include = (
+        np.empty((0, dimension)) if include is None else np.atleast_2d(np.asarray(include, float))
+    )
     generated_size = max(size, 1)
-    design = generate(generated_size, dimension, rng) if kind == "sobol" else maximin_design(
-        generate, generated_size, dimension, rng, tries
+    design = (
+        generate(generated_size, dimension, rng)
+        if kind == "sobol"
+        else maximin_design(generate, generated_size, dimension, rng, tries)
     )
     keep = np.ones(len(design), dtype=bool)
     for point in include:

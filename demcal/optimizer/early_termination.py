@@ -67,8 +67,14 @@ def early_termination_decision(
     limit = factor * best_value
     if partial_estimate > limit:
         return EarlyTerminationDecision(
-            True, factor, f"partial estimate {partial_estimate:g} > {factor:g} x best {best_value:g}",
-            limit)
+            True,
+            factor,
+            f"partial estimate {partial_estimate:g} > {factor:g} x best {best_value:g}",
+            limit,
+        )
     return EarlyTerminationDecision(
-        False, factor, f"partial estimate {partial_estimate:g} <= {factor:g} x best {best_value:g}",
-        limit)
+        False,
+        factor,
+        f"partial estimate {partial_estimate:g} <= {factor:g} x best {best_value:g}",
+        limit,
+    )

@@ -55,8 +55,7 @@ class Proposal:
     in_initial_design: bool
 
 
-def _outcome(id: int, value: float | None, status: str,
-             replicates: list[float] | None) -> dict:
+def _outcome(id: int, value: float | None, status: str, replicates: list[float] | None) -> dict:
     """The record fields of a told outcome (see :meth:`Optimizer.tell`)."""
     if status not in STATUSES:
         raise ValueError(f"status: {status!r} is not one of {', '.join(STATUSES)}")
@@ -73,8 +72,12 @@ def _outcome(id: int, value: float | None, status: str,
         value = float(value)
         if not math.isfinite(value) or (variance is not None and not math.isfinite(variance)):
             status, value, variance = Status.FAILED, None, None
-    return {"status": status, "value": value if status == Status.OK else None,
-            "variance": variance, "replicates": replicates}
+    return {
+        "status": status,
+        "value": value if status == Status.OK else None,
+        "variance": variance,
+        "replicates": replicates,
+    }
 
 
 class Optimizer:
@@ -91,7 +94,11 @@ class Optimizer:
         objective: ResponseObjective | None = None,
     ):
         self.bounds = Bounds.of(lower, upper)
-        self.settings = settings if isinstance(settings, OptimizerSettings) else OptimizerSettings.from_dict(settings)
+        self.settings = (
+            settings
+            if isinstance(settings, OptimizerSettings)
+            else OptimizerSettings.from_dict(settings)
+        )
         if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
             raise ValueError(f"workers: {workers!r} must be a positive integer")
         self.seed = int(seed)
@@ -100,10 +107,16 @@ class Optimizer:
         dimension = self.bounds.dimension
         per_parameter = STRATEGIES[self.settings.strategy].samples_per_parameter
         self.initial_size = self.settings.initial_size or (
-            per_parameter * dimension if per_parameter else default_initial_size(dimension, workers))
+            per_parameter * dimension if per_parameter else default_initial_size(dimension, workers)
+        )
         include = None if not initial_points else self.bounds.to_unit(initial_points)
         design = initial_design(
-            self.settings.initial_design, self.initial_size, dimension, self.rng, self.settings.design_tries, include
+            self.settings.initial_design,
+            self.initial_size,
+            dimension,
+            self.rng,
+            self.settings.design_tries,
+            include,
         )
         self.initial_size = len(design)
         self.design_queue: list[list[float]] = design.tolist()
@@ -123,12 +136,16 @@ class Optimizer:
 
     def _check_objective(self) -> None:
         if self.objective is None and self.settings.strategy in RESPONSE_STRATEGIES:
-            raise ValueError(f"optimizer.strategy: {self.settings.strategy} works on the responses and "
-                             f"needs the targets; give the Optimizer an objective")
+            raise ValueError(
+                f"optimizer.strategy: {self.settings.strategy} works on the responses and "
+                f"needs the targets; give the Optimizer an objective"
+            )
 
     def _new_response_models(self) -> ResponseModels:
         s = self.settings
-        return ResponseModels(s.response_model, s.duplicate_tolerance, s.kriging_restarts, self.seed)
+        return ResponseModels(
+            s.response_model, s.duplicate_tolerance, s.kriging_restarts, self.seed
+        )
 
     # ------------------------------------------------------------------ ask
     def ask(self, n: int = 1) -> list[Proposal]:
@@ -185,9 +202,13 @@ class Optimizer:
             ids=tuple(r["id"] for r in records),
             points=np.array([r["x"] for r in records], float).reshape(len(records), dimension),
             statuses=tuple(r["status"] for r in records),
-            values=np.array([r["value"] if r["status"] == Status.OK else np.nan for r in records], float),
-            variances=np.array([(r["variance"] or 0.0) if r["status"] == Status.OK else np.nan for r in records],
-                               float),
+            values=np.array(
+                [r["value"] if r["status"] == Status.OK else np.nan for r in records], float
+            ),
+            variances=np.array(
+                [(r["variance"] or 0.0) if r["status"] == Status.OK else np.nan for r in records],
+                float,
+            ),
             in_initial_design=np.array([r["in_initial_design"] for r in records], bool),
             surrogate=self._fitted_surrogate(),
             sigma=self.step.sigma,
@@ -195,10 +216,19 @@ class Optimizer:
             weights=weights,
             settings=self.settings,
             initial_size=self.initial_size,
-            responses=self.response_predictor() if self.settings.strategy in RESPONSE_STRATEGIES else None,
+            responses=self.response_predictor()
+            if self.settings.strategy in RESPONSE_STRATEGIES
+            else None,
             response_means=tuple(
-                {key: float(np.mean(entry["values"])) for key, entry in r["responses"].items() if entry["final"]}
-                if r["status"] == Status.OK and r.get("responses") else None for r in records),
+                {
+                    key: float(np.mean(entry["values"]))
+                    for key, entry in r["responses"].items()
+                    if entry["final"]
+                }
+                if r["status"] == Status.OK and r.get("responses")
+                else None
+                for r in records
+            ),
             strategy_state=self.strategy_state,
         )
 
@@ -229,14 +259,23 @@ class Optimizer:
         record = self._record(id)
         if record["status"] != Status.PENDING:
             raise ValueError(f"evaluation {id} was already told ({record['status']})")
-        if status == Status.OK and responses and value is None and replicates is None and self.objective is not None:
+        if (
+            status == Status.OK
+            and responses
+            and value is None
+            and replicates is None
+            and self.objective is not None
+        ):
             value, replicates = self._objective_of(responses)
         record.update(_outcome(id, value, status, replicates))
-        observed = partial if status == Status.TERMINATED else (responses if status == Status.OK else None)
+        observed = (
+            partial if status == Status.TERMINATED else (responses if status == Status.OK else None)
+        )
         if observed:
             record["responses"] = {
                 key: {"values": [float(v) for v in entry["values"]], "final": bool(entry["final"])}
-                if isinstance(entry, dict) else {"values": [float(v) for v in entry], "final": True}
+                if isinstance(entry, dict)
+                else {"values": [float(v) for v in entry], "final": True}
                 for key, entry in observed.items()
             }
         self._update_progress(record)
@@ -245,7 +284,9 @@ class Optimizer:
         """The objective of replicate-mean responses, and per replicate when the counts agree."""
         objective = self.objective
         value = float(objective({key: float(np.mean(responses[key])) for key in objective.keys}))
-        return value, replicate_objectives(objective.targets, responses, 0.0, objective.form) or None
+        return value, replicate_objectives(
+            objective.targets, responses, 0.0, objective.form
+        ) or None
 
     def reopen(self, id: int) -> None:
         """Make a told evaluation pending again, to be rerun and told anew (rerun on request).
@@ -284,11 +325,17 @@ class Optimizer:
         if not record["in_initial_design"]:
             s = self.settings
             self.step.record(
-                improved, s.sigma_min, s.sigma_max, s.success_tolerance, s.failures_to_halve(self.bounds.dimension)
+                improved,
+                s.sigma_min,
+                s.sigma_max,
+                s.success_tolerance,
+                s.failures_to_halve(self.bounds.dimension),
             )
         if status == Status.OK and (self.best_observed is None or value < self.best_observed):
             self.best_observed = value
-        self.evaluations_without_improvement = 0 if improved else self.evaluations_without_improvement + 1
+        self.evaluations_without_improvement = (
+            0 if improved else self.evaluations_without_improvement + 1
+        )
 
     # ------------------------------------------------------------ queries
     def completed_evaluations(self) -> int:
@@ -333,7 +380,10 @@ class Optimizer:
         else:
             surrogate = self._fitted_surrogate()
             predicted = observed if surrogate is None else surrogate.predict(points)
-            index, chosen_by = int(np.argmin(np.maximum(observed, predicted))), "objective surrogate"
+            index, chosen_by = (
+                int(np.argmin(np.maximum(observed, predicted))),
+                "objective surrogate",
+            )
         confirmed = next((r["confirms"] for r in self.records if "confirms" in r), None)
         if confirmed is not None:  # the answer stays the point that was chosen and then confirmed
             index = next((i for i, r in enumerate(finished) if r["id"] == confirmed), index)
@@ -351,7 +401,9 @@ class Optimizer:
             best["responses"] = {key: (float(means[key][0]), float(stds[key][0])) for key in means}
         return best
 
-    def response_predictor(self, objective: ResponseObjective | None = None) -> ResponsePredictor | None:
+    def response_predictor(
+        self, objective: ResponseObjective | None = None
+    ) -> ResponsePredictor | None:
         """The models of the targeted responses with ``objective`` (default: the optimizer's) on top.
 
         Inputs in the unit box. None without an objective or while some
@@ -392,7 +444,9 @@ class Optimizer:
             partial_estimate,
             progress,
             in_initial_design=record["in_initial_design"],
-            enabled=et.enabled and STRATEGIES[self.settings.strategy].stops_early and "confirms" not in record,
+            enabled=et.enabled
+            and STRATEGIES[self.settings.strategy].stops_early
+            and "confirms" not in record,
             thresholds=et.thresholds,
             progress_boundaries=et.progress_boundaries,
         )
@@ -416,7 +470,8 @@ class Optimizer:
             return best["predicted"]
         predicted, _ = self.response_predictor().predict(np.array([r["x"] for r in finished]))
         residuals = {
-            key: np.array([np.mean(r["responses"][key]["values"]) for r in finished]) - predicted[key]
+            key: np.array([np.mean(r["responses"][key]["values"]) for r in finished])
+            - predicted[key]
             + target.value
             for key, target in zip(self.objective.keys, self.objective.targets)
         }
@@ -449,14 +504,25 @@ class Optimizer:
             return None
         finished = [r for r in runs if r["status"] == Status.OK and r.get("responses")]
         responses = {}
-        for key in (self.objective.keys if self.objective else []):
-            means = [float(np.mean(r["responses"][key]["values"])) for r in finished if key in r["responses"]]
+        for key in self.objective.keys if self.objective else []:
+            means = [
+                float(np.mean(r["responses"][key]["values"]))
+                for r in finished
+                if key in r["responses"]
+            ]
             if means:
-                responses[key] = {"mean": float(np.mean(means)), "sd": float(np.std(means, ddof=1)) if
-                                  len(means) > 1 else 0.0, "count": len(means)}
-        return {"confirms": runs[0]["confirms"], "ids": [r["id"] for r in runs],
-                "pending": sum(r["status"] == Status.PENDING for r in runs),
-                "failed": sum(r["status"] in (Status.FAILED, Status.TERMINATED) for r in runs), "responses": responses}
+                responses[key] = {
+                    "mean": float(np.mean(means)),
+                    "sd": float(np.std(means, ddof=1)) if len(means) > 1 else 0.0,
+                    "count": len(means),
+                }
+        return {
+            "confirms": runs[0]["confirms"],
+            "ids": [r["id"] for r in runs],
+            "pending": sum(r["status"] == Status.PENDING for r in runs),
+            "failed": sum(r["status"] in (Status.FAILED, Status.TERMINATED) for r in runs),
+            "responses": responses,
+        }
 
     def _record(self, id: int) -> dict:
         for record in self.records:
@@ -474,10 +540,14 @@ class Optimizer:
         finished = [r for r in self.records if r["status"] == Status.OK]
         if len(finished) < self.bounds.dimension + 2:
             return None
-        data = [(r["x"], r["value"], r["variance"] or 0.0) for r in finished] + self._stopped_values()
+        data = [
+            (r["x"], r["value"], r["variance"] or 0.0) for r in finished
+        ] + self._stopped_values()
         if self._surrogate_version != len(data):
             s = self.settings
-            surrogate = make_surrogate(s.surrogate_name, s.duplicate_tolerance, s.kriging_restarts, self.seed)
+            surrogate = make_surrogate(
+                s.surrogate_name, s.duplicate_tolerance, s.kriging_restarts, self.seed
+            )
             x, y, variance = (np.array(column) for column in zip(*data))
             self._surrogate = surrogate.fit(x, y, variance)
             self._surrogate_version = len(data)
@@ -488,10 +558,23 @@ class Optimizer:
         if self.objective is None:
             return []
         keys = self.objective.keys
-        complete = [r for r in self.records if r["status"] == Status.TERMINATED and r.get("responses")
-                    and all(key in r["responses"] and r["responses"][key]["final"] for key in keys)]
-        return [(r["x"], float(self.objective({key: np.mean(r["responses"][key]["values"]) for key in keys})), 0.0)
-                for r in complete]
+        complete = [
+            r
+            for r in self.records
+            if r["status"] == Status.TERMINATED
+            and r.get("responses")
+            and all(key in r["responses"] and r["responses"][key]["final"] for key in keys)
+        ]
+        return [
+            (
+                r["x"],
+                float(
+                    self.objective({key: np.mean(r["responses"][key]["values"]) for key in keys})
+                ),
+                0.0,
+            )
+            for r in complete
+        ]
 
     # -------------------------------------------------------------- state
     def to_json(self) -> str:
@@ -528,7 +611,9 @@ class Optimizer:
     def from_json(cls, text: str) -> Optimizer:
         state = json.loads(text)
         if state.get("version") != STATE_VERSION:
-            raise ValueError(f"optimizer state version {state.get('version')!r} is not {STATE_VERSION}")
+            raise ValueError(
+                f"optimizer state version {state.get('version')!r} is not {STATE_VERSION}"
+            )
         optimizer = cls.__new__(cls)
         optimizer.bounds = Bounds.of(state["lower"], state["upper"])
         optimizer.settings = OptimizerSettings.from_dict(state["settings"])
@@ -547,6 +632,8 @@ class Optimizer:
         optimizer._surrogate = None
         optimizer._surrogate_version = -1
         optimizer.strategy_state = state.get("strategy_state", {})
-        optimizer.objective = ResponseObjective.from_dict(state["objective"]) if "objective" in state else None
+        optimizer.objective = (
+            ResponseObjective.from_dict(state["objective"]) if "objective" in state else None
+        )
         optimizer._response_models = optimizer._new_response_models()
         return optimizer

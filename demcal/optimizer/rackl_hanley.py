@@ -59,8 +59,9 @@ def metamodel_minimum(predictor: ResponsePredictor, dimension: int) -> np.ndarra
 
     def residuals(u: np.ndarray) -> np.ndarray:
         means, _ = predictor.predict(u[None, :])
-        return weighted_residuals(objective.targets, {key: value[0] for key, value in means.items()},
-                                  objective.form)
+        return weighted_residuals(
+            objective.targets, {key: value[0] for key, value in means.items()}, objective.form
+        )
 
     return least_squares(residuals, np.full(dimension, 0.5), bounds=(0.0, 1.0), method="trf").x
 
@@ -75,10 +76,16 @@ def stencil(point: np.ndarray) -> list[np.ndarray]:
     return steps
 
 
-def jacobian(point: np.ndarray, residual: np.ndarray, steps: list[np.ndarray],
-             step_residuals: list[np.ndarray]) -> np.ndarray:
+def jacobian(
+    point: np.ndarray,
+    residual: np.ndarray,
+    steps: list[np.ndarray],
+    step_residuals: list[np.ndarray],
+) -> np.ndarray:
     """Finite-difference Jacobian (responses x parameters) from the stencil's residuals."""
-    columns = [(r - residual) / (s - point)[j] for j, (s, r) in enumerate(zip(steps, step_residuals))]
+    columns = [
+        (r - residual) / (s - point)[j] for j, (s, r) in enumerate(zip(steps, step_residuals))
+    ]
     return np.column_stack(columns)
 
 
@@ -112,9 +119,14 @@ class RacklHanley(Strategy):
         if "iteration" not in state:  # phase 2, once the sampling is told
             predictor = history.responses
             if predictor is None:
-                return history.space_filling_point() if Status.PENDING not in history.statuses else None
-            state.update(damping=DAMPING_START, iterations=0, dem_runs=0,
-                         sampling_runs=history.handed_out)
+                return (
+                    history.space_filling_point()
+                    if Status.PENDING not in history.statuses
+                    else None
+                )
+            state.update(
+                damping=DAMPING_START, iterations=0, dem_runs=0, sampling_runs=history.handed_out
+            )
             return self._start_iteration(state, metamodel_minimum(predictor, history.dimension))
         return self._next_iteration(history, state)
 
@@ -139,24 +151,35 @@ class RacklHanley(Strategy):
         accepted = state.get("accepted")
         if residual is not None and (accepted is None or residual @ residual < accepted["value"]):
             step_residuals = [self._residual(history, i, objective) for i in indices[1:]]
-            step_residuals = [r if r is not None else self._predicted_residual(history, s)
-                              for r, s in zip(step_residuals, steps)]
+            step_residuals = [
+                r if r is not None else self._predicted_residual(history, s)
+                for r, s in zip(step_residuals, steps)
+            ]
             value = float(residual @ residual)
             previous = None if accepted is None else accepted["value"]
-            state["accepted"] = {"x": trial.tolist(), "value": value, "residual": residual.tolist(),
-                                 "jacobian": jacobian(trial, residual, steps, step_residuals).tolist()}
+            state["accepted"] = {
+                "x": trial.tolist(),
+                "value": value,
+                "residual": residual.tolist(),
+                "jacobian": jacobian(trial, residual, steps, step_residuals).tolist(),
+            }
             state["damping"] = state["damping"] / DAMPING_FACTOR
             state["iterations"] += 1
             if previous is not None and (previous - value) < IMPROVEMENT_TO_CONTINUE * previous:
-                return self._stop(state, f"improvement {100 * (previous - value) / previous:.1f} % < "
-                                         f"{100 * IMPROVEMENT_TO_CONTINUE:.0f} %")
+                return self._stop(
+                    state,
+                    f"improvement {100 * (previous - value) / previous:.1f} % < "
+                    f"{100 * IMPROVEMENT_TO_CONTINUE:.0f} %",
+                )
         else:
             state["damping"] = state["damping"] * DAMPING_FACTOR
             if state["damping"] > DAMPING_MAX or state.get("accepted") is None:
                 return self._stop(state, "no step lowers the objective")
         accepted = state["accepted"]
         point = np.array(accepted["x"])
-        trial = lm_step(point, np.array(accepted["residual"]), np.array(accepted["jacobian"]), state["damping"])
+        trial = lm_step(
+            point, np.array(accepted["residual"]), np.array(accepted["jacobian"]), state["damping"]
+        )
         if np.linalg.norm(trial - point) < SMALLEST_STEP:
             return self._stop(state, "the step is below resolution")
         return self._start_iteration(state, trial)
@@ -173,13 +196,17 @@ class RacklHanley(Strategy):
         """A failed finite-difference point's residuals, as the response models predict them."""
         predictor = history.responses
         means, _ = predictor.predict(point[None, :])
-        return weighted_residuals(predictor.objective.targets, {k: v[0] for k, v in means.items()},
-                                  predictor.objective.form)
+        return weighted_residuals(
+            predictor.objective.targets,
+            {k: v[0] for k, v in means.items()},
+            predictor.objective.form,
+        )
 
     @staticmethod
     def _stop(state: dict, why: str) -> None:
         state["stop_reason"] = (
             f"Rackl & Hanley's Levenberg–Marquardt on the simulations ended ({why}) after "
             f"{state['iterations']} accepted iterations; runs: {state['sampling_runs']} sampling, "
-            f"{state['dem_runs']} Levenberg–Marquardt on the simulations")
+            f"{state['dem_runs']} Levenberg–Marquardt on the simulations"
+        )
         return None

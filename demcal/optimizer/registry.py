@@ -39,15 +39,23 @@ STRATEGIES: dict[str, StrategyEntry] = {
     "dycors": StrategyEntry("demcal.optimizer.search:Dycors", "cubic_rbf"),
     "kriging_ei": StrategyEntry("demcal.optimizer.search:KrigingEI", "kriging", ("kriging",)),
     "response_ei": StrategyEntry("demcal.optimizer.search:ResponseEI", "cubic_rbf"),
-    "rackl_hanley": StrategyEntry("demcal.optimizer.rackl_hanley:RacklHanley", "cubic_rbf",
-                                  samples_per_parameter=3, stops_early=False, step_size=False),
+    "rackl_hanley": StrategyEntry(
+        "demcal.optimizer.rackl_hanley:RacklHanley",
+        "cubic_rbf",
+        samples_per_parameter=3,
+        stops_early=False,
+        step_size=False,
+    ),
 }
 #: Strategies that work on per-response models and so need the targets (the objective).
 RESPONSE_STRATEGIES = ("response_ei", "rackl_hanley")
 
 
 def register_strategy(
-    name: str, strategy: type | str, surrogate: str = "cubic_rbf", surrogates: tuple[str, ...] | None = None
+    name: str,
+    strategy: type | str,
+    surrogate: str = "cubic_rbf",
+    surrogates: tuple[str, ...] | None = None,
 ) -> None:
     """Make ``strategy`` available as ``optimizer.strategy: name`` (see :class:`StrategyEntry`)."""
     if name in STRATEGIES:

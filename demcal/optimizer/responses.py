@@ -23,7 +23,13 @@ import numpy as np
 from demcal.objective import ResponseObjective
 from demcal.records import Status
 
-from .surrogates import CubicRBF, KrigingSurrogate, Surrogate, cubic_rbf_system, leave_one_out_errors
+from .surrogates import (
+    CubicRBF,
+    KrigingSurrogate,
+    Surrogate,
+    cubic_rbf_system,
+    leave_one_out_errors,
+)
 
 #: Standard deviation of an early estimate relative to its value, when a run
 #: stopped before the response was final (the calibration device's mass flow
@@ -31,7 +37,9 @@ from .surrogates import CubicRBF, KrigingSurrogate, Surrogate, cubic_rbf_system,
 ESTIMATE_RELATIVE_SD = 0.05
 
 
-def observations(records: list[dict], key: str, dimension: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def observations(
+    records: list[dict], key: str, dimension: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Training data of one response: points (unit box), means and the variance of each mean.
 
     A final value's variance is that of its replicates' mean (0 with one
@@ -41,7 +49,11 @@ def observations(records: list[dict], key: str, dimension: int) -> tuple[np.ndar
     x, y, variance = [], [], []
     for record in records:
         entry = (record.get("responses") or {}).get(key)
-        if record["status"] not in (Status.OK, Status.TERMINATED) or not entry or not entry["values"]:
+        if (
+            record["status"] not in (Status.OK, Status.TERMINATED)
+            or not entry
+            or not entry["values"]
+        ):
             continue
         values = np.asarray(entry["values"], float)
         mean = float(values.mean())
@@ -54,17 +66,28 @@ def observations(records: list[dict], key: str, dimension: int) -> tuple[np.ndar
         x.append(record["x"])
         y.append(mean)
         variance.append(var)
-    return (np.array(x, float).reshape(len(x), dimension), np.array(y, float), np.array(variance, float))
+    return (
+        np.array(x, float).reshape(len(x), dimension),
+        np.array(y, float),
+        np.array(variance, float),
+    )
 
 
 def final_means(records: list[dict], key: str, dimension: int) -> tuple[np.ndarray, np.ndarray]:
     """Points (unit box) and replicate means of one response where it was simulated to the end."""
-    rows = [(record["x"], float(np.mean(entry["values"]))) for record in records
-            if record["status"] in (Status.OK, Status.TERMINATED)
-            and (entry := (record.get("responses") or {}).get(key)) and entry["values"] and entry["final"]]
+    rows = [
+        (record["x"], float(np.mean(entry["values"])))
+        for record in records
+        if record["status"] in (Status.OK, Status.TERMINATED)
+        and (entry := (record.get("responses") or {}).get(key))
+        and entry["values"]
+        and entry["final"]
+    ]
     rows = [(x, y) for x, y in rows if math.isfinite(y)]
-    return (np.array([x for x, _ in rows], float).reshape(len(rows), dimension),
-            np.array([y for _, y in rows], float))
+    return (
+        np.array([x for x, _ in rows], float).reshape(len(rows), dimension),
+        np.array([y for _, y in rows], float),
+    )
 
 
 class ResponseRBF(CubicRBF):
@@ -99,11 +122,20 @@ class ResponseRBF(CubicRBF):
 FULL_REFIT_EVERY = 8
 
 
-def make_response_model(kind: str, duplicate_tolerance: float, restarts: int, seed: int,
-                        warm_start: tuple[np.ndarray, float] | None = None) -> Surrogate:
+def make_response_model(
+    kind: str,
+    duplicate_tolerance: float,
+    restarts: int,
+    seed: int,
+    warm_start: tuple[np.ndarray, float] | None = None,
+) -> Surrogate:
     if kind == "kriging":
-        return KrigingSurrogate(duplicate_tolerance, restarts=1 if warm_start is not None else restarts,
-                                seed=seed, warm_start=warm_start)
+        return KrigingSurrogate(
+            duplicate_tolerance,
+            restarts=1 if warm_start is not None else restarts,
+            seed=seed,
+            warm_start=warm_start,
+        )
     if kind == "cubic_rbf":
         return ResponseRBF(duplicate_tolerance)
     raise ValueError(f"unknown response model {kind!r}")
@@ -119,7 +151,9 @@ class ResponseModels:
         #: per response: refits since the last full one, and the data size then
         self._since_full: dict[str, tuple[int, int]] = {}
 
-    def fit(self, records: list[dict], keys: list[str], dimension: int) -> dict[str, Surrogate] | None:
+    def fit(
+        self, records: list[dict], keys: list[str], dimension: int
+    ) -> dict[str, Surrogate] | None:
         """The models of ``keys``, or None while some response has fewer than d + 2 points."""
         models = {}
         for key in keys:
@@ -132,8 +166,9 @@ class ResponseModels:
                 refits, size = self._since_full.get(key, (0, 0))
                 due = cached is None or refits + 1 >= FULL_REFIT_EVERY or len(y) > 1.25 * size
                 start = None if due else getattr(cached[1], "warm_start", None)
-                model = make_response_model(self.kind, self.duplicate_tolerance, self.restarts, self.seed,
-                                            warm_start=start)
+                model = make_response_model(
+                    self.kind, self.duplicate_tolerance, self.restarts, self.seed, warm_start=start
+                )
                 self._fitted[key] = (signature, model.fit(x, y, variance))
                 self._since_full[key] = (0, len(y)) if start is None else (refits + 1, size)
             models[key] = self._fitted[key][1]
@@ -159,8 +194,9 @@ class ResponsePredictor:
         means, _ = self.predict(x)
         return np.asarray(self.objective(means), float) * np.ones(len(np.atleast_2d(x)))
 
-    def expected_improvement(self, x: np.ndarray, best: float, rng: np.random.Generator,
-                             samples: int = 128) -> np.ndarray:
+    def expected_improvement(
+        self, x: np.ndarray, best: float, rng: np.random.Generator, samples: int = 128
+    ) -> np.ndarray:
         """Monte Carlo expected improvement of the objective over ``best`` at the rows of ``x``.
 
         Each response is drawn from its model's normal posterior (independent
@@ -169,6 +205,8 @@ class ResponsePredictor:
         """
         means, stds = self.predict(x)
         draws = rng.standard_normal((samples, len(self.models)))
-        sampled = {key: means[key][None, :] + stds[key][None, :] * draws[:, [i]]
-                   for i, key in enumerate(self.models)}
+        sampled = {
+            key: means[key][None, :] + stds[key][None, :] * draws[:, [i]]
+            for i, key in enumerate(self.models)
+        }
         return np.maximum(best - np.asarray(self.objective(sampled), float), 0.0).mean(axis=0)

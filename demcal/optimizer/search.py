@@ -107,7 +107,11 @@ class History:
         """The point farthest from all others, clear of failed points (no surrogate needed)."""
         s = self.settings
         return st.space_filling_point(
-            self.points, self.select(Status.FAILED), s.failed_exclusion_radius, s.candidates, self.rng
+            self.points,
+            self.select(Status.FAILED),
+            s.failed_exclusion_radius,
+            s.candidates,
+            self.rng,
         )
 
 
@@ -140,14 +144,24 @@ class CandidateSearch(Strategy):
         center = finished[int(np.argmin(surrogate.predict(finished)))]
         candidates = self.candidates(history, center)
         if s.polish_candidate:
-            candidates = np.vstack([candidates, st.surrogate_minimum(surrogate, center, 2 * history.sigma)])
+            candidates = np.vstack(
+                [candidates, st.surrogate_minimum(surrogate, center, 2 * history.sigma)]
+            )
         keep = st.admissible(
-            candidates, history.points, s.min_distance, history.select(Status.FAILED), s.failed_exclusion_radius
+            candidates,
+            history.points,
+            s.min_distance,
+            history.select(Status.FAILED),
+            s.failed_exclusion_radius,
         )
         if not keep.any():
             return history.space_filling_point()
-        weight = history.weights.next()  # drawn by every strategy here, used or not: same saved states
-        return self.choose(history, candidates[keep], weight, polished=s.polish_candidate and bool(keep[-1]))
+        weight = (
+            history.weights.next()
+        )  # drawn by every strategy here, used or not: same saved states
+        return self.choose(
+            history, candidates[keep], weight, polished=s.polish_candidate and bool(keep[-1])
+        )
 
     def candidates(self, history: History, center: np.ndarray) -> np.ndarray:
         """DYCORS perturbations of ``center`` (Samuelsson 2023, sec. 3.5.1.2)."""
@@ -155,9 +169,13 @@ class CandidateSearch(Strategy):
         probability = st.perturbation_probability(
             history.dimension, history.evaluated, history.initial_size, s.max_evaluations
         )
-        return st.perturbation_candidates(center, history.sigma, s.candidates, probability, history.rng)
+        return st.perturbation_candidates(
+            center, history.sigma, s.candidates, probability, history.rng
+        )
 
-    def choose(self, history: History, candidates: np.ndarray, weight: float, polished: bool) -> np.ndarray:
+    def choose(
+        self, history: History, candidates: np.ndarray, weight: float, polished: bool
+    ) -> np.ndarray:
         """One of the admissible ``candidates``; the last is the surrogate minimum when ``polished``."""
         raise NotImplementedError
 
@@ -170,13 +188,17 @@ class Dycors(CandidateSearch):
     share of the budget.
     """
 
-    def choose(self, history: History, candidates: np.ndarray, weight: float, polished: bool) -> np.ndarray:
+    def choose(
+        self, history: History, candidates: np.ndarray, weight: float, polished: bool
+    ) -> np.ndarray:
         s = history.settings
         final = history.handed_out >= s.max_evaluations * (1.0 - s.final_exploitation)
         if polished and (weight == max(s.weights) or final):
             return candidates[-1]
         scores = st.weighted_scores(
-            history.surrogate.predict(candidates), st.nearest_distances(candidates, history.points), weight
+            history.surrogate.predict(candidates),
+            st.nearest_distances(candidates, history.points),
+            weight,
         )
         return candidates[int(np.argmin(scores))]
 
@@ -189,7 +211,9 @@ class KrigingEI(CandidateSearch):
         uniform = st.uniform_candidates(history.settings.candidates, history.dimension, history.rng)
         return np.vstack([perturbed, uniform])
 
-    def choose(self, history: History, candidates: np.ndarray, weight: float, polished: bool) -> np.ndarray:
+    def choose(
+        self, history: History, candidates: np.ndarray, weight: float, polished: bool
+    ) -> np.ndarray:
         surrogate = history.surrogate
         observed_best = float(np.min(surrogate.predict(history.select(Status.OK))))
         improvement = st.expected_improvement(
@@ -223,18 +247,30 @@ class ResponseEI(Strategy):
         probability = st.perturbation_probability(
             history.dimension, history.evaluated, history.initial_size, s.max_evaluations
         )
-        candidates = np.vstack([
-            st.perturbation_candidates(center, history.sigma, s.candidates, probability, history.rng),
-            st.uniform_candidates(s.candidates, history.dimension, history.rng),
-        ])
+        candidates = np.vstack(
+            [
+                st.perturbation_candidates(
+                    center, history.sigma, s.candidates, probability, history.rng
+                ),
+                st.uniform_candidates(s.candidates, history.dimension, history.rng),
+            ]
+        )
         keep = st.admissible(
-            candidates, history.points, s.min_distance, history.select(Status.FAILED), s.failed_exclusion_radius
+            candidates,
+            history.points,
+            s.min_distance,
+            history.select(Status.FAILED),
+            s.failed_exclusion_radius,
         )
         if not keep.any():
             return history.space_filling_point()
         candidates = candidates[keep]
-        improvement = predictor.expected_improvement(candidates, float(np.min(predicted)), history.rng)
-        score = improvement * st.pending_damping(candidates, history.select(Status.PENDING), history.sigma)
+        improvement = predictor.expected_improvement(
+            candidates, float(np.min(predicted)), history.rng
+        )
+        score = improvement * st.pending_damping(
+            candidates, history.select(Status.PENDING), history.sigma
+        )
         if not np.any(score > 0.0):  # no improvement expected anywhere: exploit the prediction
             return candidates[int(np.argmin(predictor.objective_mean(candidates)))]
         return candidates[int(np.argmax(score))]

@@ -221,7 +221,9 @@ def _integer(key: str, value: Any, low: int, high: int | None) -> None:
         raise ValueError(f"optimizer.{key}: {value!r} is not an integer")
     if value < low or (high is not None and value > high):
         upper = "" if high is None else f" and at most {high}"
-        raise ValueError(f"optimizer.{key}: {value!r} is out of range; it must be at least {low}{upper}")
+        raise ValueError(
+            f"optimizer.{key}: {value!r} is out of range; it must be at least {low}{upper}"
+        )
 
 
 def _number(

@@ -26,7 +26,10 @@ def stop_reason(
         return f"wall-clock budget reached ({elapsed_seconds:.0f} s of {max_seconds:g} s)"
     if target_objective is not None and best_value is not None and best_value <= target_objective:
         return f"target objective reached ({best_value:g} <= {target_objective:g})"
-    if no_improvement_evaluations is not None and evaluations_without_improvement >= no_improvement_evaluations:
+    if (
+        no_improvement_evaluations is not None
+        and evaluations_without_improvement >= no_improvement_evaluations
+    ):
         return f"no improvement for {evaluations_without_improvement} evaluations"
     if step_collapsed:
         return "trust region collapsed (step size below sigma_min)"

@@ -28,7 +28,9 @@ from scipy.stats import norm
 IMPROVEMENT_TOLERANCE = 1e-3  # relative improvement that counts as a success
 
 
-def perturbation_probability(dimension: int, evaluated: int, initial_size: int, budget: int) -> float:
+def perturbation_probability(
+    dimension: int, evaluated: int, initial_size: int, budget: int
+) -> float:
     """DYCORS probability of perturbing a coordinate (Regis & Shoemaker 2013).
 
     p = min(20/d, 1) * (1 - ln(n - n0 + 1) / ln(N - n0)), floored so that on
@@ -132,7 +134,11 @@ def most_distant(candidates: np.ndarray, distance_set: np.ndarray) -> np.ndarray
 
 
 def space_filling_point(
-    distance_set: np.ndarray, failed: np.ndarray, failed_radius: float, count: int, rng: np.random.Generator
+    distance_set: np.ndarray,
+    failed: np.ndarray,
+    failed_radius: float,
+    count: int,
+    rng: np.random.Generator,
 ) -> np.ndarray:
     """The farthest from the distance set of ``count`` uniform candidates, preferring those clear of failed points."""
     candidates = uniform_candidates(count, distance_set.shape[1], rng)
@@ -175,7 +181,12 @@ class StepSize:
     collapsed: bool = False
 
     def record(
-        self, improved: bool, sigma_min: float, sigma_max: float, success_tolerance: int, failure_tolerance: int
+        self,
+        improved: bool,
+        sigma_min: float,
+        sigma_max: float,
+        success_tolerance: int,
+        failure_tolerance: int,
     ) -> None:
         if improved:
             self.successes += 1

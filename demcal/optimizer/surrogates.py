@@ -113,7 +113,9 @@ class Surrogate:
         self.constant = False
 
     def fit(self, x, y, variance=None) -> Surrogate:
-        self.data = prepare_training_data(x, y, variance, self.duplicate_tolerance, self.caps_large_values)
+        self.data = prepare_training_data(
+            x, y, variance, self.duplicate_tolerance, self.caps_large_values
+        )
         self.constant = bool(np.all(self.data.z == 0.0))
         if not self.constant:
             self._fit_standardised(self.data)
@@ -234,8 +236,13 @@ class KrigingSurrogate(Surrogate):
 
     caps_large_values = False  # capping plus a nugget made the fit mostly trend and noise
 
-    def __init__(self, duplicate_tolerance: float = 1e-7, restarts: int = 5, seed: int = 0,
-                 warm_start: tuple[np.ndarray, float] | None = None):
+    def __init__(
+        self,
+        duplicate_tolerance: float = 1e-7,
+        restarts: int = 5,
+        seed: int = 0,
+        warm_start: tuple[np.ndarray, float] | None = None,
+    ):
         super().__init__(duplicate_tolerance)
         self.restarts = restarts
         self.seed = seed
@@ -251,12 +258,21 @@ class KrigingSurrogate(Surrogate):
             corr="matern52",
             poly=trend,
             eval_noise=True,
-            noise0=[max(float(np.mean(data.noise)) if self.start is None else self.start[1], NUGGET_START_MIN)],
+            noise0=[
+                max(
+                    float(np.mean(data.noise)) if self.start is None else self.start[1],
+                    NUGGET_START_MIN,
+                )
+            ],
             hyper_opt="Cobyla",
             n_start=self.restarts,
             seed=self.seed,
             print_global=False,
-            **({} if self.start is None or len(self.start[0]) != d else {"theta0": list(self.start[0])}),
+            **(
+                {}
+                if self.start is None or len(self.start[0]) != d
+                else {"theta0": list(self.start[0])}
+            ),
         )
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -311,12 +327,15 @@ class SMTRadialBasis(Surrogate):
 #: The scalar surrogates by their settings name: (duplicate_tolerance, restarts, seed) -> model.
 SURROGATE_MODELS = {
     "cubic_rbf": lambda tolerance, restarts, seed: CubicRBF(tolerance),
-    "kriging": lambda tolerance, restarts, seed: KrigingSurrogate(tolerance, restarts=restarts,
-                                                                  seed=seed),
+    "kriging": lambda tolerance, restarts, seed: KrigingSurrogate(
+        tolerance, restarts=restarts, seed=seed
+    ),
     "smt_rbf": lambda tolerance, restarts, seed: SMTRadialBasis(tolerance),
 }
 
 
-def make_surrogate(name: str, duplicate_tolerance: float, restarts: int = 5, seed: int = 0) -> Surrogate:
+def make_surrogate(
+    name: str, duplicate_tolerance: float, restarts: int = 5, seed: int = 0
+) -> Surrogate:
     """The surrogate named in the settings (a key of ``SURROGATE_MODELS``)."""
     return SURROGATE_MODELS[name](duplicate_tolerance, restarts, seed)

@@ -14,6 +14,13 @@ from demcal.scenes.calibration_device import SCENE as CALIBRATION_DEVICE
 from demcal.scenes.cylinder_lift import SCENE as CYLINDER_LIFT
 from demcal.scenes.shear_box import SCENE as SHEAR_BOX
 
-SCENES: dict[str, Scene] = {scene.name: scene for scene in (CYLINDER_LIFT, CALIBRATION_DEVICE, SHEAR_BOX,)}
+SCENES: dict[str, Scene] = {
+    scene.name: scene
+    for scene in (
+        CYLINDER_LIFT,
+        CALIBRATION_DEVICE,
+        SHEAR_BOX,
+    )
+}
 
 __all__ = ["SCENES", "ResponseSpec", "Scene", "SettingSpec"]

@@ -47,12 +47,18 @@ class SettingSpec:
             if value not in self.choices:
                 raise ConfigError(f"{field_name}: {value!r} is not allowed; use {self.allowed()}")
             return value
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or (
-                self.integer and not float(value).is_integer()):
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float))
+            or (self.integer and not float(value).is_integer())
+        ):
             raise ConfigError(f"{field_name}: {value!r} is not {self.allowed()}")
         if (self.lower is not None and value < self.lower) or (
-                self.upper is not None and value > self.upper):
-            raise ConfigError(f"{field_name}: {value!r} is outside the allowed range: {self.allowed()}")
+            self.upper is not None and value > self.upper
+        ):
+            raise ConfigError(
+                f"{field_name}: {value!r} is outside the allowed range: {self.allowed()}"
+            )
         return int(value) if self.integer else float(value)
 
 
@@ -109,9 +115,12 @@ class Scene:
         if unknown:
             raise ConfigError(
                 f"{field_prefix}.{unknown[0]}: unknown setting for scene {self.name!r}; "
-                f"known settings: {', '.join(sorted(self.settings))}")
-        resolved = {name: spec.check(f"{field_prefix}.{name}", given.get(name, spec.default))
-                    for name, spec in self.settings.items()}
+                f"known settings: {', '.join(sorted(self.settings))}"
+            )
+        resolved = {
+            name: spec.check(f"{field_prefix}.{name}", given.get(name, spec.default))
+            for name, spec in self.settings.items()
+        }
         if self.check_settings is not None:
             self.check_settings(resolved, field_prefix)
         return resolved

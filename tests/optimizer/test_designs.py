@@ -50,6 +50,8 @@ def test_default_size_is_2d_plus_1_plus_one_per_extra_worker():
 
 def test_user_points_come_first_and_keep_the_size():
     user = np.array([[0.5, 0.5], [0.1, 0.9]])
-    design = initial_design("symmetric_latin_hypercube", 7, 2, np.random.default_rng(5), include=user)
+    design = initial_design(
+        "symmetric_latin_hypercube", 7, 2, np.random.default_rng(5), include=user
+    )
     assert design.shape == (7, 2)
     assert np.array_equal(design[:2], user)

@@ -31,5 +31,7 @@ def test_never_during_initial_design_or_when_disabled_or_without_best():
 
 
 def test_configurable_pattern():
-    decision = early_termination_decision(1.0, 3.5, 0.5, thresholds=(4.0, 3.0), progress_boundaries=(0.4,))
+    decision = early_termination_decision(
+        1.0, 3.5, 0.5, thresholds=(4.0, 3.0), progress_boundaries=(0.4,)
+    )
     assert decision.stop and decision.factor == 3.0

@@ -15,8 +15,10 @@ LOWER, UPPER = [0.1, 0.02], [0.9, 0.3]
 def lift(x):
     """Angle of repose and bulk density of (sliding, rolling) friction, smooth and monotone."""
     mu, mr = x
-    return {"lift.angle": 12.0 + 30.0 * (1.0 - np.exp(-mu / 0.35)) + 25.0 * mr,
-            "lift.density": 1600.0 - 180.0 * mu - 150.0 * mr}
+    return {
+        "lift.angle": 12.0 + 30.0 * (1.0 - np.exp(-mu / 0.35)) + 25.0 * mr,
+        "lift.density": 1600.0 - 180.0 * mu - 150.0 * mr,
+    }
 
 
 TRUTH = (0.4, 0.1)
@@ -24,13 +26,23 @@ TARGETS = tuple(Target("lift", key.split(".")[1], value) for key, value in lift(
 
 
 def optimizer(budget=60):
-    return Optimizer(LOWER, UPPER, {"strategy": "rackl_hanley", "max_evaluations": budget}, seed=2,
-                     objective=ResponseObjective(TARGETS))
+    return Optimizer(
+        LOWER,
+        UPPER,
+        {"strategy": "rackl_hanley", "max_evaluations": budget},
+        seed=2,
+        objective=ResponseObjective(TARGETS),
+    )
 
 
 def tell(opt, proposal, noise=0.0, rng=None):
-    opt.tell(proposal.id, responses={key: [value * (1 + noise * rng.standard_normal()) if noise else value]
-                                     for key, value in lift(proposal.x).items()})
+    opt.tell(
+        proposal.id,
+        responses={
+            key: [value * (1 + noise * rng.standard_normal()) if noise else value]
+            for key, value in lift(proposal.x).items()
+        },
+    )
 
 
 def test_lm_step_solves_a_linear_least_squares_problem_in_one_undamped_step():
@@ -40,7 +52,9 @@ def test_lm_step_solves_a_linear_least_squares_problem_in_one_undamped_step():
     steps = stencil(point)
     jac = jacobian(point, a @ point - b, steps, [a @ s - b for s in steps])
     assert jac == pytest.approx(a)
-    assert lm_step(point, a @ point - b, jac, 1e-12) == pytest.approx(np.linalg.lstsq(a, b, rcond=None)[0])
+    assert lm_step(point, a @ point - b, jac, 1e-12) == pytest.approx(
+        np.linalg.lstsq(a, b, rcond=None)[0]
+    )
 
 
 def test_the_phases_run_in_order_and_each_iteration_runs_its_steps_in_parallel():
@@ -53,7 +67,9 @@ def test_the_phases_run_in_order_and_each_iteration_runs_its_steps_in_parallel()
     assert len(first) == 3
     trial, *steps = (np.array(opt.bounds.to_unit(p.x)[0]) for p in first)
     assert [np.abs(s - trial).max() for s in steps] == pytest.approx([FD_STEP, FD_STEP])
-    assert np.linalg.norm(np.array(first[0].x) - TRUTH) < 0.1  # the Kriging models already point there
+    assert (
+        np.linalg.norm(np.array(first[0].x) - TRUTH) < 0.1
+    )  # the Kriging models already point there
     assert opt.ask(1) == []  # the next iteration waits for these three
     assert not opt.early_termination(first[0].id, 1e9).stop  # every step must finish
     tell(opt, first[0])
@@ -71,7 +87,9 @@ def test_with_noise_it_stops_on_its_own_at_the_noise_level_and_counts_the_runs_o
     valley, so the answer is judged by its true objective, not its distance to TRUTH.
     """
     opt, rng = optimizer(), np.random.default_rng(4)
-    while proposals := opt.ask(3):  # told at once: an empty ask means it stopped (the daemon then asks why)
+    while proposals := opt.ask(
+        3
+    ):  # told at once: an empty ask means it stopped (the daemon then asks why)
         for proposal in proposals:
             tell(opt, proposal, 0.005, rng)
     reason = opt.stop_reason(0.0)

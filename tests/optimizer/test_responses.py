@@ -11,18 +11,27 @@ from demcal.optimizer.responses import ResponseModels, observations
 def lift(x):
     """A cylinder-lift-like pair of responses over (sliding, rolling) friction in [0.1, 0.9] x [0.02, 0.3]."""
     mu, mr = x
-    return {"lift.angle": 12.0 + 30.0 * (1.0 - np.exp(-mu / 0.35)) + 25.0 * mr,
-            "lift.density": 1600.0 - 180.0 * mu - 150.0 * mr}
+    return {
+        "lift.angle": 12.0 + 30.0 * (1.0 - np.exp(-mu / 0.35)) + 25.0 * mr,
+        "lift.density": 1600.0 - 180.0 * mu - 150.0 * mr,
+    }
 
 
 TRUTH = lift((0.4, 0.1))  # angle 34.9 deg, density 1513 kg/m^3
-TARGETS = (Target("lift", "angle", TRUTH["lift.angle"], spread=1.5),
-           Target("lift", "density", TRUTH["lift.density"], spread=4.0))
+TARGETS = (
+    Target("lift", "angle", TRUTH["lift.angle"], spread=1.5),
+    Target("lift", "density", TRUTH["lift.density"], spread=4.0),
+)
 
 
 def optimizer(strategy="response_ei", form="relative", **settings):
-    return Optimizer([0.1, 0.02], [0.9, 0.3], {"strategy": strategy, "max_evaluations": 40, **settings},
-                     seed=3, objective=ResponseObjective(TARGETS, form))
+    return Optimizer(
+        [0.1, 0.02],
+        [0.9, 0.3],
+        {"strategy": strategy, "max_evaluations": 40, **settings},
+        seed=3,
+        objective=ResponseObjective(TARGETS, form),
+    )
 
 
 def test_the_value_told_is_the_objective_of_the_responses():
@@ -33,23 +42,33 @@ def test_the_value_told_is_the_objective_of_the_responses():
     record = opt.records[0]
     means = {k: np.mean(v) for k, v in responses.items()}
     assert record["value"] == pytest.approx(objective_values(TARGETS, means))
-    per_replicate = [objective_values(TARGETS, {k: v[i] for k, v in responses.items()}) for i in (0, 1)]
+    per_replicate = [
+        objective_values(TARGETS, {k: v[i] for k, v in responses.items()}) for i in (0, 1)
+    ]
     assert record["variance"] == pytest.approx(np.var(per_replicate, ddof=1) / 2)
     assert record["responses"]["lift.angle"] == {"values": [34.0, 36.5], "final": True}
 
 
 def test_precision_form_counts_errors_in_target_spreads():
-    value = objective_values(TARGETS, {"lift.angle": TRUTH["lift.angle"] + 1.5,
-                                       "lift.density": TRUTH["lift.density"] - 4.0}, "precision")
+    value = objective_values(
+        TARGETS,
+        {"lift.angle": TRUTH["lift.angle"] + 1.5, "lift.density": TRUTH["lift.density"] - 4.0},
+        "precision",
+    )
     assert value == pytest.approx(1.0 + 1.0)  # one spread off in each response
 
 
 def test_a_stopped_run_teaches_what_it_completed_and_estimated():
     opt = optimizer()
     for proposal in opt.ask(3):
-        opt.tell(proposal.id, status="terminated",
-                 partial={"lift.density": {"values": [1500.0], "final": True},
-                          "lift.angle": {"values": [30.0], "final": False}})
+        opt.tell(
+            proposal.id,
+            status="terminated",
+            partial={
+                "lift.density": {"values": [1500.0], "final": True},
+                "lift.angle": {"values": [30.0], "final": False},
+            },
+        )
     x, y, variance = observations(opt.records, "lift.density", 2)
     assert len(y) == 3 and np.all(variance == 0.0)  # final values: as good as finished ones
     x, y, variance = observations(opt.records, "lift.angle", 2)
@@ -104,16 +123,25 @@ def test_best_is_the_evaluated_point_with_the_lowest_predicted_objective():
     predicted = opt.response_predictor().objective_mean(np.array([r["x"] for r in finished]))
     assert best["id"] == finished[int(np.argmin(predicted))]["id"]
     assert best["predicted"] == pytest.approx(predicted.min())
-    means, stds = opt.response_predictor().predict(np.array([finished[int(np.argmin(predicted))]["x"]]))
+    means, stds = opt.response_predictor().predict(
+        np.array([finished[int(np.argmin(predicted))]["x"]])
+    )
     assert best["responses"] == {key: pytest.approx((means[key][0], stds[key][0])) for key in means}
 
 
 def test_a_best_point_on_a_bound_is_flagged_in_best_and_in_the_summary():
     """Targets beyond the box's upper friction end: the answer sits on the sliding-friction bound."""
-    targets = (Target("lift", "angle", lift((1.2, 0.1))["lift.angle"]),
-               Target("lift", "density", lift((1.2, 0.1))["lift.density"]))
-    opt = Optimizer([0.1, 0.02], [0.9, 0.3], {"strategy": "response_ei", "max_evaluations": 16}, seed=3,
-                    objective=ResponseObjective(targets))
+    targets = (
+        Target("lift", "angle", lift((1.2, 0.1))["lift.angle"]),
+        Target("lift", "density", lift((1.2, 0.1))["lift.density"]),
+    )
+    opt = Optimizer(
+        [0.1, 0.02],
+        [0.9, 0.3],
+        {"strategy": "response_ei", "max_evaluations": 16},
+        seed=3,
+        objective=ResponseObjective(targets),
+    )
     while opt.completed_evaluations() < 16:
         proposal = opt.ask(1)[0]
         opt.tell(proposal.id, responses={k: [v] for k, v in lift(proposal.x).items()})
@@ -140,9 +168,15 @@ def test_early_termination_does_not_stall_in_one_region(strategy):
         responses = {k: v * (1 + 0.01 * rng.standard_normal()) for k, v in lift(p.x).items()}
         estimate = float(objective_values(TARGETS, responses))
         if opt.best_observed is not None and opt.early_termination(p.id, estimate).stop:
-            opt.tell(p.id, status="terminated",
-                     partial={k: {"values": [v], "final": True} for k, v in responses.items()})
-            near = last_stop is not None and np.linalg.norm((np.array(p.x) - last_stop) / [0.8, 0.28]) < 0.1
+            opt.tell(
+                p.id,
+                status="terminated",
+                partial={k: {"values": [v], "final": True} for k, v in responses.items()},
+            )
+            near = (
+                last_stop is not None
+                and np.linalg.norm((np.array(p.x) - last_stop) / [0.8, 0.28]) < 0.1
+            )
             in_a_row = in_a_row + 1 if near else 1
             longest, last_stop = max(longest, in_a_row), np.array(p.x)
         else:
@@ -172,8 +206,12 @@ def test_confirmation_resimulates_the_best_point_once_and_keeps_it_the_answer():
     opt = optimizer(max_evaluations=12, confirm_replicates=3)
     assert opt.confirm() == []  # nothing to confirm yet
     while proposals := opt.ask(1):
-        opt.tell(proposals[0].id, responses={k: [v * (1 + 0.01 * rng.standard_normal())]
-                                             for k, v in lift(proposals[0].x).items()})
+        opt.tell(
+            proposals[0].id,
+            responses={
+                k: [v * (1 + 0.01 * rng.standard_normal())] for k, v in lift(proposals[0].x).items()
+            },
+        )
     best = opt.best()
     confirmations = opt.confirm()
     assert len(confirmations) == 3 and opt.confirm() == []
@@ -181,12 +219,15 @@ def test_confirmation_resimulates_the_best_point_once_and_keeps_it_the_answer():
     assert not opt.early_termination(confirmations[0].id, 1e9).stop
     told = []
     for proposal in confirmations:
-        told.append({k: v * (1 + 0.01 * rng.standard_normal()) for k, v in lift(proposal.x).items()})
+        told.append(
+            {k: v * (1 + 0.01 * rng.standard_normal()) for k, v in lift(proposal.x).items()}
+        )
         opt.tell(proposal.id, responses={k: [v] for k, v in told[-1].items()})
     summary = opt.confirmation()
     assert summary["confirms"] == best["id"] and summary["pending"] == 0 and summary["failed"] == 0
     angles = [t["lift.angle"] for t in told]
     assert summary["responses"]["lift.angle"] == pytest.approx(
-        {"mean": np.mean(angles), "sd": np.std(angles, ddof=1), "count": 3})
+        {"mean": np.mean(angles), "sd": np.std(angles, ddof=1), "count": 3}
+    )
     assert opt.best()["id"] == best["id"]
     assert Optimizer.from_json(opt.to_json()).confirmation() == summary

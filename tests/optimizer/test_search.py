@@ -43,16 +43,22 @@ def test_unknown_strategy_lists_exactly_the_registered_names(registry):
         OptimizerSettings.from_dict({"strategy": "guess"})
     assert str(error.value) == f"optimizer.strategy: 'guess' is not one of {', '.join(registry)}"
     register_strategy("diagonal", Diagonal)
-    with pytest.raises(ValueError, match="is not one of dycors, kriging_ei, response_ei, rackl_hanley, diagonal$"):
+    with pytest.raises(
+        ValueError, match="is not one of dycors, kriging_ei, response_ei, rackl_hanley, diagonal$"
+    ):
         OptimizerSettings.from_dict({"strategy": "guess"})
     with pytest.raises(ValueError, match="already registered"):
         register_strategy("diagonal", Diagonal)
 
 
 def test_registered_surrogates_are_enforced(registry):
-    register_strategy("needs_kriging", Diagonal, surrogate="kriging", surrogates=("kriging", "smt_rbf"))
+    register_strategy(
+        "needs_kriging", Diagonal, surrogate="kriging", surrogates=("kriging", "smt_rbf")
+    )
     assert OptimizerSettings.from_dict({"strategy": "needs_kriging"}).surrogate_name == "kriging"
-    with pytest.raises(ValueError, match="cannot serve strategy needs_kriging; it needs kriging or smt_rbf"):
+    with pytest.raises(
+        ValueError, match="cannot serve strategy needs_kriging; it needs kriging or smt_rbf"
+    ):
         OptimizerSettings.from_dict({"strategy": "needs_kriging", "surrogate": "cubic_rbf"})
 
 
@@ -73,7 +79,11 @@ def test_a_registered_strategy_drives_the_optimizer(registry):
     assert [p.x for p in adaptive] == [[0.01 * p.id, 0.02 * p.id] for p in adaptive]
     last = Diagonal.seen[-1]
     assert last.handed_out == last.evaluated == 11 and last.ids == tuple(range(11))
-    assert last.statuses[6] == "failed" and np.isnan(last.values[6]) and last.select("failed").shape == (1, 2)
+    assert (
+        last.statuses[6] == "failed"
+        and np.isnan(last.values[6])
+        and last.select("failed").shape == (1, 2)
+    )
     assert last.values[7] == 8.0 and last.variances[7] == pytest.approx(1.0)
     assert last.surrogate is not None and last.responses is None
 

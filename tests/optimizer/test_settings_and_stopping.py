@@ -29,14 +29,22 @@ def test_bad_values_name_key_value_and_range(values, message):
 
 
 def test_round_trip_through_a_dict():
-    s = OptimizerSettings.from_dict({"max_evaluations": 30, "early_termination": {"enabled": False}})
+    s = OptimizerSettings.from_dict(
+        {"max_evaluations": 30, "early_termination": {"enabled": False}}
+    )
     assert OptimizerSettings.from_dict(s.to_dict()) == s
 
 
 def reason(**changes):
     arguments = dict(
-        evaluations=5, max_evaluations=10, elapsed_seconds=1.0, max_seconds=None, best_value=1.0,
-        target_objective=None, evaluations_without_improvement=0, no_improvement_evaluations=None,
+        evaluations=5,
+        max_evaluations=10,
+        elapsed_seconds=1.0,
+        max_seconds=None,
+        best_value=1.0,
+        target_objective=None,
+        evaluations_without_improvement=0,
+        no_improvement_evaluations=None,
         step_collapsed=False,
     )
     arguments.update(changes)
@@ -48,5 +56,7 @@ def test_each_stopping_rule():
     assert reason(evaluations=10).startswith("evaluation budget")
     assert reason(max_seconds=1.0).startswith("wall-clock")
     assert reason(target_objective=1.0).startswith("target objective")
-    assert reason(evaluations_without_improvement=3, no_improvement_evaluations=3).startswith("no improvement")
+    assert reason(evaluations_without_improvement=3, no_improvement_evaluations=3).startswith(
+        "no improvement"
+    )
     assert reason(step_collapsed=True).startswith("trust region")

@@ -48,7 +48,9 @@ def test_kriging_predicts_a_standard_deviation(data):
 
 def test_exact_duplicates_are_merged_and_averaged():
     x = np.array([[0.1, 0.1], [0.1, 0.1], [0.9, 0.2]])
-    merged_x, merged_y, merged_variance = merge_duplicates(x, np.array([1.0, 3.0, 5.0]), np.zeros(3), 1e-9)
+    merged_x, merged_y, merged_variance = merge_duplicates(
+        x, np.array([1.0, 3.0, 5.0]), np.zeros(3), 1e-9
+    )
     assert merged_x.tolist() == [[0.1, 0.1], [0.9, 0.2]]
     assert merged_y.tolist() == [2.0, 5.0]
 

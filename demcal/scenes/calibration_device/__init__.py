@@ -67,8 +67,9 @@ class DeviceGeometry:
     wall_thickness: float
 
 
-def device_geometry(settings: dict, particle_volume: float, d_max: float,
-                    insertion_solid_fraction: float) -> DeviceGeometry:
+def device_geometry(
+    settings: dict, particle_volume: float, d_max: float, insertion_solid_fraction: float
+) -> DeviceGeometry:
     """Place the parts for ``particle_volume`` [m^3] of spheres no larger than ``d_max``.
 
     The hopper is made tall enough that the spheres, inserted at
@@ -93,23 +94,21 @@ def device_geometry(settings: dict, particle_volume: float, d_max: float,
     fill_top = bottom + 0.6 * d_max + fill
     top = fill_top + 2.0 * d_max
     right = outlet_left + width + thickness + (top - bottom) / math.tan(beta) + 2.0 * d_max
-    return DeviceGeometry(edge, edge_height, outlet_left, bottom, top, fill_top, right,
-                          thickness)
+    return DeviceGeometry(edge, edge_height, outlet_left, bottom, top, fill_top, right, thickness)
 
 
 def _angle_of_repose(state: dict, settings: dict) -> float:
     """Sigmoid fit of the pile's longer flank, measured from its crest outwards."""
     position, height = measure.surface_profile_along_x(
-        state["heap_x"], state["heap_r"], settings["d50"], (0.0, settings["floor_length"]))
+        state["heap_x"], state["heap_r"], settings["d50"], (0.0, settings["floor_length"])
+    )
     if len(height) == 0:
         raise SimulationFailed("no pile on the floor: no angle of repose to measure")
     crest = position[np.argmax(height)]
     towards_wall, towards_slide = position <= crest, position >= crest
     if towards_wall.sum() >= towards_slide.sum():
-        return measure.heap_angle_sigmoid_fit(crest - position[towards_wall],
-                                              height[towards_wall])
-    return measure.heap_angle_sigmoid_fit(position[towards_slide] - crest,
-                                          height[towards_slide])
+        return measure.heap_angle_sigmoid_fit(crest - position[towards_wall], height[towards_wall])
+    return measure.heap_angle_sigmoid_fit(position[towards_slide] - crest, height[towards_slide])
 
 
 def check_geometry(settings: dict, field_prefix: str) -> None:
@@ -119,68 +118,117 @@ def check_geometry(settings: dict, field_prefix: str) -> None:
         if settings[name] < multiple * d_max:
             raise ConfigError(
                 f"{field_prefix}.{name}: {settings[name]:g} m is less than {multiple:g} of the "
-                f"largest particles ({d_max:g} m); use at least {multiple * d_max:g} m")
+                f"largest particles ({d_max:g} m); use at least {multiple * d_max:g} m"
+            )
     if settings["slide_angle"] >= settings["hopper_wall_angle"]:
         raise ConfigError(
             f"{field_prefix}.slide_angle: {settings['slide_angle']:g} deg is not below "
             f"hopper_wall_angle ({settings['hopper_wall_angle']:g} deg): the slide, rising "
             f"under the hopper's sloping wall, would cut into the hopper; use a smaller "
-            f"slide_angle or a steeper hopper_wall_angle")
+            f"slide_angle or a steeper hopper_wall_angle"
+        )
     if settings["slide_length"] * 2.0 < settings["orifice_width"]:
         raise ConfigError(
             f"{field_prefix}.slide_length: {settings['slide_length']:g} m puts the outlet past "
             f"the slide's edge; use at least half the orifice_width "
-            f"({settings['orifice_width'] / 2.0:g} m)")
+            f"({settings['orifice_width'] / 2.0:g} m)"
+        )
 
 
 SCENE = Scene(
     name="calibration_device",
     description="hopper discharging onto a slide: mass flow, slide time, angle of repose "
-                "of the pile (Samuelsson 2023)",
-    parameters=("sliding_friction_pp", "sliding_friction_pw", "rolling_friction_pp",
-                "rolling_friction_pw", "restitution", "youngs_modulus", "poisson_ratio",
-                "particle_density"),
+    "of the pile (Samuelsson 2023)",
+    parameters=(
+        "sliding_friction_pp",
+        "sliding_friction_pw",
+        "rolling_friction_pp",
+        "rolling_friction_pw",
+        "restitution",
+        "youngs_modulus",
+        "poisson_ratio",
+        "particle_density",
+    ),
     responses={
-        "mass_flow": ResponseSpec("kg/s", "slope of the hopper's mass against time over "
-                                          "20-80 % discharged"),
-        "slide_time": ResponseSpec("s", "time from opening until the hopper and slide are "
-                                        "empty, penalised if never"),
-        "angle_of_repose": ResponseSpec("deg", "angle at the inflexion point of a sigmoid "
-                                               "fitted to the pile profile", upper=MAX_ANGLE),
+        "mass_flow": ResponseSpec(
+            "kg/s", "slope of the hopper's mass against time over 20-80 % discharged"
+        ),
+        "slide_time": ResponseSpec(
+            "s", "time from opening until the hopper and slide are empty, penalised if never"
+        ),
+        "angle_of_repose": ResponseSpec(
+            "deg",
+            "angle at the inflexion point of a sigmoid fitted to the pile profile",
+            upper=MAX_ANGLE,
+        ),
     },
     settings={
         "particle_count": SettingSpec(1500, "-", "number of spheres", 10, 1_000_000, integer=True),
         "d50": SettingSpec(2.0e-3, "m", "median particle diameter", 1.0e-5, 0.1),
         "sigma_ln": SettingSpec(0.0, "-", "std. dev. of ln(diameter); 0 = monodisperse", 0.0, 1.0),
-        "psd_truncation": SettingSpec(2.0, "sigma", "lognormal cut at d50 exp(+-k sigma_ln)", 0.5, 4.0),
-        "depth": SettingSpec(10.0e-3, "m", "depth of the periodic slice of the device", 1.0e-4, 1.0),
-        "orifice_width": SettingSpec(12.0e-3, "m", "width of the hopper outlet (slot across "
-                                                   "the depth)", 1.0e-4, 1.0),
-        "hopper_wall_angle": SettingSpec(60.0, "deg", "angle of the hopper's sloping wall to "
-                                                      "the horizontal", 30.0, 90.0),
+        "psd_truncation": SettingSpec(
+            2.0, "sigma", "lognormal cut at d50 exp(+-k sigma_ln)", 0.5, 4.0
+        ),
+        "depth": SettingSpec(
+            10.0e-3, "m", "depth of the periodic slice of the device", 1.0e-4, 1.0
+        ),
+        "orifice_width": SettingSpec(
+            12.0e-3, "m", "width of the hopper outlet (slot across the depth)", 1.0e-4, 1.0
+        ),
+        "hopper_wall_angle": SettingSpec(
+            60.0, "deg", "angle of the hopper's sloping wall to the horizontal", 30.0, 90.0
+        ),
         "slide_angle": SettingSpec(35.0, "deg", "inclination of the slide", 5.0, 80.0),
-        "slide_length": SettingSpec(60.0e-3, "m", "distance along the slide from its lower edge "
-                                                  "to below the outlet's centre", 1.0e-4, 10.0),
-        "slide_edge_height": SettingSpec(40.0e-3, "m", "height of the slide's lower edge above "
-                                                       "the floor (above the pile)", 0.0, 10.0),
-        "drop_height": SettingSpec(10.0e-3, "m", "gap between the hopper's outlet and the slide",
-                                   0.0, 10.0),
-        "floor_length": SettingSpec(150.0e-3, "m", "floor from the end wall to the slide's "
-                                                   "support (where the pile forms)", 1.0e-4, 10.0),
-        "sample_interval": SettingSpec(0.01, "s", "simulated time between samples of the "
-                                                  "hopper and slide masses", 1.0e-4, 1.0),
-        "max_time": SettingSpec(3.0, "s", "simulated time limit after the trapdoor opens",
-                                0.05, 100.0),
-        "slide_empty_fraction": SettingSpec(0.003, "-", "slide counts as empty below this share "
-                                                        "of the material (thesis: 0.01 of 3.5 kg)",
-                                            0.0, 0.5),
-        "rest_speed": SettingSpec(5.0e-3, "m/s", "rms particle speed below which material is at "
-                                                 "rest", 1.0e-6, 1.0),
-        "max_settle_time": SettingSpec(2.0, "s", "simulated time limit of each settling stage",
-                                       0.01, 100.0),
-        "dump_interval": SettingSpec(0.0, "s", "simulated time between particle dumps "
-                                               "(dump.lammpstrj, for viewing); 0 = no dumps",
-                                     0.0, 100.0),
+        "slide_length": SettingSpec(
+            60.0e-3,
+            "m",
+            "distance along the slide from its lower edge to below the outlet's centre",
+            1.0e-4,
+            10.0,
+        ),
+        "slide_edge_height": SettingSpec(
+            40.0e-3,
+            "m",
+            "height of the slide's lower edge above the floor (above the pile)",
+            0.0,
+            10.0,
+        ),
+        "drop_height": SettingSpec(
+            10.0e-3, "m", "gap between the hopper's outlet and the slide", 0.0, 10.0
+        ),
+        "floor_length": SettingSpec(
+            150.0e-3,
+            "m",
+            "floor from the end wall to the slide's support (where the pile forms)",
+            1.0e-4,
+            10.0,
+        ),
+        "sample_interval": SettingSpec(
+            0.01, "s", "simulated time between samples of the hopper and slide masses", 1.0e-4, 1.0
+        ),
+        "max_time": SettingSpec(
+            3.0, "s", "simulated time limit after the trapdoor opens", 0.05, 100.0
+        ),
+        "slide_empty_fraction": SettingSpec(
+            0.003,
+            "-",
+            "slide counts as empty below this share of the material (thesis: 0.01 of 3.5 kg)",
+            0.0,
+            0.5,
+        ),
+        "rest_speed": SettingSpec(
+            5.0e-3, "m/s", "rms particle speed below which material is at rest", 1.0e-6, 1.0
+        ),
+        "max_settle_time": SettingSpec(
+            2.0, "s", "simulated time limit of each settling stage", 0.01, 100.0
+        ),
+        "dump_interval": SettingSpec(
+            0.0,
+            "s",
+            "simulated time between particle dumps (dump.lammpstrj, for viewing); 0 = no dumps",
+            0.0,
+            100.0,
+        ),
     },
     analytic_model=analytic_model,
     extractors={"angle_of_repose": _angle_of_repose},

@@ -18,8 +18,13 @@ def analytic_model(p: dict, settings: dict) -> dict:
     grip_pp = saturating(p["sliding_friction_pp"], 0.4)
     grip_pw = p["sliding_friction_pw"] / math.tan(math.radians(settings["slide_angle"]))
     bulk = 0.6 * p["particle_density"]
-    flow = (bulk * math.sqrt(9.81) * settings["orifice_width"] ** 1.5 * settings["depth"]
-            * (0.75 - 0.25 * grip_pp - 0.1 * saturating(p["rolling_friction_pp"], 0.1)))
+    flow = (
+        bulk
+        * math.sqrt(9.81)
+        * settings["orifice_width"] ** 1.5
+        * settings["depth"]
+        * (0.75 - 0.25 * grip_pp - 0.1 * saturating(p["rolling_friction_pp"], 0.1))
+    )
     slide = 0.4 + 0.6 / (1.0 + math.exp(-6.0 * (grip_pw - 0.9)))
     aor = 10.0 + 18.0 * grip_pp + 6.0 * saturating(p["sliding_friction_pw"], 0.4)
     return {"mass_flow": flow, "slide_time": slide, "angle_of_repose": aor}

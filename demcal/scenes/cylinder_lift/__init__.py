@@ -26,18 +26,26 @@ from demcal.scenes.cylinder_lift.analytic import analytic_model
 
 def _bulk_density(state: dict, settings: dict) -> float:
     density, _height = measure.fill_bulk_density(
-        state["fill_x"], state["fill_r"], state["fill_mass"],
-        settings["cylinder_diameter"] / 2.0, settings["d50"])
+        state["fill_x"],
+        state["fill_r"],
+        state["fill_mass"],
+        settings["cylinder_diameter"] / 2.0,
+        settings["d50"],
+    )
     return density
 
 
 def _angle_of_repose(state: dict, settings: dict) -> float:
     if settings["aor_method"] == "flank_fit":
         return measure.heap_angle_flank_fit(
-            state["heap_x"], state["heap_r"], settings["d50"],
-            (settings["aor_band_lower"], settings["aor_band_upper"]))
-    return measure.heap_angle_height_radius(state["heap_x"], state["heap_r"], settings["d50"],
-                                            bottom_layer=settings["d50"])
+            state["heap_x"],
+            state["heap_r"],
+            settings["d50"],
+            (settings["aor_band_lower"], settings["aor_band_upper"]),
+        )
+    return measure.heap_angle_height_radius(
+        state["heap_x"], state["heap_r"], settings["d50"], bottom_layer=settings["d50"]
+    )
 
 
 def check_geometry(settings: dict, field_prefix: str) -> None:
@@ -46,53 +54,80 @@ def check_geometry(settings: dict, field_prefix: str) -> None:
     if settings["cylinder_diameter"] < 6.0 * d_max:
         raise ConfigError(
             f"{field_prefix}.cylinder_diameter: {settings['cylinder_diameter']:g} m is less than "
-            f"6 of the largest particles ({d_max:g} m); use at least {6 * d_max:g} m")
+            f"6 of the largest particles ({d_max:g} m); use at least {6 * d_max:g} m"
+        )
     if settings["plate_width"] < settings["cylinder_diameter"]:
         raise ConfigError(
             f"{field_prefix}.plate_width: {settings['plate_width']:g} m is smaller than the "
-            f"cylinder ({settings['cylinder_diameter']:g} m)")
+            f"cylinder ({settings['cylinder_diameter']:g} m)"
+        )
     if settings["aor_band_lower"] >= settings["aor_band_upper"]:
         raise ConfigError(
             f"{field_prefix}.aor_band_lower: {settings['aor_band_lower']:g} must be below "
-            f"aor_band_upper ({settings['aor_band_upper']:g})")
+            f"aor_band_upper ({settings['aor_band_upper']:g})"
+        )
 
 
 SCENE = Scene(
     name="cylinder_lift",
     description="cylinder lift test: poured bulk density and angle of repose of the heap",
-    parameters=("sliding_friction_pp", "sliding_friction_pw", "rolling_friction_pp",
-                "rolling_friction_pw", "restitution", "youngs_modulus", "poisson_ratio",
-                "particle_density"),
+    parameters=(
+        "sliding_friction_pp",
+        "sliding_friction_pw",
+        "rolling_friction_pp",
+        "rolling_friction_pw",
+        "restitution",
+        "youngs_modulus",
+        "poisson_ratio",
+        "particle_density",
+    ),
     responses={
-        "bulk_density": ResponseSpec("kg/m^3", "mass of the settled fill / (pi R^2 fill height)",
-                                     upper=MAX_BULK_DENSITY),
-        "angle_of_repose": ResponseSpec("deg", "angle of the heap flank after the lift",
-                                        upper=MAX_ANGLE),
+        "bulk_density": ResponseSpec(
+            "kg/m^3", "mass of the settled fill / (pi R^2 fill height)", upper=MAX_BULK_DENSITY
+        ),
+        "angle_of_repose": ResponseSpec(
+            "deg", "angle of the heap flank after the lift", upper=MAX_ANGLE
+        ),
     },
     settings={
         "particle_count": SettingSpec(2000, "-", "number of spheres", 10, 1_000_000, integer=True),
         "d50": SettingSpec(2.0e-3, "m", "median particle diameter", 1.0e-5, 0.1),
         "sigma_ln": SettingSpec(0.0, "-", "std. dev. of ln(diameter); 0 = monodisperse", 0.0, 1.0),
-        "psd_truncation": SettingSpec(2.0, "sigma", "lognormal cut at d50 exp(+-k sigma_ln)", 0.5, 4.0),
-        "cylinder_diameter": SettingSpec(25.0e-3, "m", "inner diameter of the cylinder", 1.0e-4, 10.0),
-        "ring_height": SettingSpec(1.2e-3, "m", "height of the rim ring at the cylinder radius "
-                                               "(0 = bare plate)", 0.0, 1.0),
-        "plate_width": SettingSpec(100.0e-3, "m", "width of the square plate: material "
-                                                     "beyond it leaves", 1.0e-4, 20.0),
+        "psd_truncation": SettingSpec(
+            2.0, "sigma", "lognormal cut at d50 exp(+-k sigma_ln)", 0.5, 4.0
+        ),
+        "cylinder_diameter": SettingSpec(
+            25.0e-3, "m", "inner diameter of the cylinder", 1.0e-4, 10.0
+        ),
+        "ring_height": SettingSpec(
+            1.2e-3, "m", "height of the rim ring at the cylinder radius (0 = bare plate)", 0.0, 1.0
+        ),
+        "plate_width": SettingSpec(
+            100.0e-3, "m", "width of the square plate: material beyond it leaves", 1.0e-4, 20.0
+        ),
         "lift_speed": SettingSpec(0.01, "m/s", "cylinder lift speed", 1.0e-4, 1.0),
-        "rest_speed": SettingSpec(5.0e-3, "m/s", "rms particle speed below which material is at rest",
-                                  1.0e-6, 1.0),
-        "max_settle_time": SettingSpec(2.0, "s", "simulated time limit of each settling stage",
-                                       0.01, 100.0),
-        "dump_interval": SettingSpec(0.0, "s", "simulated time between particle dumps "
-                                               "(dump.lammpstrj, for viewing); 0 = no dumps",
-                                     0.0, 100.0),
-        "aor_method": SettingSpec("flank_fit", "", "angle of repose measure",
-                                  choices=("flank_fit", "height_radius")),
-        "aor_band_lower": SettingSpec(0.2, "-", "flank fit: lowest surface height, fraction of heap "
-                                                "height", 0.0, 0.9),
-        "aor_band_upper": SettingSpec(0.8, "-", "flank fit: highest surface height, fraction of heap "
-                                                "height", 0.1, 1.0),
+        "rest_speed": SettingSpec(
+            5.0e-3, "m/s", "rms particle speed below which material is at rest", 1.0e-6, 1.0
+        ),
+        "max_settle_time": SettingSpec(
+            2.0, "s", "simulated time limit of each settling stage", 0.01, 100.0
+        ),
+        "dump_interval": SettingSpec(
+            0.0,
+            "s",
+            "simulated time between particle dumps (dump.lammpstrj, for viewing); 0 = no dumps",
+            0.0,
+            100.0,
+        ),
+        "aor_method": SettingSpec(
+            "flank_fit", "", "angle of repose measure", choices=("flank_fit", "height_radius")
+        ),
+        "aor_band_lower": SettingSpec(
+            0.2, "-", "flank fit: lowest surface height, fraction of heap height", 0.0, 0.9
+        ),
+        "aor_band_upper": SettingSpec(
+            0.8, "-", "flank fit: highest surface height, fraction of heap height", 0.1, 1.0
+        ),
     },
     analytic_model=analytic_model,
     extractors={"bulk_density": _bulk_density, "angle_of_repose": _angle_of_repose},

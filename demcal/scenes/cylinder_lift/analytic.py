@@ -16,9 +16,12 @@ def analytic_model(p: dict, settings: dict) -> dict:
     """
     grip = saturating(p["sliding_friction_pp"], 0.35)
     roll = saturating(p["rolling_friction_pp"], 0.08)
-    aor = (4.0 + 34.0 * grip * (0.35 + 0.65 * roll)
-           + 4.0 * saturating(p["sliding_friction_pw"], 0.3)
-           + 3.0 * saturating(p["rolling_friction_pw"], 0.1)
-           - 2.0 * (p["restitution"] - 0.5))
+    aor = (
+        4.0
+        + 34.0 * grip * (0.35 + 0.65 * roll)
+        + 4.0 * saturating(p["sliding_friction_pw"], 0.3)
+        + 3.0 * saturating(p["rolling_friction_pw"], 0.1)
+        - 2.0 * (p["restitution"] - 0.5)
+    )
     solid_fraction = 0.64 - 0.02 * grip - 0.08 * roll - 0.01 * (p["restitution"] - 0.5)
     return {"angle_of_repose": aor, "bulk_density": p["particle_density"] * solid_fraction}

@@ -32,38 +32,50 @@ class CylinderLift(LammpsDriver):
         self.radius = self.s["cylinder_diameter"] / 2.0
         insert_radius = self.radius - 0.6 * self.d_max
         self.insert_top = 0.6 * self.d_max + self.particle_volume / (
-            INSERTION_SOLID_FRACTION * math.pi * insert_radius**2)
+            INSERTION_SOLID_FRACTION * math.pi * insert_radius**2
+        )
         self.cylinder_top = self.insert_top + 2.0 * self.d_max
         self.potential_height = self.cylinder_top
 
     def build(self) -> None:
         s, half = self.s, self.s["plate_width"] / 2.0
         ring, pw = s["ring_height"], self.wall_model()
-        self.lmp.commands_list([
-            "units si", "atom_style sphere", "boundary f f f", "newton off",
-            "comm_modify vel yes",
-            f"region box block {num(-half)} {num(half)} {num(-half)} {num(half)} "
-            f"{num(-0.5 * self.d_max)} {num(self.cylinder_top + 5 * self.d_max)} units box",
-            "create_box 1 box",
-            "pair_style granular", f"pair_coeff * * {self.pair_model()}",
-            f"neighbor {num(0.1 * self.d_max)} bin", "neigh_modify delay 0 every 1 check yes",
-            f"region insert cylinder z 0 0 {num(self.radius - 0.6 * self.d_max)} "
-            f"{num(0.6 * self.d_max)} {num(self.insert_top)} side in units box",
-        ])
+        self.lmp.commands_list(
+            [
+                "units si",
+                "atom_style sphere",
+                "boundary f f f",
+                "newton off",
+                "comm_modify vel yes",
+                f"region box block {num(-half)} {num(half)} {num(-half)} {num(half)} "
+                f"{num(-0.5 * self.d_max)} {num(self.cylinder_top + 5 * self.d_max)} units box",
+                "create_box 1 box",
+                "pair_style granular",
+                f"pair_coeff * * {self.pair_model()}",
+                f"neighbor {num(0.1 * self.d_max)} bin",
+                "neigh_modify delay 0 every 1 check yes",
+                f"region insert cylinder z 0 0 {num(self.radius - 0.6 * self.d_max)} "
+                f"{num(0.6 * self.d_max)} {num(self.insert_top)} side in units box",
+            ]
+        )
         self.insert_particles("insert", "the cylinder; enlarge cylinder_diameter")
-        self.lmp.commands_list([
-            "variable dz equal 0.0",
-            f"region tube cylinder z 0 0 {num(self.radius)} {num(ring)} "
-            f"{num(self.cylinder_top)} side in open 1 open 2 move NULL NULL v_dz units box",
-            f"fix floor all wall/gran granular {pw} zplane 0.0 NULL",
-            f"fix tube all wall/gran/region granular {pw} region tube",
-        ])
+        self.lmp.commands_list(
+            [
+                "variable dz equal 0.0",
+                f"region tube cylinder z 0 0 {num(self.radius)} {num(ring)} "
+                f"{num(self.cylinder_top)} side in open 1 open 2 move NULL NULL v_dz units box",
+                f"fix floor all wall/gran granular {pw} zplane 0.0 NULL",
+                f"fix tube all wall/gran/region granular {pw} region tube",
+            ]
+        )
         if ring > 0.0:
-            self.lmp.commands_list([
-                f"region ring cylinder z 0 0 {num(self.radius)} 0.0 {num(ring)} "
-                f"side in open 1 open 2 units box",
-                f"fix ring all wall/gran/region granular {pw} region ring",
-            ])
+            self.lmp.commands_list(
+                [
+                    f"region ring cylinder z 0 0 {num(self.radius)} 0.0 {num(ring)} "
+                    f"side in open 1 open 2 units box",
+                    f"fix ring all wall/gran/region granular {pw} region ring",
+                ]
+            )
         self.start_dynamics()
 
     def stages(self, measurements: dict[str, float], arrays: dict[str, np.ndarray]) -> None:
@@ -71,8 +83,8 @@ class CylinderLift(LammpsDriver):
         fill_share = 0.25 if wants_heap else 1.0
         fall_time = math.sqrt(2.0 * self.insert_top / GRAVITY)
         measurements["fill_at_rest"] = float(
-            self.settle("fill", 0.0, fill_share, False, min_time=fall_time,
-                        container=CONTAINER))
+            self.settle("fill", 0.0, fill_share, False, min_time=fall_time, container=CONTAINER)
+        )
         x, r, m = self.particles()
         bulk, height = measure.fill_bulk_density(x, r, m, self.radius, self.s["d50"])
         measurements["fill_height"] = height

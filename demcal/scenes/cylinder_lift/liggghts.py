@@ -52,7 +52,12 @@ from demcal.granular import measure
 from demcal.granular.particles import BLOWUP_FACTOR, INSERTION_SOLID_FRACTION, simulation_particles
 
 DATA, TUBE_STL, RING_STL, FILL_DUMP, HEAP_DUMP = (
-    "particles.data", "tube.stl", "ring.stl", "fill.dump", "heap.dump")
+    "particles.data",
+    "tube.stl",
+    "ring.stl",
+    "fill.dump",
+    "heap.dump",
+)
 #: Largest deviation of the polygonal cylinder from the circle, in median diameters.
 MESH_TOLERANCE = 0.01
 #: Random placement tries per sphere before giving up (as LAMMPS' create_atoms maxtry).
@@ -61,8 +66,10 @@ MAX_TRIES = 1000
 
 # -- geometry -----------------------------------------------------------------
 
-def cylinder_triangles(radius: float, z_low: float, z_high: float, segments: int,
-                       rows: int) -> np.ndarray:
+
+def cylinder_triangles(
+    radius: float, z_low: float, z_high: float, segments: int, rows: int
+) -> np.ndarray:
     """Triangles (n, 3, 3) of the side of a vertical cylinder around the z axis, facing the axis.
 
     The circle is a polygon of ``segments`` vertices on the radius; the height is
@@ -86,8 +93,14 @@ def polygon_segments(radius: float, tolerance: float) -> int:
     return max(16, math.ceil(math.pi / math.acos(max(1.0 - tolerance / radius, -1.0))))
 
 
-def place_spheres(diameters: np.ndarray, radius: float, z_low: float, z_high: float,
-                  gap: float, rng: np.random.Generator) -> np.ndarray:
+def place_spheres(
+    diameters: np.ndarray,
+    radius: float,
+    z_low: float,
+    z_high: float,
+    gap: float,
+    rng: np.random.Generator,
+) -> np.ndarray:
     """Random centres (N, 3) in a vertical cylinder around the z axis, at least ``gap`` apart.
 
     Random sequential addition with a cell list; each sphere gets ``MAX_TRIES``
@@ -101,19 +114,26 @@ def place_spheres(diameters: np.ndarray, radius: float, z_low: float, z_high: fl
             rho, phi = radius * math.sqrt(rng.random()), 2.0 * math.pi * rng.random()
             p = (rho * math.cos(phi), rho * math.sin(phi), z_low + (z_high - z_low) * rng.random())
             key = tuple(math.floor(c / gap) for c in p)
-            if all((p[0] - q[0])**2 + (p[1] - q[1])**2 + (p[2] - q[2])**2 >= gap2
-                   for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1)
-                   for q in cells.get((key[0] + dx, key[1] + dy, key[2] + dz), ())):
+            if all(
+                (p[0] - q[0]) ** 2 + (p[1] - q[1]) ** 2 + (p[2] - q[2]) ** 2 >= gap2
+                for dx in (-1, 0, 1)
+                for dy in (-1, 0, 1)
+                for dz in (-1, 0, 1)
+                for q in cells.get((key[0] + dx, key[1] + dy, key[2] + dz), ())
+            ):
                 cells.setdefault(key, []).append(p)
                 centres[i] = p
                 break
         else:
-            raise SimulationFailed(f"could place only {i} of {len(diameters)} particles in the "
-                                   f"cylinder; enlarge cylinder_diameter")
+            raise SimulationFailed(
+                f"could place only {i} of {len(diameters)} particles in the "
+                f"cylinder; enlarge cylinder_diameter"
+            )
     return centres
 
 
 # -- input --------------------------------------------------------------------
+
 
 def _type_pairs(particle_particle: float, particle_wall: float) -> str:
     """A 2 x 2 peratomtypepair matrix (type 1 particles, type 2 walls), row by row."""
@@ -132,12 +152,16 @@ class CylinderLiftInput:
         self.rng = np.random.default_rng(job.seed)
         particles = simulation_particles(job, self.rng)
         self.diameters, self.d_max = particles.diameters, particles.d_max
-        self.rayleigh, self.dt, self.chunk = (particles.rayleigh_time, particles.timestep,
-                                              particles.chunk_steps)
+        self.rayleigh, self.dt, self.chunk = (
+            particles.rayleigh_time,
+            particles.timestep,
+            particles.chunk_steps,
+        )
         self.radius = self.s["cylinder_diameter"] / 2.0
         self.insert_radius = self.radius - 0.6 * self.d_max
         self.insert_top = 0.6 * self.d_max + particles.volume / (
-            INSERTION_SOLID_FRACTION * math.pi * self.insert_radius**2)
+            INSERTION_SOLID_FRACTION * math.pi * self.insert_radius**2
+        )
         self.cylinder_top = self.insert_top + 2.0 * self.d_max
         self.total_mass = particles.mass
         self.wants_heap = "angle_of_repose" in job.responses
@@ -164,12 +188,14 @@ class CylinderLiftInput:
         """Early response estimates from the dump of ``stage``: the bulk density after the fill."""
         if stage != "fill":
             return {}
-        bulk, _ = measure.fill_bulk_density(positions(dump), dump["radius"], dump["mass"],
-                                            self.radius, self.s["d50"])
+        bulk, _ = measure.fill_bulk_density(
+            positions(dump), dump["radius"], dump["mass"], self.radius, self.s["d50"]
+        )
         return {"bulk_density": bulk}
 
-    def collect(self, stage: str, dump: dict[str, np.ndarray],
-                at_rest: bool) -> tuple[dict[str, float], dict[str, np.ndarray]]:
+    def collect(
+        self, stage: str, dump: dict[str, np.ndarray], at_rest: bool
+    ) -> tuple[dict[str, float], dict[str, np.ndarray]]:
         """Measurements and the scene's arrays from the final dump of ``stage``.
 
         fill: fill_at_rest, fill_height; fill_x, fill_r, fill_mass (raises
@@ -182,14 +208,19 @@ class CylinderLiftInput:
             if lost:
                 raise SimulationFailed(
                     f"unstable during fill: {lost} particles left the closed cylinder "
-                    f"(time step {self.dt:.3g} s = {self.job.timestep_fraction:g} T_R)")
-            _, height = measure.fill_bulk_density(x, dump["radius"], dump["mass"], self.radius,
-                                                  self.s["d50"])
-            return ({"fill_at_rest": float(at_rest), "fill_height": height},
-                    {"fill_x": x, "fill_r": dump["radius"], "fill_mass": dump["mass"]})
-        return ({"heap_at_rest": float(at_rest),
-                 "lost_particles": float(self.particle_count - len(x))},
-                {"heap_x": x, "heap_r": dump["radius"]})
+                    f"(time step {self.dt:.3g} s = {self.job.timestep_fraction:g} T_R)"
+                )
+            _, height = measure.fill_bulk_density(
+                x, dump["radius"], dump["mass"], self.radius, self.s["d50"]
+            )
+            return (
+                {"fill_at_rest": float(at_rest), "fill_height": height},
+                {"fill_x": x, "fill_r": dump["radius"], "fill_mass": dump["mass"]},
+            )
+        return (
+            {"heap_at_rest": float(at_rest), "lost_particles": float(self.particle_count - len(x))},
+            {"heap_x": x, "heap_r": dump["radius"]},
+        )
 
     # -- files --------------------------------------------------------------------
 
@@ -211,25 +242,54 @@ class CylinderLiftInput:
         """Write the data file, the meshes and the script into ``workdir``."""
         half = self.s["plate_width"] / 2.0
         ring = self.s["ring_height"]
-        centres = place_spheres(self.diameters, self.insert_radius, 0.6 * self.d_max,
-                                self.insert_top, 1.001 * self.d_max, self.rng)
+        centres = place_spheres(
+            self.diameters,
+            self.insert_radius,
+            0.6 * self.d_max,
+            self.insert_top,
+            1.001 * self.d_max,
+            self.rng,
+        )
         z_low, z_high = -0.5 * self.d_max, 2.0 * self.cylinder_top + 5.0 * self.d_max
-        rows = [f"{i + 1} 1 {num(d)} {num(self.p['particle_density'])} "
-                f"{num(x)} {num(y)} {num(z)}"
-                for i, (d, (x, y, z)) in enumerate(zip(self.diameters, centres))]
-        (workdir / DATA).write_text("\n".join([
-            "demcal cylinder lift: spheres (id type diameter density x y z)", "",
-            f"{len(rows)} atoms", "2 atom types", "",
-            f"{num(-half)} {num(half)} xlo xhi", f"{num(-half)} {num(half)} ylo yhi",
-            f"{num(z_low)} {num(z_high)} zlo zhi", "", "Atoms", "", *rows, ""]))
+        rows = [
+            f"{i + 1} 1 {num(d)} {num(self.p['particle_density'])} {num(x)} {num(y)} {num(z)}"
+            for i, (d, (x, y, z)) in enumerate(zip(self.diameters, centres))
+        ]
+        (workdir / DATA).write_text(
+            "\n".join(
+                [
+                    "demcal cylinder lift: spheres (id type diameter density x y z)",
+                    "",
+                    f"{len(rows)} atoms",
+                    "2 atom types",
+                    "",
+                    f"{num(-half)} {num(half)} xlo xhi",
+                    f"{num(-half)} {num(half)} ylo yhi",
+                    f"{num(z_low)} {num(z_high)} zlo zhi",
+                    "",
+                    "Atoms",
+                    "",
+                    *rows,
+                    "",
+                ]
+            )
+        )
         segments = polygon_segments(self.radius, MESH_TOLERANCE * self.s["d50"])
         width = 2.0 * math.pi * self.radius / segments
         tube_rows = max(1, round((self.cylinder_top - ring) / (2.0 * width)))
-        write_ascii_stl(workdir / TUBE_STL, "tube", cylinder_triangles(
-            self.radius, ring, self.cylinder_top, segments, tube_rows))
+        write_ascii_stl(
+            workdir / TUBE_STL,
+            "tube",
+            cylinder_triangles(self.radius, ring, self.cylinder_top, segments, tube_rows),
+        )
         if ring > 0.0:
-            write_ascii_stl(workdir / RING_STL, "ring", cylinder_triangles(
-                self.radius, 0.0, ring, segments, max(1, round(ring / (2.0 * width)))))
+            write_ascii_stl(
+                workdir / RING_STL,
+                "ring",
+                cylinder_triangles(
+                    self.radius, 0.0, ring, segments, max(1, round(ring / (2.0 * width)))
+                ),
+            )
         (workdir / SCRIPT).write_text(self.script())
 
     def script(self) -> str:
@@ -239,9 +299,15 @@ class CylinderLiftInput:
         meshes = ["tube"] + (["ring"] if s["ring_height"] > 0.0 else [])
         lines = [
             "# demcal cylinder lift on LIGGGHTS (generated), SI units",
-            "units si", "atom_style granular", "atom_modify map array", "boundary f f f",
-            "newton off", "communicate single vel yes", f"read_data {DATA}",
-            f"neighbor {num(0.1 * self.d_max)} bin", "neigh_modify delay 0",
+            "units si",
+            "atom_style granular",
+            "atom_modify map array",
+            "boundary f f f",
+            "newton off",
+            "communicate single vel yes",
+            f"read_data {DATA}",
+            f"neighbor {num(0.1 * self.d_max)} bin",
+            "neigh_modify delay 0",
             f"fix m1 all property/global youngsModulus peratomtype "
             f"{num(p['youngs_modulus'])} {num(p['youngs_modulus'])}",
             f"fix m2 all property/global poissonsRatio peratomtype "
@@ -254,7 +320,8 @@ class CylinderLiftInput:
             f"{_type_pairs(p['rolling_friction_pp'], p['rolling_friction_pw'])}",
             f"fix m6 all property/global coefficientRollingViscousDamping peratomtypepair 2 "
             f"{_type_pairs(ROLLING_DAMPING_RATIO, ROLLING_DAMPING_RATIO)}",
-            f"pair_style gran {model}", "pair_coeff * *",
+            f"pair_style gran {model}",
+            "pair_coeff * *",
             f"timestep {num(self.dt)}",
             f"fix gravity all gravity {num(GRAVITY)} vector 0 0 -1",
             f"fix floor all wall/gran {model} primitive type 2 zplane 0.0",
@@ -263,11 +330,14 @@ class CylinderLiftInput:
             f"fix walls all wall/gran {model} mesh n_meshes {len(meshes)} "
             f"meshes {' '.join(meshes)}",
             "fix integrate all nve/sphere",
-            "compute ke_t all ke", "compute ke_r all erotate/sphere",
+            "compute ke_t all ke",
+            "compute ke_r all erotate/sphere",
             "compute ztop all reduce max z",
-            "variable energy equal c_ke_t+c_ke_r", "variable now equal step",
+            "variable energy equal c_ke_t+c_ke_r",
+            "variable now equal step",
             "thermo_style custom step atoms c_ke_t c_ke_r c_ztop",
-            f"thermo {self.chunk}", "thermo_modify lost error norm no",
+            f"thermo {self.chunk}",
+            "thermo_modify lost error norm no",
         ]
         if s.get("dump_interval", 0.0) > 0.0:
             every = max(1, round(s["dump_interval"] / self.dt))
@@ -289,7 +359,8 @@ class CylinderLiftInput:
                 f"run {self.chunk} post no",
                 'print "demcal-progress lift ${lift_i} ${lift_chunks} ${energy}"',
                 f'if "${{energy}} > {num(self.blowup_energy)}" then "jump SELF unstable_lift"',
-                "next lift_i", "jump SELF lift_loop",
+                "next lift_i",
+                "jump SELF lift_loop",
                 "unfix lift",
             ]
             lines += self.settle_loop("heap", 0)
@@ -297,8 +368,11 @@ class CylinderLiftInput:
             lines.append('print "demcal-dump heap"')
         lines += ['print "demcal-done ${now}"', "jump SELF finished"]
         for stage in ("fill", "lift", "heap"):
-            lines += [f"label unstable_{stage}", f'print "demcal-unstable {stage} ${{energy}}"',
-                      "jump SELF finished"]
+            lines += [
+                f"label unstable_{stage}",
+                f'print "demcal-unstable {stage} ${{energy}}"',
+                "jump SELF finished",
+            ]
         lines.append("label finished")
         return "\n".join(lines) + "\n"
 
@@ -313,9 +387,12 @@ class CylinderLiftInput:
             f'if "${{energy}} > {num(self.blowup_energy)}" then "jump SELF unstable_{stage}"',
             f'if "${{energy}} < {num(self.rest_energy)} && ${{{stage}_i}} >= {min_chunks}" '
             f'then "jump SELF {stage}_rest"',
-            f"next {stage}_i", f"jump SELF {stage}_loop",
-            f'print "demcal-rest {stage} 0"', f"jump SELF {stage}_done",
-            f"label {stage}_rest", f'print "demcal-rest {stage} 1"',
+            f"next {stage}_i",
+            f"jump SELF {stage}_loop",
+            f'print "demcal-rest {stage} 0"',
+            f"jump SELF {stage}_done",
+            f"label {stage}_rest",
+            f'print "demcal-rest {stage} 1"',
             f"label {stage}_done",
         ]
 

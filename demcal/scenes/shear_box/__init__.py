@@ -62,6 +62,7 @@ def mean_sphere_volume(d50: float, sigma_ln: float, truncation: float) -> float:
     With ln d ~ N(ln d50, s^2) cut at +-k s: E[d^3] = d50^3 exp(4.5 s^2)
     (Phi(k - 3 s) - Phi(-k - 3 s)) / (Phi(k) - Phi(-k)).
     """
+
     def phi(z: float) -> float:
         return 0.5 * (1.0 + math.erf(z / math.sqrt(2.0)))
 
@@ -73,8 +74,13 @@ def mean_sphere_volume(d50: float, sigma_ln: float, truncation: float) -> float:
 def fill_particle_count(settings: dict) -> int:
     """Spheres generated: enough to fill the box at ``FILL_SOLID_FRACTION``."""
     length, width, height = box_dimensions(settings)
-    return math.ceil(FILL_SOLID_FRACTION * length * width * height / mean_sphere_volume(
-        settings["d50"], settings["sigma_ln"], settings["psd_truncation"]))
+    return math.ceil(
+        FILL_SOLID_FRACTION
+        * length
+        * width
+        * height
+        / mean_sphere_volume(settings["d50"], settings["sigma_ln"], settings["psd_truncation"])
+    )
 
 
 def _bulk_density(state: dict, settings: dict) -> float:
@@ -83,8 +89,13 @@ def _bulk_density(state: dict, settings: dict) -> float:
 
 def _shear_angle(state: dict, settings: dict) -> float:
     length, _, _ = box_dimensions(settings)
-    return measure.box_slope_angle(state["slope_x"], state["slope_r"], settings["d50"], length,
-                                   (settings["angle_band_lower"], settings["angle_band_upper"]))
+    return measure.box_slope_angle(
+        state["slope_x"],
+        state["slope_r"],
+        settings["d50"],
+        length,
+        (settings["angle_band_lower"], settings["angle_band_upper"]),
+    )
 
 
 def check_settings(settings: dict, field_prefix: str) -> None:
@@ -92,61 +103,94 @@ def check_settings(settings: dict, field_prefix: str) -> None:
     if settings["angle_band_lower"] >= settings["angle_band_upper"]:
         raise ConfigError(
             f"{field_prefix}.angle_band_lower: {settings['angle_band_lower']:g} must be below "
-            f"angle_band_upper ({settings['angle_band_upper']:g})")
+            f"angle_band_upper ({settings['angle_band_upper']:g})"
+        )
     length, _, _ = box_dimensions(settings)
     columns = length / settings["d50"]
     if columns < MIN_SLOPE_COLUMNS:
         raise ConfigError(
             f"{field_prefix}.box_size_dmax: the box is only {columns:.3g} median diameters "
             f"long ({length:g} m); the slope fit needs at least {MIN_SLOPE_COLUMNS}: raise "
-            f"box_size_dmax")
+            f"box_size_dmax"
+        )
     count = fill_particle_count(settings)
     if count > MAX_PARTICLES:
         raise ConfigError(
             f"{field_prefix}.sigma_ln: the box (smallest side {settings['box_size_dmax']:g} "
             f"largest particles) needs {count} spheres of this PSD, more than {MAX_PARTICLES}; "
-            f"narrow the PSD (sigma_ln, psd_truncation) or lower box_size_dmax")
+            f"narrow the PSD (sigma_ln, psd_truncation) or lower box_size_dmax"
+        )
 
 
 SCENE = Scene(
     name="shear_box",
     description="shear box test (Richter & Will 2021): bulk density of the filled box and "
-                "shear angle of the material left after the flap opens",
-    parameters=("sliding_friction_pp", "sliding_friction_pw", "rolling_friction_pp",
-                "rolling_friction_pw", "restitution", "youngs_modulus", "poisson_ratio",
-                "particle_density"),
+    "shear angle of the material left after the flap opens",
+    parameters=(
+        "sliding_friction_pp",
+        "sliding_friction_pw",
+        "rolling_friction_pp",
+        "rolling_friction_pw",
+        "restitution",
+        "youngs_modulus",
+        "poisson_ratio",
+        "particle_density",
+    ),
     responses={
-        "bulk_density": ResponseSpec("kg/m^3", "mass of the spheres whose centres lie in the "
-                                               "filled, struck-off box / box volume",
-                                     upper=MAX_BULK_DENSITY),
-        "shear_angle": ResponseSpec("deg", "slope of the material left in the box after the "
-                                           "flap opened: line fit of the surface against the "
-                                           "distance along the box", upper=MAX_ANGLE),
+        "bulk_density": ResponseSpec(
+            "kg/m^3",
+            "mass of the spheres whose centres lie in the filled, struck-off box / box volume",
+            upper=MAX_BULK_DENSITY,
+        ),
+        "shear_angle": ResponseSpec(
+            "deg",
+            "slope of the material left in the box after the "
+            "flap opened: line fit of the surface against the "
+            "distance along the box",
+            upper=MAX_ANGLE,
+        ),
     },
     settings={
         "d50": SettingSpec(11.16e-3, "m", "median particle diameter (by number)", 1.0e-5, 0.1),
-        "sigma_ln": SettingSpec(0.26, "-", "std. dev. of ln(diameter); 0 = monodisperse",
-                                0.0, 1.2),
-        "psd_truncation": SettingSpec(1.5, "sigma", "lognormal cut at d50 exp(+-k sigma_ln)",
-                                      0.5, 4.0),
-        "box_size_dmax": SettingSpec(10.0, "d_max", "smallest inner box side in largest "
-                                                    "particle diameters (Richter & Will: 10)",
-                                     4.0, 40.0),
-        "base_length": SettingSpec(0.10, "m", "unscaled box length along the outflow "
-                                              "(Rössler et al.: 100 mm)", 1.0e-3, 10.0),
+        "sigma_ln": SettingSpec(0.26, "-", "std. dev. of ln(diameter); 0 = monodisperse", 0.0, 1.2),
+        "psd_truncation": SettingSpec(
+            1.5, "sigma", "lognormal cut at d50 exp(+-k sigma_ln)", 0.5, 4.0
+        ),
+        "box_size_dmax": SettingSpec(
+            10.0,
+            "d_max",
+            "smallest inner box side in largest particle diameters (Richter & Will: 10)",
+            4.0,
+            40.0,
+        ),
+        "base_length": SettingSpec(
+            0.10,
+            "m",
+            "unscaled box length along the outflow (Rössler et al.: 100 mm)",
+            1.0e-3,
+            10.0,
+        ),
         "base_width": SettingSpec(0.10, "m", "unscaled box width (100 mm)", 1.0e-3, 10.0),
         "base_height": SettingSpec(0.15, "m", "unscaled box height (150 mm)", 1.0e-3, 10.0),
-        "rest_speed": SettingSpec(5.0e-3, "m/s", "rms particle speed below which material is "
-                                                 "at rest", 1.0e-6, 1.0),
-        "max_settle_time": SettingSpec(5.0, "s", "simulated time limit of the fill and of the "
-                                                 "outflow", 0.01, 100.0),
-        "dump_interval": SettingSpec(0.0, "s", "simulated time between particle dumps "
-                                               "(dump.lammpstrj, for viewing); 0 = no dumps",
-                                     0.0, 100.0),
-        "angle_band_lower": SettingSpec(0.2, "-", "slope fit: lowest surface height, fraction "
-                                                  "of the highest", 0.0, 0.9),
-        "angle_band_upper": SettingSpec(0.8, "-", "slope fit: highest surface height, fraction "
-                                                  "of the highest", 0.1, 1.0),
+        "rest_speed": SettingSpec(
+            5.0e-3, "m/s", "rms particle speed below which material is at rest", 1.0e-6, 1.0
+        ),
+        "max_settle_time": SettingSpec(
+            5.0, "s", "simulated time limit of the fill and of the outflow", 0.01, 100.0
+        ),
+        "dump_interval": SettingSpec(
+            0.0,
+            "s",
+            "simulated time between particle dumps (dump.lammpstrj, for viewing); 0 = no dumps",
+            0.0,
+            100.0,
+        ),
+        "angle_band_lower": SettingSpec(
+            0.2, "-", "slope fit: lowest surface height, fraction of the highest", 0.0, 0.9
+        ),
+        "angle_band_upper": SettingSpec(
+            0.8, "-", "slope fit: highest surface height, fraction of the highest", 0.1, 1.0
+        ),
     },
     analytic_model=analytic_model,
     extractors={"bulk_density": _bulk_density, "shear_angle": _shear_angle},

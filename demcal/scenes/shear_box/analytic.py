@@ -19,10 +19,15 @@ def analytic_model(p: dict, settings: dict) -> dict:
     grip = saturating(p["sliding_friction_pp"], 0.3)
     roll = saturating(p["rolling_friction_pp"], 0.1)
     spread = settings.get("sigma_ln", 0.0)
-    angle = (8.0 + 30.0 * grip * (0.4 + 0.6 * roll)
-             + 3.0 * saturating(p["sliding_friction_pw"], 0.3)
-             + 2.0 * saturating(p["rolling_friction_pw"], 0.1)
-             - 2.0 * (p["restitution"] - 0.5) + 4.0 * spread)
-    solid_fraction = (0.63 - 0.03 * grip - 0.07 * roll - 0.01 * (p["restitution"] - 0.5)
-                      + 0.04 * spread)
+    angle = (
+        8.0
+        + 30.0 * grip * (0.4 + 0.6 * roll)
+        + 3.0 * saturating(p["sliding_friction_pw"], 0.3)
+        + 2.0 * saturating(p["rolling_friction_pw"], 0.1)
+        - 2.0 * (p["restitution"] - 0.5)
+        + 4.0 * spread
+    )
+    solid_fraction = (
+        0.63 - 0.03 * grip - 0.07 * roll - 0.01 * (p["restitution"] - 0.5) + 0.04 * spread
+    )
     return {"shear_angle": angle, "bulk_density": p["particle_density"] * solid_fraction}

@@ -32,8 +32,13 @@ PLACEMENT_SOLID_FRACTION = 0.25
 MIN_OUTFLOW_FALL_TIMES = 3.0
 
 
-def random_loose_packing(diameters: np.ndarray, lower: np.ndarray, upper: np.ndarray,
-                         rng: np.random.Generator, max_tries: int = 1000) -> np.ndarray:
+def random_loose_packing(
+    diameters: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    rng: np.random.Generator,
+    max_tries: int = 1000,
+) -> np.ndarray:
     """Centres [m] of non-overlapping spheres placed at random, largest first, in a block.
 
     Random sequential addition: each sphere (diameters [m]) tries up to
@@ -62,8 +67,10 @@ def random_loose_packing(diameters: np.ndarray, lower: np.ndarray, upper: np.nda
                 break
         else:
             placed = len(diameters) - int(np.isnan(centres[:, 0]).sum())
-            raise SimulationFailed(f"could place only {placed} of {len(diameters)} particles "
-                                   f"in the column above the box")
+            raise SimulationFailed(
+                f"could place only {placed} of {len(diameters)} particles "
+                f"in the column above the box"
+            )
     return centres
 
 
@@ -75,37 +82,50 @@ class ShearBox(LammpsDriver):
         self.length, self.width, self.height = box_dimensions(self.s)
         d = self.d_max
         self.insert_top = d + self.particle_volume / (
-            PLACEMENT_SOLID_FRACTION * (self.length - d) * (self.width - d))
+            PLACEMENT_SOLID_FRACTION * (self.length - d) * (self.width - d)
+        )
         self.wall_top = self.insert_top + 2.0 * self.d_max
         self.potential_height = self.wall_top
 
     def build(self) -> None:
         d, length, width = self.d_max, self.length, self.width
         pw = self.wall_model()
-        self.lmp.commands_list([
-            "units si", "atom_style sphere", "boundary f f f", "newton off",
-            "comm_modify vel yes",
-            # spheres past the lip or below the floor leave the domain and are deleted
-            f"region domain block {num(-d)} {num(length + d)} {num(-d)} {num(width + d)} "
-            f"{num(-0.5 * d)} {num(self.wall_top + 2 * d)} units box",
-            "create_box 1 domain",
-            "pair_style granular", f"pair_coeff * * {self.pair_model()}",
-            f"neighbor {num(0.1 * d)} bin", "neigh_modify delay 0 every 1 check yes",
-        ])
-        centres = random_loose_packing(self.diameters, (0.0, 0.0, 0.0),
-                                       (length, width, self.insert_top), self.rng)
+        self.lmp.commands_list(
+            [
+                "units si",
+                "atom_style sphere",
+                "boundary f f f",
+                "newton off",
+                "comm_modify vel yes",
+                # spheres past the lip or below the floor leave the domain and are deleted
+                f"region domain block {num(-d)} {num(length + d)} {num(-d)} {num(width + d)} "
+                f"{num(-0.5 * d)} {num(self.wall_top + 2 * d)} units box",
+                "create_box 1 domain",
+                "pair_style granular",
+                f"pair_coeff * * {self.pair_model()}",
+                f"neighbor {num(0.1 * d)} bin",
+                "neigh_modify delay 0 every 1 check yes",
+            ]
+        )
+        centres = random_loose_packing(
+            self.diameters, (0.0, 0.0, 0.0), (length, width, self.insert_top), self.rng
+        )
         count = len(self.diameters)
-        self.lmp.create_atoms(count, list(range(1, count + 1)), [1] * count, centres.ravel().tolist())
+        self.lmp.create_atoms(
+            count, list(range(1, count + 1)), [1] * count, centres.ravel().tolist()
+        )
         self.lmp.numpy.extract_atom("radius")[:count] = self.diameters / 2.0
         self.lmp.command(f"set type 1 density {num(self.p['particle_density'])}")
-        self.lmp.commands_list([
-            # faces 2 (x = length) and 6 (top) open: floor, back and side walls
-            f"region walls block 0 {num(length)} 0 {num(width)} 0 {num(self.wall_top)} "
-            f"side in open 2 open 6 units box",
-            f"region flap plane {num(length)} 0 0 -1 0 0 side in units box",
-            f"fix walls all wall/gran/region granular {pw} region walls",
-            f"fix flap all wall/gran/region granular {pw} region flap",
-        ])
+        self.lmp.commands_list(
+            [
+                # faces 2 (x = length) and 6 (top) open: floor, back and side walls
+                f"region walls block 0 {num(length)} 0 {num(width)} 0 {num(self.wall_top)} "
+                f"side in open 2 open 6 units box",
+                f"region flap plane {num(length)} 0 0 -1 0 0 side in units box",
+                f"fix walls all wall/gran/region granular {pw} region walls",
+                f"fix flap all wall/gran/region granular {pw} region flap",
+            ]
+        )
         self.start_dynamics()
 
     def slope_estimate(self) -> dict[str, float]:
@@ -134,8 +154,11 @@ class ShearBox(LammpsDriver):
             energy = self.advance(step, "outflow", allow_loss=True)
             done += step
             late = done * self.dt >= min_time
-            self.monitor.progress(progress_from + (1.0 - progress_from) * done / limit, "outflow",
-                                  self.slope_estimate() if late else None)
+            self.monitor.progress(
+                progress_from + (1.0 - progress_from) * done / limit,
+                "outflow",
+                self.slope_estimate() if late else None,
+            )
             if late and energy < self.rest_energy():
                 return True
         return False
@@ -149,19 +172,23 @@ class ShearBox(LammpsDriver):
             raise SimulationFailed(
                 f"the settled fill ({surface:.4g} m) is below the box top ({self.height:.4g} m): "
                 f"the material packs denser than the fill allows for (FILL_SOLID_FRACTION in "
-                f"demcal/scenes/shear_box/__init__.py); its bulk density would read too low")
+                f"demcal/scenes/shear_box/__init__.py); its bulk density would read too low"
+            )
 
     def stages(self, measurements: dict[str, float], arrays: dict[str, np.ndarray]) -> None:
         wants_slope = "shear_angle" in self.job.responses
         fill_share = 0.4 if wants_slope else 1.0
         fall_time = math.sqrt(2.0 * self.insert_top / GRAVITY)
         measurements["fill_at_rest"] = float(
-            self.settle("fill", 0.0, fill_share, False, min_time=fall_time,
-                        container=CONTAINER))
+            self.settle("fill", 0.0, fill_share, False, min_time=fall_time, container=CONTAINER)
+        )
         self.check_overfilled()
-        self.lmp.commands_list([
-            f"region above block INF INF INF INF {num(self.height)} INF units box",
-            "delete_atoms region above"])
+        self.lmp.commands_list(
+            [
+                f"region above block INF INF INF INF {num(self.height)} INF units box",
+                "delete_atoms region above",
+            ]
+        )
         x, r, m = self.particles()
         arrays.update(fill_x=x, fill_mass=m)
         measurements["fill_particles"] = float(len(x))
