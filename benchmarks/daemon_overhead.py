@@ -41,7 +41,7 @@ from pathlib import Path
 
 import yaml
 
-from demcal.config import load_study_file
+from demcal.study.config import load_study_file
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "config" / "examples" / "analytic.yaml"

@@ -24,9 +24,9 @@ from pathlib import Path
 
 import yaml
 
-from demcal.config import load_study
-from demcal.evaluation import extract, simulate
-from demcal.layout import PointRecord, write_point
+from demcal.jobs.evaluation import extract, simulate
+from demcal.results.layout import PointRecord, write_point
+from demcal.study.config import load_study
 
 ROOT = Path(__file__).resolve().parents[1]
 POINT = {"sliding_friction_pp": 0.5, "rolling_friction_pp": 0.16}

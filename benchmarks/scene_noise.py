@@ -23,9 +23,9 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-from demcal.config import load_study_file
-from demcal.evaluation import extract, simulate
-from demcal.layout import PointRecord, write_point
+from demcal.jobs.evaluation import extract, simulate
+from demcal.results.layout import PointRecord, write_point
+from demcal.study.config import load_study_file
 
 ROOT = Path(__file__).resolve().parents[1]
 EVALUATION = "noise"

@@ -1,5 +1,5 @@
 """Snakemake job: the DAG of one evaluation as SVG (Graphviz)."""
 
-from demcal.plots import write_evaluation_dag
+from demcal.reporting.figures import write_evaluation_dag
 
 write_evaluation_dag(snakemake)  # noqa: F821  (snakemake is injected by Snakemake)

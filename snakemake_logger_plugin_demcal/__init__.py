@@ -35,8 +35,8 @@ def check_study_files(argv: list[str]) -> None:
     paths = configfiles(argv)
     if not paths:
         return
-    from demcal.config import read_study_yaml
     from demcal.errors import ConfigError
+    from demcal.study.config import read_study_yaml
 
     for path in paths:
         try:

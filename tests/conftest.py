@@ -35,8 +35,8 @@ ANALYTIC_STUDY = {
 def run_and_extract(engine, job):
     """Run one simulation on ``engine``; its responses as the workflow's extract job computes them."""
     from demcal.engines.base import RunMonitor
-    from demcal.evaluation import scene_responses
-    from demcal.records import Status
+    from demcal.jobs.evaluation import scene_responses
+    from demcal.results.records import Status
 
     scene = SCENES[job.scene]
     result = engine.run(job, RunMonitor(job), scene.driver(engine.name))

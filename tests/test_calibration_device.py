@@ -9,12 +9,12 @@ from conftest import PARAMETER_CORNERS
 from demcal.engines.base import RunMonitor, SimulationJob
 from demcal.engines.lammps import LammpsEngine
 from demcal.errors import ConfigError
-from demcal.files import read_partial
-from demcal.granular import measure
-from demcal.parameters import CATALOG
-from demcal.records import Status
+from demcal.physics import measure
+from demcal.results.records import Status
+from demcal.results.storage import read_partial
 from demcal.scenes import SCENES
 from demcal.scenes.calibration_device import device_geometry
+from demcal.study.catalogue import CATALOG
 
 SCENE = SCENES["calibration_device"]
 

@@ -6,8 +6,8 @@ import pytest
 import yaml
 from bad_inputs import BASE, ESCAPING, FIELDS, FILES, NON_FINITE
 
-from demcal.config import load_study, load_study_file, read_study_yaml
 from demcal.errors import ConfigError
+from demcal.study.config import load_study, load_study_file, read_study_yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 

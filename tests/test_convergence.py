@@ -4,9 +4,9 @@ import pandas as pd
 import pytest
 import yaml
 
+from demcal.analysis.convergence import Variant, plan, summarise
 from demcal.cli import main
-from demcal.config import load_study
-from demcal.convergence import Variant, plan, summarise
+from demcal.study.config import load_study
 
 
 def test_plan_holds_both_sweeps_through_the_configured_variant(analytic_config):
@@ -111,7 +111,7 @@ def test_convergence_unknown_scene_is_one_clear_error(
 
 
 def test_particle_count_varies_at_constant_volume_of_material(analytic_config):
-    from demcal.convergence import variant_settings
+    from demcal.analysis.convergence import variant_settings
 
     study = load_study(analytic_config)
     coarse = variant_settings(study, "cylinder_lift", Variant(0.25, 1000.0), "f")

@@ -377,9 +377,9 @@ def test_a_daemon_that_dies_on_a_disk_error_leaves_the_calibration_unfinished(
     tmp_path, monkeypatch
 ):
     """Results folder unwritable mid-run (EROFS), then repaired: the same command resumes."""
-    from demcal.config import load_study_file
     from demcal.daemon import loop as daemon
-    from demcal.study import freeze
+    from demcal.study.config import load_study_file
+    from demcal.study.model import freeze
 
     monkeypatch.chdir(tmp_path)
     config = study(tmp_path, "rofs")
@@ -431,10 +431,10 @@ def test_editing_the_study_file_during_a_run_does_not_reach_the_running_calibrat
 
 def test_a_failure_after_demcal_stop_is_recorded_not_retried(tmp_path, monkeypatch):
     """The retry used to remove the evaluation's STOP file and relaunch it after the stop."""
-    from demcal.config import load_study_file
     from demcal.daemon.loop import Calibration
-    from demcal.layout import PointRecord, evaluation_id, write_point
-    from demcal.study import freeze
+    from demcal.results.layout import PointRecord, evaluation_id, write_point
+    from demcal.study.config import load_study_file
+    from demcal.study.model import freeze
 
     monkeypatch.chdir(tmp_path)
     calibration = Calibration(freeze(load_study_file(study(tmp_path, "halt"))), None, 2)

@@ -14,18 +14,18 @@ from pathlib import Path
 
 import pytest
 
-from demcal.daemon.watch import latest_estimates
+from demcal.daemon.termination import latest_estimates
 from demcal.engines import command
 from demcal.engines.analytic import AnalyticEngine
 from demcal.engines.base import RunMonitor, SimulationJob
 from demcal.engines.command import CommandEngine, SimulatorProgress, command_words
 from demcal.engines.lammps import LammpsEngine
 from demcal.errors import ConfigError
-from demcal.files import read_partial
-from demcal.layout import EvaluationFiles
-from demcal.parameters import CATALOG
-from demcal.records import Status
+from demcal.results.layout import EvaluationFiles
+from demcal.results.records import Status
+from demcal.results.storage import read_partial
 from demcal.scenes import SCENES
+from demcal.study.catalogue import CATALOG
 
 SCENE = SCENES["cylinder_lift"]
 

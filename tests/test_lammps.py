@@ -14,10 +14,10 @@ from conftest import PARAMETER_CORNERS, run_and_extract
 
 from demcal.engines.base import SimulationJob
 from demcal.engines.lammps import LammpsEngine
-from demcal.files import read_partial
-from demcal.parameters import CATALOG
-from demcal.records import Status
+from demcal.results.records import Status
+from demcal.results.storage import read_partial
 from demcal.scenes import SCENES
+from demcal.study.catalogue import CATALOG
 
 pytestmark = pytest.mark.lammps
 

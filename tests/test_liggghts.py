@@ -14,14 +14,13 @@ import numpy as np
 import pytest
 from conftest import run_and_extract
 
-from demcal.config import load_study
 from demcal.engines import liggghts
 from demcal.engines.base import RunMonitor, SimulationJob
 from demcal.engines.liggghts import LiggghtsEngine, read_dump, write_ascii_stl
 from demcal.errors import ConfigError, SimulationFailed
-from demcal.files import read_partial
-from demcal.parameters import CATALOG
-from demcal.records import Status
+from demcal.physics.timestep import rayleigh_time
+from demcal.results.records import Status
+from demcal.results.storage import read_partial
 from demcal.scenes import SCENES
 from demcal.scenes.cylinder_lift.liggghts import (
     CylinderLiftInput,
@@ -29,7 +28,8 @@ from demcal.scenes.cylinder_lift.liggghts import (
     place_spheres,
     polygon_segments,
 )
-from demcal.timestep import rayleigh_time
+from demcal.study.catalogue import CATALOG
+from demcal.study.config import load_study
 
 SCENE = SCENES["cylinder_lift"]
 TINY = {

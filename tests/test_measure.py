@@ -7,7 +7,7 @@ import pytest
 from conftest import cone_of_spheres
 
 from demcal.errors import SimulationFailed
-from demcal.granular import measure
+from demcal.physics import measure
 
 D = 2.0e-3
 

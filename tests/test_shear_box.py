@@ -14,14 +14,14 @@ from conftest import PARAMETER_CORNERS, run_and_extract
 from demcal.engines.analytic import AnalyticEngine
 from demcal.engines.base import RunMonitor, SimulationJob
 from demcal.errors import ConfigError, SimulationFailed
-from demcal.files import read_partial
-from demcal.granular import measure
-from demcal.granular.psd import sample_diameters
-from demcal.parameters import CATALOG
-from demcal.records import Status
+from demcal.physics import measure
+from demcal.physics.psd import sample_diameters
+from demcal.results.records import Status
+from demcal.results.storage import read_partial
 from demcal.scenes import SCENES
 from demcal.scenes.shear_box import box_dimensions, fill_particle_count, mean_sphere_volume
 from demcal.scenes.shear_box.lammps import random_loose_packing
+from demcal.study.catalogue import CATALOG
 
 SCENE = SCENES["shear_box"]
 DEFAULTS = {name: spec.default for name, spec in CATALOG.items()}

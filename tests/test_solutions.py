@@ -3,9 +3,7 @@
 import numpy as np
 import pytest
 
-from demcal.objective import ResponseObjective, Target
-from demcal.optimizer.responses import ResponsePredictor, ResponseRBF
-from demcal.solutions import (
+from demcal.analysis.solutions import (
     identifiability,
     largest_total_index,
     sample_solutions,
@@ -14,6 +12,8 @@ from demcal.solutions import (
     tolerance_sd,
     within_tolerance,
 )
+from demcal.optimizer.responses import ResponsePredictor, ResponseRBF
+from demcal.study.objective import ResponseObjective, Target
 
 NAMES, UNITS = ["sliding_friction_pp", "sliding_friction_pw"], ["-", "-"]
 LOWER, UPPER = np.array([0.2, 0.2]), np.array([0.9, 0.9])

@@ -2,8 +2,8 @@
 
 from conftest import study
 
-from demcal.config import load_study_file
-from demcal.summary import evaluation_summary
+from demcal.reporting.terminal import evaluation_summary
+from demcal.study.config import load_study_file
 
 
 def test_best_point_summary_shows_prediction_spread_and_a_parameter_on_its_bound(tmp_path):

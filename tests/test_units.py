@@ -5,11 +5,15 @@ import math
 import numpy as np
 import pytest
 
-from demcal.contact import effective_modulus, hertz_secant_stiffness, sds_rolling_coefficients
 from demcal.errors import ConfigError
-from demcal.granular.psd import diameter_range, sample_diameters
-from demcal.objective import Target, objective_value, relative_error, replicate_mean
-from demcal.timestep import check_fraction, rayleigh_time
+from demcal.physics.contact import (
+    effective_modulus,
+    hertz_secant_stiffness,
+    sds_rolling_coefficients,
+)
+from demcal.physics.psd import diameter_range, sample_diameters
+from demcal.physics.timestep import check_fraction, rayleigh_time
+from demcal.study.objective import Target, objective_value, relative_error, replicate_mean
 
 
 def test_rayleigh_time_hand_value():
@@ -77,7 +81,7 @@ def test_rolling_stiffness_follows_ai_et_al():
 
 def test_rayleigh_cost_is_zero_at_the_largest_time_step_and_the_weight_at_the_smallest():
     """Rackl & Hanley (2017) eq. 10 over E in [5e6, 5e8] Pa, rho 2500, nu 0.3."""
-    from demcal.timestep import rayleigh_cost, rayleigh_time_range
+    from demcal.physics.timestep import rayleigh_cost, rayleigh_time_range
 
     bounds = {
         "particle_density": (2500.0, 2500.0),
@@ -96,7 +100,7 @@ def test_rayleigh_cost_is_zero_at_the_largest_time_step_and_the_weight_at_the_sm
 
 def test_objective_forms_agree_with_eq_3_3():
     """Per replicate and from early estimates, the objective is eq. 3.3 of those values."""
-    from demcal.objective import estimated_objective, replicate_objectives
+    from demcal.study.objective import estimated_objective, replicate_objectives
 
     targets = [Target("s", "a", 20.0), Target("s", "b", 1000.0, weight=2.0)]
     replicates = {"s.a": [22.0, 18.0], "s.b": [900.0, 1100.0]}

@@ -158,8 +158,8 @@ def test_real_lammps_evaluation_through_the_dag(tmp_path, analytic_config):
 
 
 def test_garbled_files_become_recorded_failures(tmp_path, analytic_config, monkeypatch):
-    from demcal.config import load_study
-    from demcal.evaluation import extract, objective
+    from demcal.jobs.evaluation import extract, objective
+    from demcal.study.config import load_study
 
     study = load_study(analytic_config)
     simulation = tmp_path / "sim" / "simulation.json"
@@ -260,10 +260,10 @@ def test_the_report_opens_with_the_answer_in_a_browser(reported):
 
 
 def test_dag_drawing_without_graphviz_says_how_to_get_it(monkeypatch):
-    import demcal.plots
+    import demcal.reporting.figures
 
-    monkeypatch.setattr(demcal.plots.shutil, "which", lambda name: None)
-    svg = demcal.plots.dag_svg('digraph { simulate -> "extract" }')
+    monkeypatch.setattr(demcal.reporting.figures.shutil, "which", lambda name: None)
+    svg = demcal.reporting.figures.dag_svg('digraph { simulate -> "extract" }')
     assert svg.startswith("<svg") and "apt install graphviz" in svg
     assert "simulate -&gt; &quot;extract&quot;" in svg
 

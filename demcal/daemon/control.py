@@ -10,11 +10,10 @@ import shutil
 import time
 from pathlib import Path
 
-from demcal.daemon.children import alive
-from demcal.daemon.tables import write_evaluations_csv
+from demcal.daemon.launcher import alive
 from demcal.errors import ConfigError, DemcalError, SimulationFailed
-from demcal.files import atomic_write_text
-from demcal.layout import (
+from demcal.optimizer import Optimizer
+from demcal.results.layout import (
     PointRecord,
     evaluation_id,
     proposal_id,
@@ -22,9 +21,10 @@ from demcal.layout import (
     read_point,
     write_point,
 )
-from demcal.optimizer import Optimizer
-from demcal.records import Status
-from demcal.study import Study
+from demcal.results.records import Status
+from demcal.results.storage import atomic_write_text
+from demcal.results.tables import write_evaluations_csv
+from demcal.study.model import Study
 
 
 def reopen_failed(study: Study) -> list[str]:

@@ -24,19 +24,18 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from demcal.daemon.children import Child, alive, child_command, is_snakemake_for, start_child
+from demcal.daemon.launcher import Child, alive, child_command, is_snakemake_for, start_child
 from demcal.daemon.progress import Progress
-from demcal.daemon.tables import write_best, write_evaluations_csv
-from demcal.daemon.watch import (
+from demcal.daemon.termination import (
     append_estimates,
     early_termination_decisions,
     latest_estimates,
     partial_responses,
 )
 from demcal.errors import DemcalError, SimulationFailed
-from demcal.evaluation import objective, response_paths
-from demcal.files import atomic_write_text, log_tail, read_json, write_json
-from demcal.layout import (
+from demcal.jobs.evaluation import objective, response_paths
+from demcal.optimizer import Optimizer
+from demcal.results.layout import (
     PointRecord,
     evaluation_id,
     proposal_id,
@@ -45,10 +44,11 @@ from demcal.layout import (
     read_point,
     write_point,
 )
-from demcal.objective import ResponseObjective, estimated_objective, replicate_objectives
-from demcal.optimizer import Optimizer
-from demcal.records import Status
-from demcal.study import RESUMABLE_OPTIMIZER_SETTINGS, Study
+from demcal.results.records import Status
+from demcal.results.storage import atomic_write_text, log_tail, read_json, write_json
+from demcal.results.tables import write_best, write_evaluations_csv
+from demcal.study.model import RESUMABLE_OPTIMIZER_SETTINGS, Study
+from demcal.study.objective import ResponseObjective, estimated_objective, replicate_objectives
 
 log = logging.getLogger("demcal.daemon")
 
@@ -56,7 +56,7 @@ log = logging.getLogger("demcal.daemon")
 class Calibration:
     """One study's calibration on disk under ``results/<study>/``.
 
-    ``study`` is the frozen study (``demcal.study.freeze``): its
+    ``study`` is the frozen study (``demcal.study.model.freeze``): its
     ``study.json`` is what the children read.
     """
 
@@ -131,7 +131,7 @@ class Calibration:
     def rescore(self) -> None:
         """Recompute the objective of evaluations scored against other target values or weights.
 
-        After corrected targets (``demcal.study.freeze`` allows them): each
+        After corrected targets (``demcal.study.model.freeze`` allows them): each
         such objective.json is rewritten from its replicates' responses.json
         (no simulation runs) and the optimizer's value is replaced.
         """

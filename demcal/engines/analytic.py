@@ -24,7 +24,7 @@ import numpy as np
 
 from demcal.engines.base import Engine, RunMonitor, RunResult, SimulationJob
 from demcal.errors import ConfigError
-from demcal.records import Status
+from demcal.results.records import Status
 
 
 def _injected_failure(failures: list[dict], parameters: dict) -> dict | None:

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from demcal.files import PartialWriter
+from demcal.results.storage import PartialWriter
 
 
 @dataclass

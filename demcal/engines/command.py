@@ -38,8 +38,8 @@ from demcal.engines.base import (
     stop_process_group,
 )
 from demcal.errors import ConfigError, SimulationFailed
-from demcal.files import GrowingCsv, log_tail, read_json
-from demcal.records import Status
+from demcal.results.records import Status
+from demcal.results.storage import GrowingCsv, log_tail, read_json
 
 POLL_SECONDS = 0.5
 #: Largest responses file read (a JSON object of a few numbers) and partial file followed.

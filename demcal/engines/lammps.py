@@ -28,8 +28,8 @@ import numpy as np
 
 from demcal.engines.base import Engine, RunMonitor, RunResult, SimulationJob, signal_name
 from demcal.errors import ConfigError
-from demcal.files import log_tail, read_json, write_json
-from demcal.records import Status
+from demcal.results.records import Status
+from demcal.results.storage import log_tail, read_json, write_json
 
 JOB_FILE, RESULT_FILE, STATE_FILE, WORKER_LOG = (
     "lammps-job.json",

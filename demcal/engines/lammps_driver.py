@@ -6,7 +6,7 @@ granular walls) and its ``stages`` drive the test with ``advance`` and
 ``settle``, which check stability after every chunk of steps and raise
 ``Stopped`` when the evaluation's STOP file appears. Contact: Hertz with
 restitution damping, Mindlin tangential friction, SDS rolling resistance
-converted from mu_r (``demcal.contact``), Marshall twisting.
+converted from mu_r (``demcal.physics.contact``), Marshall twisting.
 """
 
 from __future__ import annotations
@@ -16,11 +16,11 @@ from pathlib import Path
 
 import numpy as np
 
-from demcal.contact import GRAVITY, sds_rolling_coefficients
 from demcal.engines.base import RunMonitor, RunResult, SimulationJob
 from demcal.errors import SimulationFailed
-from demcal.granular.particles import BLOWUP_FACTOR, simulation_particles
-from demcal.records import Status
+from demcal.physics.contact import GRAVITY, sds_rolling_coefficients
+from demcal.physics.particles import BLOWUP_FACTOR, simulation_particles
+from demcal.results.records import Status
 
 
 def num(value: float) -> str:

@@ -22,8 +22,8 @@ import numpy as np
 from demcal.engines.base import RunMonitor, SimulationJob
 from demcal.engines.lammps import RESULT_FILE, STATE_FILE, preload_mpi
 from demcal.errors import SimulationFailed
-from demcal.files import read_json, write_json
-from demcal.records import Status
+from demcal.results.records import Status
+from demcal.results.storage import read_json, write_json
 
 
 def _lammps_message(exc: Exception) -> str:

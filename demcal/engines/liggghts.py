@@ -45,9 +45,9 @@ from demcal.engines.base import (
     stop_process_group,
 )
 from demcal.errors import ConfigError, SimulationFailed
-from demcal.files import log_tail
-from demcal.granular.particles import BLOWUP_FACTOR
-from demcal.records import Status
+from demcal.physics.particles import BLOWUP_FACTOR
+from demcal.results.records import Status
+from demcal.results.storage import log_tail
 
 BINARY = "liggghts"
 INSTALL_HINT = "install it with: apt-get install liggghts (Debian/Ubuntu, LIGGGHTS 3.8)"

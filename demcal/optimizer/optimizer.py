@@ -10,7 +10,7 @@ and parallel workers never get the same point; only finished values enter
 the surrogate data B (section 3.6.2: a terminated run updates A but not B).
 Failed points additionally exclude a small ball around them.
 
-Given the targets (``objective``, a :class:`~demcal.objective.ResponseObjective`),
+Given the targets (``objective``, a :class:`~demcal.study.objective.ResponseObjective`),
 the optimizer also keeps each evaluation's responses (:mod:`.responses`):
 replicate values, and what a stopped run completed or estimated. One model
 per response then predicts the objective, which picks the best point and
@@ -28,10 +28,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from demcal.objective import ResponseObjective, replicate_objectives
-from demcal.records import Status
+from demcal.results.records import Status
+from demcal.study.objective import ResponseObjective, replicate_objectives
 
-from . import strategies as st
+from . import candidates as st
 from .bounds import Bounds, on_bounds
 from .designs import default_initial_size, initial_design
 from .early_termination import EarlyTerminationDecision, early_termination_decision

@@ -32,8 +32,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from demcal.objective import weighted_residuals
-from demcal.records import Status
+from demcal.results.records import Status
+from demcal.study.objective import weighted_residuals
 
 from .responses import ResponsePredictor
 from .search import History, Strategy

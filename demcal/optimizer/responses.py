@@ -20,8 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from demcal.objective import ResponseObjective
-from demcal.records import Status
+from demcal.results.records import Status
+from demcal.study.objective import ResponseObjective
 
 from .surrogates import (
     CubicRBF,

@@ -23,9 +23,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from demcal.records import Status
+from demcal.results.records import Status
 
-from . import strategies as st
+from . import candidates as st
 from .responses import ResponsePredictor
 from .settings import OptimizerSettings
 from .surrogates import Surrogate

@@ -8,7 +8,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from demcal.errors import ConfigError
-from demcal.parameters import CATALOG
+from demcal.study.catalogue import CATALOG
 
 #: Largest possible angle of a slope (repose, shear), deg.
 MAX_ANGLE = 90.0

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from demcal.objective import ResponseObjective, Target, objective_values
 from demcal.optimizer import Optimizer
 from demcal.optimizer.responses import ResponseModels, observations
+from demcal.study.objective import ResponseObjective, Target, objective_values
 
 
 def lift(x):

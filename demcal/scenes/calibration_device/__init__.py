@@ -33,8 +33,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from demcal.errors import ConfigError, SimulationFailed
-from demcal.granular import measure
-from demcal.granular.psd import diameter_range
+from demcal.physics import measure
+from demcal.physics.psd import diameter_range
 from demcal.scenes.base import MAX_ANGLE, ResponseSpec, Scene, SettingSpec
 from demcal.scenes.calibration_device.analytic import analytic_model
 

@@ -18,8 +18,8 @@ figure depends on how it is measured as much as on the material.
 from __future__ import annotations
 
 from demcal.errors import ConfigError
-from demcal.granular import measure
-from demcal.granular.psd import diameter_range
+from demcal.physics import measure
+from demcal.physics.psd import diameter_range
 from demcal.scenes.base import MAX_ANGLE, MAX_BULK_DENSITY, ResponseSpec, Scene, SettingSpec
 from demcal.scenes.cylinder_lift.analytic import analytic_model
 

@@ -15,11 +15,11 @@ import math
 
 import numpy as np
 
-from demcal.contact import GRAVITY
 from demcal.engines.base import RunMonitor, RunResult, SimulationJob
 from demcal.engines.lammps_driver import LammpsDriver, num
-from demcal.granular import measure
-from demcal.granular.particles import INSERTION_SOLID_FRACTION
+from demcal.physics import measure
+from demcal.physics.contact import GRAVITY
+from demcal.physics.particles import INSERTION_SOLID_FRACTION
 
 CONTAINER = "the closed cylinder"
 

@@ -8,7 +8,7 @@ The case writes a data file with the spheres (same diameters as the LAMMPS
 driver for the same seed, placed at random without overlap), ASCII STL meshes
 of the cylinder and the rim ring, and an input script that runs the stages
 fill/settle, lift and heap/settle in loops of
-``demcal.granular.particles.CHUNK_TIME`` with the same rest and blow-up tests
+``demcal.physics.particles.CHUNK_TIME`` with the same rest and blow-up tests
 as the LAMMPS driver. Dumps: ``fill.dump`` after the
 fill has settled (fill_x, fill_r, fill_mass; early estimate of the bulk
 density) and, when the angle of repose is asked for, ``heap.dump`` after the
@@ -43,13 +43,13 @@ from pathlib import Path
 
 import numpy as np
 
-from demcal.contact import GRAVITY, ROLLING_DAMPING_RATIO
 from demcal.engines.base import SimulationJob
 from demcal.engines.lammps_driver import num
 from demcal.engines.liggghts import SCRIPT, positions, write_ascii_stl
 from demcal.errors import SimulationFailed
-from demcal.granular import measure
-from demcal.granular.particles import BLOWUP_FACTOR, INSERTION_SOLID_FRACTION, simulation_particles
+from demcal.physics import measure
+from demcal.physics.contact import GRAVITY, ROLLING_DAMPING_RATIO
+from demcal.physics.particles import BLOWUP_FACTOR, INSERTION_SOLID_FRACTION, simulation_particles
 
 DATA, TUBE_STL, RING_STL, FILL_DUMP, HEAP_DUMP = (
     "particles.data",

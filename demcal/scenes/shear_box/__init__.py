@@ -22,7 +22,7 @@ once; spheres that leave over the floor's edge fall away and are deleted.
 
 Defaults: Richter & Will's gravel 8/16 (Table 3: d50 11.16 mm, sigma_ln
 0.26); a cut at 1.5 sigma gives 7.6-16.5 mm, the sieve range. The PSD is
-sampled by number (``demcal.granular.psd``); Richter & Will fit the lognormal
+sampled by number (``demcal.physics.psd``); Richter & Will fit the lognormal
 to the mass distribution Q3, whose median is exp(3 sigma_ln^2) times the
 number median: convert d50 before entering a sieve analysis here. About
 5000 spheres are generated at the defaults, 4600 stay in the struck-off box.
@@ -33,8 +33,8 @@ from __future__ import annotations
 import math
 
 from demcal.errors import ConfigError
-from demcal.granular import measure
-from demcal.granular.psd import diameter_range
+from demcal.physics import measure
+from demcal.physics.psd import diameter_range
 from demcal.scenes.base import MAX_ANGLE, MAX_BULK_DENSITY, ResponseSpec, Scene, SettingSpec
 from demcal.scenes.shear_box.analytic import analytic_model
 

@@ -17,11 +17,11 @@ import math
 
 import numpy as np
 
-from demcal.contact import GRAVITY
 from demcal.engines.base import RunMonitor, RunResult, SimulationJob
 from demcal.engines.lammps_driver import LammpsDriver, num
 from demcal.errors import SimulationFailed
-from demcal.granular import measure
+from demcal.physics import measure
+from demcal.physics.contact import GRAVITY
 from demcal.scenes.shear_box import box_dimensions, fill_particle_count
 
 CONTAINER = "the closed box"

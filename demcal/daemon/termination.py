@@ -16,9 +16,9 @@ from collections.abc import Callable
 from functools import lru_cache
 from pathlib import Path
 
-from demcal.files import GrowingCsv, partial_row
-from demcal.layout import EvaluationFiles
 from demcal.optimizer import EarlyTerminationDecision
+from demcal.results.layout import EvaluationFiles
+from demcal.results.storage import GrowingCsv, partial_row
 
 
 class LatestReports(GrowingCsv):

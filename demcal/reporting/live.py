@@ -4,7 +4,7 @@
 the page reloads itself in the browser. It shows the state and counts, the
 running evaluations (simulation progress, objective estimate and the early
 termination limit it is held to), the mismatch against run time and the
-early-termination estimates over time (``demcal.plots``), from the files the
+early-termination estimates over time (``demcal.reporting.figures``), from the files the
 daemon keeps: nothing is asked of the daemon.
 """
 
@@ -19,17 +19,17 @@ import matplotlib.pyplot as plt
 import pandas as pd
 
 from demcal.daemon.progress import clock
-from demcal.files import atomic_write_text, read_partial
-from demcal.layout import evaluation_id, read_launch
 from demcal.optimizer import Optimizer
-from demcal.plots import (
+from demcal.reporting.figures import (
     evaluation_statuses,
     load_estimates,
     load_table,
     plot_early_termination,
     plot_objective_vs_time,
 )
-from demcal.study import Study
+from demcal.results.layout import evaluation_id, read_launch
+from demcal.results.storage import atomic_write_text, read_partial
+from demcal.study.model import Study
 
 
 def _png(draw) -> str:

@@ -17,9 +17,9 @@ from pathlib import Path
 import yaml
 
 from demcal.errors import DemcalError
-from demcal.files import write_json
-from demcal.layout import EvaluationFiles
 from demcal.resources import SNAKEFILE
+from demcal.results.layout import EvaluationFiles
+from demcal.results.storage import write_json
 
 
 @dataclass

@@ -18,7 +18,7 @@ question on the optimizer's response models:
   off against the others.
 
 Pure functions of a :class:`~demcal.optimizer.responses.ResponsePredictor`
-and the bounds; the files and figures are in :mod:`demcal.solution_files`.
+and the bounds; the files and figures are in :mod:`demcal.analysis.solution_report`.
 """
 
 from __future__ import annotations
@@ -29,8 +29,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import qmc
 
-from demcal.objective import Target
 from demcal.optimizer.responses import ResponsePredictor
+from demcal.study.objective import Target
 
 #: Width of the central share of the solution set, relative to the bounds, at or below which a
 #: parameter counts as pinned, and above which it counts as not identified.

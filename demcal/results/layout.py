@@ -7,7 +7,7 @@ objects accept wildcard strings (``"{evaluation}"``, ``"{replicate}"``) so the
 workflow's rules build their patterns from the same place::
 
     results/<study>/
-        study.json          the resolved study, frozen at the start (demcal.study)
+        study.json          the resolved study, frozen at the start (demcal.study.model)
         calibration.json    start time of the calibration
         optimizer.json      the optimizer's whole state, rewritten after every event
         evaluations.csv     one row per evaluation (demcal.tables)
@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from demcal.errors import SimulationFailed
-from demcal.files import read_json, write_json
+from demcal.results.storage import read_json, write_json
 
 RESULTS = Path("results")
 

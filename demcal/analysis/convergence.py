@@ -25,14 +25,14 @@ from pathlib import Path
 
 import pandas as pd
 
-from demcal.config import default, load_study_file
 from demcal.engines.base import SimulationJob
 from demcal.errors import ConfigError, DemcalError
-from demcal.evaluation import run_engine, scene_responses
-from demcal.files import atomic_write_text
-from demcal.records import Status
-from demcal.study import Study
-from demcal.timestep import check_fraction
+from demcal.jobs.evaluation import run_engine, scene_responses
+from demcal.physics.timestep import check_fraction
+from demcal.results.records import Status
+from demcal.results.storage import atomic_write_text
+from demcal.study.config import default, load_study_file
+from demcal.study.model import Study
 
 DEFAULT_FRACTIONS = (0.5, 0.35, 0.25, 0.125)
 #: Sizes tried by default, as multiples of the configured size.

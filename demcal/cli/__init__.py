@@ -27,19 +27,19 @@ from pathlib import Path
 
 import pandas as pd
 
-from demcal.config import load_study_file
-from demcal.daemon.children import child_cores, profile_settings
 from demcal.daemon.control import add_point, lock_study, reopen_failed, request_stop, running_daemon
+from demcal.daemon.launcher import child_cores, profile_settings
 from demcal.daemon.loop import Calibration
 from demcal.daemon.progress import ProgressDisplay
 from demcal.errors import ConfigError, DemcalError
-from demcal.files import read_json
-from demcal.layout import RESULTS, StudyFiles, read_objective
 from demcal.optimizer import Optimizer
-from demcal.records import Status
+from demcal.reporting.terminal import CHOSEN_BY, confirmation_summary, evaluation_summary
 from demcal.resources import PROFILES_DIR
-from demcal.study import Study, freeze, load_frozen
-from demcal.summary import CHOSEN_BY, confirmation_summary, evaluation_summary
+from demcal.results.layout import RESULTS, StudyFiles, read_objective
+from demcal.results.records import Status
+from demcal.results.storage import read_json
+from demcal.study.config import load_study_file
+from demcal.study.model import Study, freeze, load_frozen
 
 DEFAULT_CONFIG = "config/config.yaml"
 DEFAULT_PROFILE = PROFILES_DIR / "local"
@@ -243,7 +243,7 @@ def studies(args) -> int:
 
 def watch(args) -> int:
     """Keep results/<study>/live.html up to date while the calibration runs."""
-    from demcal.live import write_live_page
+    from demcal.reporting.live import write_live_page
 
     study = study_of(args.config)
     if not 1 <= args.every <= 3600:  # NaN fails too
@@ -311,7 +311,7 @@ def rerun_failed(args) -> int:
 
 
 def solutions(args) -> int:
-    from demcal.solution_files import write_solutions
+    from demcal.analysis.solution_report import write_solutions
 
     study = study_of(args.config)
     if not (args.k > 0 and args.samples >= 64):

@@ -7,10 +7,10 @@ import io
 from datetime import UTC, datetime
 
 from demcal.errors import SimulationFailed
-from demcal.files import atomic_write_text, write_json
-from demcal.layout import evaluation_id, read_launch, read_objective, read_point
-from demcal.records import Status
-from demcal.study import Study
+from demcal.results.layout import evaluation_id, read_launch, read_objective, read_point
+from demcal.results.records import Status
+from demcal.results.storage import atomic_write_text, write_json
+from demcal.study.model import Study
 
 #: Significant digits of the numbers in evaluations.csv (the JSON records keep every digit).
 CSV_DIGITS = 7

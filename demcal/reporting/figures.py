@@ -27,13 +27,13 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from demcal.daemon.watch import ESTIMATE_COLUMNS  # noqa: E402
-from demcal.files import read_json  # noqa: E402
-from demcal.layout import proposal_id  # noqa: E402
-from demcal.records import Status  # noqa: E402
+from demcal.daemon.termination import ESTIMATE_COLUMNS  # noqa: E402
+from demcal.reporting.terminal import time_unit  # noqa: E402
 from demcal.resources import SNAKEFILE  # noqa: E402
-from demcal.study import Study, load_frozen  # noqa: E402
-from demcal.summary import time_unit  # noqa: E402
+from demcal.results.layout import proposal_id  # noqa: E402
+from demcal.results.records import Status  # noqa: E402
+from demcal.results.storage import read_json  # noqa: E402
+from demcal.study.model import Study, load_frozen  # noqa: E402
 
 FIGURES = (
     "objective_vs_evaluation",

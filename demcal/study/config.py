@@ -18,14 +18,14 @@ import yaml
 
 from demcal.engines import make_engine
 from demcal.errors import ConfigError
-from demcal.objective import Target
 from demcal.optimizer import OptimizerSettings
 from demcal.optimizer.registry import RESPONSE_STRATEGIES
-from demcal.parameters import CATALOG
+from demcal.physics.timestep import RAYLEIGH_PARAMETERS, check_fraction
 from demcal.resources import SCHEMA_PATH
 from demcal.scenes import SCENES, Scene
-from demcal.study import FreeParameter, Study
-from demcal.timestep import RAYLEIGH_PARAMETERS, check_fraction
+from demcal.study.catalogue import CATALOG
+from demcal.study.model import FreeParameter, Study
+from demcal.study.objective import Target
 
 
 def _field_path(error: jsonschema.ValidationError) -> str:

@@ -1,13 +1,13 @@
 """The three jobs of one evaluation's DAG: simulate -> extract -> objective.
 
 Files of evaluation ``<id>`` under ``results/<study>/evals/<id>/``
-(``demcal.layout``): ``params.json`` (written by whoever proposes the point),
+(``demcal.results.layout``): ``params.json`` (written by whoever proposes the point),
 per scene and replicate ``<scene>/rep<r>/simulation.json`` (+ ``state.npz``
 when responses are computed from particle positions), ``partial.csv`` while
 running, ``responses.json``, and ``objective.json``. Every record carries
 ``status`` (ok | terminated | failed) and, unless ok, a ``reason``. A job
 never fails the DAG for a simulation's fault: it records the failure and
-exits 0. Jobs work from the frozen study (``demcal.study.load_frozen``).
+exits 0. Jobs work from the frozen study (``demcal.study.model.load_frozen``).
 """
 
 from __future__ import annotations
@@ -23,12 +23,18 @@ import numpy as np
 
 from demcal.engines.base import RunMonitor, RunResult, SimulationJob
 from demcal.errors import ConfigError, DemcalError, SimulationFailed, bounded_reason
-from demcal.files import read_json, write_json
-from demcal.layout import EvaluationFiles, PointRecord, ReplicateFiles, read_point, write_point
-from demcal.objective import objective_value, relative_error, replicate_mean, replicate_spread
-from demcal.records import Status
+from demcal.results.layout import (
+    EvaluationFiles,
+    PointRecord,
+    ReplicateFiles,
+    read_point,
+    write_point,
+)
+from demcal.results.records import Status
+from demcal.results.storage import read_json, write_json
 from demcal.scenes.base import Scene
-from demcal.study import Study, load_frozen
+from demcal.study.model import Study, load_frozen
+from demcal.study.objective import objective_value, relative_error, replicate_mean, replicate_spread
 
 log = logging.getLogger("demcal")
 

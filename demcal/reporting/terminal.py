@@ -7,11 +7,11 @@ import sys
 from pathlib import Path
 
 from demcal.errors import SimulationFailed
-from demcal.layout import read_objective
-from demcal.objective import relative_error
-from demcal.records import Status
 from demcal.resources import SNAKEFILE
-from demcal.study import Study
+from demcal.results.layout import read_objective
+from demcal.results.records import Status
+from demcal.study.model import Study
+from demcal.study.objective import relative_error
 
 
 def time_unit(seconds: float) -> tuple[str, float]:

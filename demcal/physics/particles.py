@@ -12,8 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from demcal.engines.base import SimulationJob
-from demcal.granular.psd import diameter_range, sample_diameters
-from demcal.timestep import rayleigh_time
+from demcal.physics.psd import diameter_range, sample_diameters
+from demcal.physics.timestep import rayleigh_time
 
 #: Random insertion fills at most this solid fraction of the insertion zone.
 INSERTION_SOLID_FRACTION = 0.25

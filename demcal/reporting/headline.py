@@ -15,9 +15,9 @@ from pathlib import Path
 
 import pandas as pd
 
-from demcal.records import Status
-from demcal.study import Study
-from demcal.summary import CHOSEN_BY, duration, with_sd
+from demcal.reporting.terminal import CHOSEN_BY, duration, with_sd
+from demcal.results.records import Status
+from demcal.study.model import Study
 
 
 def _table(header: list[str], rows: list[list[str]]) -> list[str]:

@@ -1,6 +1,6 @@
 """The resolved study, and its frozen copy ``results/<study>/study.json``.
 
-A study file is validated once (``demcal.config``) by whoever starts a
+A study file is validated once (``demcal.study.config``) by whoever starts a
 calibration; the resolved ``Study`` (every setting and default filled in) is
 written to ``study.json``, and the daemon, its child Snakemakes and every job
 read that file back (``load_frozen``) instead of the YAML, so an edit of the
@@ -23,13 +23,13 @@ import numpy as np
 from demcal.engines import make_engine
 from demcal.engines.base import Engine
 from demcal.errors import ConfigError, SimulationFailed
-from demcal.files import read_json, write_json
-from demcal.layout import StudyFiles
-from demcal.objective import Target
 from demcal.optimizer import OptimizerSettings
-from demcal.parameters import CATALOG, ParameterSpec
+from demcal.physics.timestep import RAYLEIGH_PARAMETERS, rayleigh_cost, rayleigh_time_range
+from demcal.results.layout import StudyFiles
+from demcal.results.storage import read_json, write_json
 from demcal.scenes import SCENES, Scene
-from demcal.timestep import RAYLEIGH_PARAMETERS, rayleigh_cost, rayleigh_time_range
+from demcal.study.catalogue import CATALOG, ParameterSpec
+from demcal.study.objective import Target
 
 #: Optimizer settings a resumed calibration takes from the current study file.
 RESUMABLE_OPTIMIZER_SETTINGS = (

@@ -1,4 +1,4 @@
-"""The records that the results files hold (see :mod:`demcal.layout` for where they live).
+"""The records that the results files hold (see :mod:`demcal.results.layout` for where they live).
 
 For now the status words. A ``Status`` is a ``str``: it compares equal to the
 word read back from a file (``Status.OK == "ok"``), and JSON, CSV and

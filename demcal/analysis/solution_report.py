@@ -3,7 +3,7 @@
 ``demcal solutions CONFIG`` and the report's ``solutions`` job call
 :func:`write_solutions`. It rebuilds the response models from the
 optimizer's saved evaluations (the same models the optimizer used), applies
-:mod:`demcal.solutions` and writes:
+:mod:`demcal.analysis.solutions` and writes:
 
 - ``results/<study>/solutions.csv``: the accepted parameter sets with their
   predicted responses and standard deviations;
@@ -30,12 +30,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from demcal.errors import DemcalError  # noqa: E402
-from demcal.files import read_json  # noqa: E402
-from demcal.objective import ResponseObjective  # noqa: E402
-from demcal.optimizer import Optimizer  # noqa: E402
-from demcal.optimizer.responses import ResponsePredictor, final_means  # noqa: E402
-from demcal.solutions import (  # noqa: E402
+from demcal.analysis.solutions import (  # noqa: E402
     SolutionSet,
     Verdict,
     identifiability,
@@ -44,7 +39,12 @@ from demcal.solutions import (  # noqa: E402
     sensitivity_indices,
     simulation_noise_sd,
 )
-from demcal.study import Study, load_frozen  # noqa: E402
+from demcal.errors import DemcalError  # noqa: E402
+from demcal.optimizer import Optimizer  # noqa: E402
+from demcal.optimizer.responses import ResponsePredictor, final_means  # noqa: E402
+from demcal.results.storage import read_json  # noqa: E402
+from demcal.study.model import Study, load_frozen  # noqa: E402
+from demcal.study.objective import ResponseObjective  # noqa: E402
 
 #: Most points drawn in the corner plot (a thinned, seeded subset of the set).
 CORNER_POINTS = 3000

@@ -1,0 +1,1 @@
+"""Analyses of a calibration: the solution space and error against run time."""

@@ -1,0 +1,1 @@
+"""The jobs of one evaluation's DAG (simulate -> extract -> objective), as Snakemake runs them."""

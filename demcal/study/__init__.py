@@ -1,0 +1,1 @@
+"""The study: its model, the parameter catalogue, the config reader and the objective."""
