@@ -20,3 +20,10 @@ def test_readme_gives_exactly_two_setup_commands():
 def test_ci_runs_the_readme_test_command():
     test_command = [c for c in readme_commands() if c.endswith("python -m pytest -q")][0]
     assert test_command in (ROOT / ".ci" / "run").read_text().splitlines()
+
+
+def test_docs_show_the_readme_commands():
+    """The docs' getting-started section gives the same two commands, verbatim."""
+    setup = [c for c in readme_commands() if "pip install -r environment.lock" in c]
+    docs = re.findall(r"```bash\n(.+?)\n```", (ROOT / "docs" / "index.md").read_text())
+    assert [c for c in docs if "pip install -r environment.lock" in c] == setup
