@@ -25,7 +25,7 @@ from pathlib import Path
 import yaml
 
 from demcal.jobs.evaluation import extract, simulate
-from demcal.results.layout import PointRecord, write_point
+from demcal.results.records import PointRecord
 from demcal.study.config import load_study
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -89,7 +89,7 @@ def main() -> None:
         for case in args.cases:
             for engine in ENGINES:
                 study = study_for(config, engine, case)
-                write_point(study.files.evaluation("point"), PointRecord(POINT))
+                PointRecord(POINT).write(study.files.evaluation("point").params)
                 for rep in range(args.seeds):
                     load_before = os.getloadavg()[0]
                     sim = simulate(study, "point", "cylinder_lift", rep)
@@ -102,12 +102,12 @@ def main() -> None:
                         "engine": engine,
                         "version": study.engine.version(),
                         "replicate": rep,
-                        "seed": sim["seed"],
-                        "status": sim["status"],
-                        "reason": sim["reason"],
+                        "seed": sim.seed,
+                        "status": sim.status,
+                        "reason": sim.reason,
                         "load_before": load_before,
-                        **sim["cost"],
-                        **out["responses"],
+                        **sim.cost,
+                        **out.responses,
                     }
                     runs.append(run)
                     print(json.dumps(run), flush=True)

@@ -24,7 +24,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 from demcal.jobs.evaluation import extract, simulate
-from demcal.results.layout import PointRecord, write_point
+from demcal.results.records import PointRecord
 from demcal.study.config import load_study_file
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -41,12 +41,12 @@ def run_seed(config: str, scene: str, replicate: int) -> dict:
     )
     return {
         "replicate": replicate,
-        "seed": sim["seed"],
-        "status": sim["status"],
-        "reason": sim["reason"],
+        "seed": sim.seed,
+        "status": sim.status,
+        "reason": sim.reason,
         "wall_s": time.monotonic() - start,
-        **sim["cost"],
-        **responses["responses"],
+        **sim.cost,
+        **responses.responses,
     }
 
 
@@ -84,7 +84,7 @@ def main() -> None:
     point = study.centre_point(args.point)
     with tempfile.TemporaryDirectory() as scratch:
         os.chdir(scratch)
-        write_point(study.files.evaluation(EVALUATION), PointRecord(point))
+        PointRecord(point).write(study.files.evaluation(EVALUATION).params)
         with ProcessPoolExecutor(args.jobs) as pool:
             rows = list(
                 pool.map(run_seed, [config] * args.seeds, [scene] * args.seeds, range(args.seeds))

@@ -16,6 +16,8 @@ import pytest
 import yaml
 from conftest import ROOT, TRUTH, demcal, evaluations, finish, study
 
+from demcal.study.model import load_frozen
+
 
 def test_local_calibration_reaches_the_known_optimum(tmp_path):
     """20 evaluations get the responses within about 3 % of the targets (objective 0 at TRUTH).
@@ -279,8 +281,15 @@ def test_new_target_values_rescore_stored_simulations_without_simulating(tmp_pat
     assert len(table) == 5
     first, second = changed["targets"]
     records = [
-        json.loads((evals / name / "objective.json").read_text()) for name in table["evaluation"]
+        json.loads((evals / name / "rescored.json").read_text()) for name in table["evaluation"]
     ]
+    rescored_with = load_frozen(tmp_path / "results/rescore/study.json").objective.version
+    assert {r["scored_with"] for r in records} == {rescored_with}
+    originals = [
+        json.loads((evals / n / "objective.json").read_text()) for n in table["evaluation"]
+    ]
+    assert rescored_with not in {r["scored_with"] for r in originals}  # each job's record stays
+    assert [r["replicates"] for r in records] == [r["replicates"] for r in originals]
     responses = pd.DataFrame([r["responses"] for r in records])  # every digit (the CSV keeps 7)
     expected = (
         (responses[f"cylinder_lift.{first['response']}"] - first["value"]) / first["value"]
@@ -423,16 +432,19 @@ def test_editing_the_study_file_during_a_run_does_not_reach_the_running_calibrat
     finish(proc)
     assert (results / "study.json").read_text() == frozen
     wanted = {f"{t['scene']}.{t['response']}": t["value"] for t in original["targets"]}
+    scored_with = load_frozen(results / "study.json")
+    assert {t.key: t.value for t in scored_with.targets} == wanted
     objectives = sorted(results.glob("evals/*/objective.json"))
-    assert len(objectives) == 8
+    assert len(objectives) == 8 and not list(results.glob("evals/*/rescored.json"))
     for path in objectives:
-        assert json.loads(path.read_text())["targets"] == wanted, path
+        assert json.loads(path.read_text())["scored_with"] == scored_with.objective.version, path
 
 
 def test_a_failure_after_demcal_stop_is_recorded_not_retried(tmp_path, monkeypatch):
     """The retry used to remove the evaluation's STOP file and relaunch it after the stop."""
     from demcal.daemon.loop import Calibration
-    from demcal.results.layout import PointRecord, evaluation_id, write_point
+    from demcal.results.layout import evaluation_id
+    from demcal.results.records import ObjectiveRecord, PointRecord, Status
     from demcal.study.config import load_study_file
     from demcal.study.model import freeze
 
@@ -440,12 +452,11 @@ def test_a_failure_after_demcal_stop_is_recorded_not_retried(tmp_path, monkeypat
     calibration = Calibration(freeze(load_study_file(study(tmp_path, "halt"))), None, 2)
     launched = []
     monkeypatch.setattr(calibration, "launch", launched.append)
-    failed = {"status": "failed", "reason": "cylinder_lift rep0: node lost"}
+    failed = ObjectiveRecord("e0000", Status.FAILED, "cylinder_lift rep0: node lost")
     for proposal in calibration.optimizer.ask(2):
         evaluation = evaluation_id(proposal.id)
-        write_point(
-            calibration.files.evaluation(evaluation),
-            PointRecord(dict(zip(calibration.names, proposal.x))),
+        PointRecord(dict(zip(calibration.names, proposal.x))).write(
+            calibration.files.evaluation(evaluation).params
         )
     calibration.finish("e0000", failed)
     assert launched == ["e0000"]  # retried while the calibration runs (retries: 1)

@@ -3,6 +3,7 @@
 from conftest import study
 
 from demcal.reporting.terminal import evaluation_summary
+from demcal.results.records import BestRecord, ObjectiveRecord
 from demcal.study.config import load_study_file
 
 
@@ -21,18 +22,23 @@ def test_best_point_summary_shows_prediction_spread_and_a_parameter_on_its_bound
         ],
     )
     loaded = load_study_file(config, check_engine=False)
-    record = {
-        "evaluation": "e0007",
-        "status": "ok",
-        "objective": 0.0012,
-        "parameters": {"sliding_friction_pp": 0.9, "rolling_friction_pp": 0.11},
-        "responses": {"cylinder_lift.angle_of_repose": 29.0},
-        "relative_errors": {"cylinder_lift.angle_of_repose": -1 / 30},
-    }
-    best = {
-        "predicted_responses": {"cylinder_lift.angle_of_repose": {"mean": 29.4, "sd": 0.31}},
-        "on_bounds": {"sliding_friction_pp": "upper"},
-    }
+    record = ObjectiveRecord.from_dict(
+        {
+            "evaluation": "e0007",
+            "status": "ok",
+            "objective": 0.0012,
+            "parameters": {"sliding_friction_pp": 0.9, "rolling_friction_pp": 0.11},
+            "responses": {"cylinder_lift.angle_of_repose": 29.0},
+            "relative_errors": {"cylinder_lift.angle_of_repose": -1 / 30},
+        }
+    )
+    best = BestRecord(
+        "e0007",
+        record.parameters,
+        0.0012,
+        predicted_responses={"cylinder_lift.angle_of_repose": {"mean": 29.4, "sd": 0.31}},
+        on_bounds={"sliding_friction_pp": "upper"},
+    )
     text = evaluation_summary(loaded, record, tmp_path, best)
     assert "warning: sliding_friction_pp lies on its upper bound (0.9)" in text
     row = next(line for line in text.splitlines() if "angle_of_repose" in line)

@@ -165,12 +165,14 @@ def test_garbled_files_become_recorded_failures(tmp_path, analytic_config, monke
     simulation = tmp_path / "sim" / "simulation.json"
     simulation.parent.mkdir()
     simulation.write_text('{"status": "ok", "scen')  # torn write
-    assert "unreadable" in extract(study, simulation)["reason"]
+    assert "unreadable" in extract(study, simulation).reason
     simulation.write_text('{"status": "ok"}')  # no scene, no settings
-    assert "malformed" in extract(study, simulation)["reason"]
+    assert "malformed" in extract(study, simulation).reason
+    simulation.write_text('{"status": "ok", "format": 99}')  # a newer demcal's record
+    assert "written by a newer demcal" in extract(study, simulation).reason
     monkeypatch.chdir(tmp_path)
     record = objective(study, "x", [simulation.parent / "responses.json", tmp_path / "none.json"])
-    assert record["status"] == "failed" and "responses.json missing" in record["reason"]
+    assert record.status == "failed" and "responses.json missing" in record.reason
 
 
 @pytest.fixture(scope="module")

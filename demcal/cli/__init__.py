@@ -28,21 +28,19 @@ from pathlib import Path
 import pandas as pd
 
 from demcal.daemon.control import add_point, lock_study, reopen_failed, request_stop, running_daemon
-from demcal.daemon.launcher import child_cores, profile_settings
+from demcal.daemon.launcher import SnakemakeLauncher
 from demcal.daemon.loop import Calibration
 from demcal.daemon.progress import ProgressDisplay
 from demcal.errors import ConfigError, DemcalError
 from demcal.optimizer import Optimizer
 from demcal.reporting.terminal import CHOSEN_BY, confirmation_summary, evaluation_summary
-from demcal.resources import PROFILES_DIR
-from demcal.results.layout import RESULTS, StudyFiles, read_objective
-from demcal.results.records import Status
-from demcal.results.storage import read_json
+from demcal.results.layout import RESULTS, StudyFiles
+from demcal.results.records import BestRecord, FinishedRecord, ObjectiveRecord, Status
 from demcal.study.config import load_study_file
 from demcal.study.model import Study, freeze, load_frozen
+from demcal.workflow import LOCAL_PROFILE, child_cores, profile_settings
 
 DEFAULT_CONFIG = "config/config.yaml"
-DEFAULT_PROFILE = PROFILES_DIR / "local"
 #: Evaluations in flight when neither the study, the command line nor the profile says.
 DEFAULT_WORKERS = 2
 
@@ -69,21 +67,22 @@ def run(args) -> int:
 
 
 def _run(args, log) -> int:
-    study = load_study_file(args.config)
+    # the workflow hands over the study it froze (and warned about); a YAML is frozen here
+    study = load_frozen(args.config) if args.frozen else load_study_file(args.config)
     profile = Path(args.profile) if args.profile else None
     lock = lock_study(study, args.watch_pid)  # noqa: F841  (held until the process ends)
-    for warning in study.warnings:
-        _say(f"demcal: warning: {warning}", log)
-    study = freeze(study)  # from here on: the study as the jobs read it
+    if not args.frozen:
+        for warning in study.warnings:
+            _say(f"demcal: warning: {warning}", log)
+        study = freeze(study)  # from here on: the study as the jobs read it
     logging.basicConfig(
         filename=study.files.daemon_log,
         level=logging.INFO,
         format="%(asctime)s %(levelname)s %(message)s",
     )
     workers = _workers(study, profile, args.workers)
-    calibration = Calibration(
-        study, profile, workers, child_cores=child_cores(profile, workers), watch_pid=args.watch_pid
-    )
+    launcher = SnakemakeLauncher(study.files.study, profile, child_cores(profile, workers))
+    calibration = Calibration(study, launcher, workers, watch_pid=args.watch_pid)
     display = ProgressDisplay(sys.stderr, log)
     try:
         reason = calibration.run(display)
@@ -127,14 +126,14 @@ def print_best(study: Study) -> None:
             f"{files.evaluations_csv}"
         )
         return
-    best = read_json(files.best, "best.json")
-    evaluation = files.evaluation(best["evaluation"])
+    best = BestRecord.read(files.best)
+    evaluation = files.evaluation(best.evaluation)
     print(
-        f"best point ({CHOSEN_BY.get(best.get('chosen_by'), 'lowest objective')} among the "
+        f"best point ({CHOSEN_BY.get(best.chosen_by, 'lowest objective')} among the "
         f"evaluated points):"
     )
-    print(evaluation_summary(study, read_objective(evaluation), evaluation.dir, best))
-    if best.get("predicted_responses"):
+    print(evaluation_summary(study, ObjectiveRecord.read_latest(evaluation), evaluation.dir, best))
+    if best.predicted_responses:
         print(
             "(simulated: this evaluation, ± spread of its replicates; predicted: the response models "
             "there, ± their sd; target ± its spread)"
@@ -180,13 +179,11 @@ def study_state(study: Study) -> tuple[str, str]:
     optimizer = Optimizer.from_json(study.files.optimizer.read_text())
     counts = optimizer.status_counts()
     daemon = running_daemon(study)
-    finished = (
-        read_json(study.files.finished, "finished.json") if study.files.finished.exists() else None
-    )
+    finished = FinishedRecord.read_if_any(study.files.finished)
     if daemon is not None:
         state = f"running (daemon pid {daemon})"
     elif finished is not None:
-        state = f"ended: {finished.get('reason', 'unknown reason')}"
+        state = f"ended: {finished.reason}"
     else:
         state = "not running and not finished (interrupted): 'demcal run' continues it"
     pending = counts.pop(Status.PENDING, 0)
@@ -231,12 +228,8 @@ def studies(args) -> int:
             print(f"{study.name}: not started")
             continue
         state, counts = study_state(study)
-        best = read_json(study.files.best, "best.json") if study.files.best.exists() else None
-        answer = (
-            ""
-            if best is None
-            else f"; best {best['evaluation']}, objective {best['objective']:.4g}"
-        )
+        best = BestRecord.read_if_any(study.files.best)
+        answer = "" if best is None else f"; best {best.evaluation}, objective {best.objective:.4g}"
         print(f"{study.name}: {state}\n  {counts}{answer}")
     return 0
 
@@ -381,13 +374,15 @@ def main(argv: list[str] | None = None) -> int:
         if name == "run":
             sub.add_argument(
                 "--profile",
-                default=str(DEFAULT_PROFILE),
+                default=str(LOCAL_PROFILE),
                 help="Snakemake profile directory for the evaluations "
                 "(default: demcal's profiles/local)",
             )
             sub.add_argument("--workers", type=int, help="evaluations in flight")
-            # set by the workflow's calibrate rule: the daemon ends with its Snakemake
+            # set by the workflow's calibrate rule: the daemon ends with its Snakemake, and
+            # it is handed the frozen study.json instead of the YAML
             sub.add_argument("--watch-pid", type=int, help=argparse.SUPPRESS)
+            sub.add_argument("--frozen", action="store_true", help=argparse.SUPPRESS)
             sub.add_argument(
                 "--log", help="also append the messages and a progress line every 30 s to this file"
             )

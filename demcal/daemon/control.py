@@ -13,15 +13,8 @@ from pathlib import Path
 from demcal.daemon.launcher import alive
 from demcal.errors import ConfigError, DemcalError, SimulationFailed
 from demcal.optimizer import Optimizer
-from demcal.results.layout import (
-    PointRecord,
-    evaluation_id,
-    proposal_id,
-    read_objective,
-    read_point,
-    write_point,
-)
-from demcal.results.records import Status
+from demcal.results.layout import evaluation_id, proposal_id
+from demcal.results.records import ObjectiveRecord, PointRecord, Status
 from demcal.results.storage import atomic_write_text
 from demcal.results.tables import write_evaluations_csv
 from demcal.study.model import Study
@@ -42,19 +35,23 @@ def reopen_failed(study: Study) -> list[str]:
     reopened = []
     for evaluation in files.evaluations():
         try:
-            status = read_objective(evaluation).get("status")
+            status = ObjectiveRecord.read(evaluation.objective).status
         except SimulationFailed:
             continue
         if status != Status.FAILED:
             continue
-        point = read_point(evaluation)
+        point = PointRecord.read(evaluation.params)
         optimizer.reopen(proposal_id(evaluation.id))
         for scene in study.scenes:
             shutil.rmtree(evaluation.scene_dir(scene), ignore_errors=True)
-        for stale in (evaluation.objective, evaluation.stop, evaluation.launch):
+        for stale in (
+            evaluation.objective,
+            evaluation.rescored,
+            evaluation.stop,
+            evaluation.launch,
+        ):
             stale.unlink(missing_ok=True)
-        point.attempt += 1
-        write_point(evaluation, point)
+        point.retried(None).write(evaluation.params)
         reopened.append(evaluation.id)
     atomic_write_text(files.optimizer, optimizer.to_json())
     files.finished.unlink(missing_ok=True)
@@ -92,9 +89,8 @@ def add_point(study: Study, values: dict[str, float]) -> str:
     optimizer = Optimizer.from_json(files.optimizer.read_text())
     proposal = optimizer.add_point([values[name] for name in names])
     evaluation = evaluation_id(proposal.id)
-    write_point(
-        files.evaluation(evaluation),
-        PointRecord(dict(zip(names, proposal.x)), proposed_by="by hand"),
+    PointRecord(dict(zip(names, proposal.x)), proposed_by="by hand").write(
+        files.evaluation(evaluation).params
     )
     atomic_write_text(files.optimizer, optimizer.to_json())
     files.finished.unlink(missing_ok=True)

@@ -1,25 +1,49 @@
-"""Child processes of the daemon: one child Snakemake per evaluation.
+"""How the daemon runs an evaluation: the ``Launcher`` protocol and its Snakemake launcher.
 
-Starting a child (its command, its log, ``launch.json`` with its pid),
-finding out whether a process is alive and which Snakemake it is (``/proc``),
-and the Snakemake profile settings the children inherit.
+The calibration loop (:class:`demcal.daemon.loop.Calibration`) hands each
+evaluation to a launcher and polls what it gets back (``Running``) until
+it has finished; the evaluation's outcome is then its objective record on
+disk. :class:`SnakemakeLauncher` starts one child Snakemake per evaluation
+(command: :func:`demcal.workflow.child_command`) in its own session, with
+``launch.json`` holding its pid, and re-attaches to a child that outlived
+an earlier daemon (``/proc`` tells whether the pid is still that
+Snakemake). Tests give the loop a launcher that runs the jobs in-process.
 """
 
 from __future__ import annotations
 
-import os
 import subprocess
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Protocol
 
-import yaml
-
-from demcal.errors import DemcalError
-from demcal.resources import SNAKEFILE
 from demcal.results.layout import EvaluationFiles
-from demcal.results.storage import write_json
+from demcal.results.records import LaunchRecord
+from demcal.workflow import child_command
+
+
+class Running(Protocol):
+    """An evaluation being run: when it started (Unix s) and whether it has ended."""
+
+    evaluation: str
+    started: float
+
+    def finished(self) -> bool: ...
+
+    def returncode(self) -> int | None: ...
+
+
+class Launcher(Protocol):
+    """Runs evaluations for the calibration loop."""
+
+    def launch(self, files: EvaluationFiles) -> Running:
+        """Start building ``files.objective`` from ``files.params``."""
+        ...
+
+    def reattach(self, files: EvaluationFiles) -> Running | None:
+        """The run of an evaluation still going from an earlier daemon, else None."""
+        ...
 
 
 @dataclass
@@ -58,32 +82,6 @@ def is_snakemake_for(pid: int, target: str) -> bool:
     return any(b"snakemake" in part for part in cmdline) and target.encode() in cmdline
 
 
-def child_command(
-    study_file: Path, target: Path, profile: Path | None, cores: int | None
-) -> list[str]:
-    """The child Snakemake that builds one evaluation's objective from the frozen study."""
-    command = [
-        sys.executable,
-        "-m",
-        "snakemake",
-        "-s",
-        str(SNAKEFILE),
-        "--config",
-        f"study_file={Path(study_file).resolve()}",
-        "--nolock",
-        "--rerun-incomplete",
-        "--rerun-triggers",
-        "mtime",
-        "--quiet",
-        "rules",
-    ]
-    if profile is not None:
-        command += ["--profile", str(profile)]
-    if cores is not None:
-        command += ["--cores", str(cores)]
-    return command + [str(target)]
-
-
 def start_child(files: EvaluationFiles, command: list[str]) -> Child:
     """Start an evaluation's child Snakemake in its own session; record its pid in launch.json."""
     files.logs.mkdir(parents=True, exist_ok=True)
@@ -95,24 +93,32 @@ def start_child(files: EvaluationFiles, command: list[str]) -> Child:
             stderr=subprocess.STDOUT,
             start_new_session=True,
         )
-    now = time.time()
-    write_json(files.launch, {"pid": process.pid, "started_at": now})
-    return Child(files.id, process.pid, process, now)
+    launch = LaunchRecord(process.pid, time.time())
+    launch.write(files.launch)
+    return Child(files.id, process.pid, process, launch.started_at)
 
 
-def profile_settings(profile: Path | None) -> dict:
-    """The settings of a Snakemake profile (its config.yaml), {} without a profile."""
-    if profile is None:
-        return {}
-    path = Path(profile) / "config.yaml"
-    try:
-        return yaml.safe_load(path.read_text()) or {}
-    except (OSError, yaml.YAMLError) as exc:
-        raise DemcalError(f"profile {profile}: cannot read {path}: {exc}") from None
+@dataclass(frozen=True)
+class SnakemakeLauncher:
+    """One child Snakemake per evaluation on the frozen study, with the calibration's profile
+    (None: the local one) and ``cores`` per child (None: as the profile says)."""
 
+    study_file: Path
+    profile: Path | None = None
+    cores: int | None = None
 
-def child_cores(profile: Path | None, workers: int) -> int | None:
-    """Cores each child Snakemake may use: none set on a cluster executor, else a fair share."""
-    if profile_settings(profile).get("executor", "local") != "local":
+    def launch(self, files: EvaluationFiles) -> Child:
+        return start_child(
+            files, child_command(self.study_file, files.objective, self.profile, self.cores)
+        )
+
+    def reattach(self, files: EvaluationFiles) -> Child | None:
+        launch = LaunchRecord.read_if_any(files.launch)
+        if (
+            launch is not None
+            and launch.pid > 0
+            and alive(launch.pid)
+            and is_snakemake_for(launch.pid, str(files.objective))
+        ):
+            return Child(files.id, launch.pid, None, launch.started_at)
         return None
-    return max(1, (os.cpu_count() or 1) // workers)

@@ -22,9 +22,8 @@ import logging
 import shutil
 import time
 from collections.abc import Callable
-from pathlib import Path
 
-from demcal.daemon.launcher import Child, alive, child_command, is_snakemake_for, start_child
+from demcal.daemon.launcher import Child, Launcher, Running, SnakemakeLauncher, alive
 from demcal.daemon.progress import Progress
 from demcal.daemon.termination import (
     append_estimates,
@@ -33,22 +32,19 @@ from demcal.daemon.termination import (
     partial_responses,
 )
 from demcal.errors import DemcalError, SimulationFailed
-from demcal.jobs.evaluation import objective, response_paths
+from demcal.jobs.evaluation import rescore
 from demcal.optimizer import Optimizer
-from demcal.results.layout import (
+from demcal.results.layout import evaluation_id, proposal_id
+from demcal.results.records import (
+    FinishedRecord,
+    ObjectiveRecord,
     PointRecord,
-    evaluation_id,
-    proposal_id,
-    read_launch,
-    read_objective,
-    read_point,
-    write_point,
+    Status,
 )
-from demcal.results.records import Status
 from demcal.results.storage import atomic_write_text, log_tail, read_json, write_json
 from demcal.results.tables import write_best, write_evaluations_csv
 from demcal.study.model import RESUMABLE_OPTIMIZER_SETTINGS, Study
-from demcal.study.objective import ResponseObjective, estimated_objective, replicate_objectives
+from demcal.study.objective import ResponseObjective
 
 log = logging.getLogger("demcal.daemon")
 
@@ -63,19 +59,19 @@ class Calibration:
     def __init__(
         self,
         study: Study,
-        profile: Path | None,
+        launcher: Launcher | None,
         workers: int,
-        child_cores: int | None = None,
         watch_pid: int | None = None,
     ):
-        self.study, self.profile, self.workers = study, profile, workers
+        self.study, self.workers = study, workers
         self.files = study.files
+        #: runs the evaluations (None: a child Snakemake each, with the local profile)
+        self.launcher = launcher or SnakemakeLauncher(self.files.study)
         self.retries = int(study.calibration["retries"])
         self.poll_seconds = float(study.calibration["poll_seconds"])
-        self.child_cores = child_cores
         #: the Snakemake that started this daemon: when it dies, the daemon ends too
         self.watch_pid = watch_pid
-        self.children: dict[str, Child] = {}
+        self.children: dict[str, Running] = {}
         self.names = [p.name for p in study.free]
         self.optimizer = self._load_or_create_optimizer()
         self.started_at = self._load_start_time()
@@ -118,7 +114,7 @@ class Calibration:
         which the response models do not model yet (the optimizer then works on values only)."""
         if self.study.rayleigh_cost_weight:
             return None
-        return ResponseObjective(tuple(self.study.targets), self.study.objective_form)
+        return self.study.objective
 
     def _load_start_time(self) -> float:
         """Start of the calibration (calibration.json), written on the first run."""
@@ -129,38 +125,29 @@ class Calibration:
         return now
 
     def rescore(self) -> None:
-        """Recompute the objective of evaluations scored against other target values or weights.
+        """Re-score the evaluations scored against other targets, weights, spreads or form.
 
         After corrected targets (``demcal.study.model.freeze`` allows them): each
-        such objective.json is rewritten from its replicates' responses.json
-        (no simulation runs) and the optimizer's value is replaced.
+        such evaluation gets a ``rescored.json`` computed from the replicates'
+        responses its objective job kept (no simulation runs), and the
+        optimizer's value is replaced.
         """
-        targets = {t.key: t.value for t in self.study.targets}
-        weights = {t.key: t.weight for t in self.study.targets}
+        version = self.study.objective.version
         outcomes = {}
         for record in self.optimizer.records:
             if record["status"] == Status.PENDING:
                 continue
             evaluation = evaluation_id(record["id"])
             try:
-                scored = read_objective(self.files.evaluation(evaluation))
+                scored = ObjectiveRecord.read_latest(self.files.evaluation(evaluation))
             except SimulationFailed:
                 continue
-            scored_as = (
-                scored.get("targets"),
-                scored.get("weights", weights),
-                scored.get("objective_form", "relative"),
-            )
-            if "targets" not in scored or scored_as == (
-                targets,
-                weights,
-                self.study.objective_form,
-            ):
+            if not scored.ok or scored.scored_with == version:
                 continue  # never scored (a failed simulation), or scored as now
-            result = objective(self.study, evaluation, response_paths(self.study, evaluation))
+            result = rescore(self.study, evaluation)
             outcomes[record["id"]] = (
-                result["status"],
-                result.get("objective"),
+                result.status,
+                result.objective,
                 self._replicate_values(result),
             )
         if outcomes:
@@ -178,17 +165,10 @@ class Calibration:
         return time.time() - self.started_at
 
     # -- launching ---------------------------------------------------------------
-    def target(self, evaluation: str) -> str:
-        return str(self.files.evaluation(evaluation).objective)
-
     def launch(self, evaluation: str) -> None:
-        """Start the child Snakemake of an evaluation."""
-        command = child_command(
-            self.files.study, Path(self.target(evaluation)), self.profile, self.child_cores
-        )
-        child = start_child(self.files.evaluation(evaluation), command)
-        self.children[evaluation] = child
-        log.info("launched %s (pid %d)", evaluation, child.pid)
+        """Hand an evaluation to the launcher."""
+        self.children[evaluation] = self.launcher.launch(self.files.evaluation(evaluation))
+        log.info("launched %s", evaluation)
 
     def propose(self) -> None:
         """Fill free worker slots with new points from the optimizer."""
@@ -198,12 +178,9 @@ class Calibration:
                 return
             proposal = proposals[0]
             evaluation = evaluation_id(proposal.id)
-            write_point(
-                self.files.evaluation(evaluation),
-                PointRecord(
-                    dict(zip(self.names, proposal.x)), in_initial_design=proposal.in_initial_design
-                ),
-            )
+            PointRecord(
+                dict(zip(self.names, proposal.x)), in_initial_design=proposal.in_initial_design
+            ).write(self.files.evaluation(evaluation).params)
             self.save_state()
             self.launch(evaluation)
 
@@ -217,10 +194,9 @@ class Calibration:
             return False
         of = evaluation_id(self.optimizer.confirmation()["confirms"])
         for proposal in proposals:
-            write_point(
-                self.files.evaluation(evaluation_id(proposal.id)),
-                PointRecord(dict(zip(self.names, proposal.x)), proposed_by=f"confirmation of {of}"),
-            )
+            PointRecord(
+                dict(zip(self.names, proposal.x)), proposed_by=f"confirmation of {of}"
+            ).write(self.files.evaluation(evaluation_id(proposal.id)).params)
         self.save_state()
         log.info("confirming the best point with %d more simulations", len(proposals))
         for proposal in proposals:
@@ -238,16 +214,10 @@ class Calibration:
                     f"{files.params} is missing for a pending evaluation; "
                     f"the results directory was changed by hand"
                 )
-            launch = read_launch(files)
-            running = int(launch.get("pid", -1))
-            if (
-                running > 0
-                and alive(running)
-                and is_snakemake_for(running, self.target(evaluation))
-            ):
-                started = float(launch.get("started_at", time.time()))
-                self.children[evaluation] = Child(evaluation, running, None, started)
-                log.info("re-attached %s (pid %d)", evaluation, running)
+            running = self.launcher.reattach(files)
+            if running is not None:
+                self.children[evaluation] = running
+                log.info("re-attached %s", evaluation)
                 continue
             if files.objective.exists():
                 self.children[evaluation] = Child(evaluation, -1, None, time.time())
@@ -263,34 +233,35 @@ class Calibration:
             del self.children[evaluation]
             files = self.files.evaluation(evaluation)
             try:
-                record = read_objective(files)
+                record = ObjectiveRecord.read(files.objective)
             except SimulationFailed as exc:
                 tail = log_tail(files.snakemake_log, lines=3)
-                record = {
-                    "status": Status.FAILED,
-                    "reason": f"workflow ended with code {child.returncode()} and no "
+                record = ObjectiveRecord(
+                    evaluation,
+                    Status.FAILED,
+                    f"workflow ended with code {child.returncode()} and no "
                     f"objective ({exc}): {tail}",
-                }
+                )
             self.finish(evaluation, record)
 
-    def finish(self, evaluation: str, record: dict) -> None:
-        point = read_point(self.files.evaluation(evaluation))
-        status = record.get("status")
+    def finish(self, evaluation: str, record: ObjectiveRecord) -> None:
+        point = PointRecord.read(self.files.evaluation(evaluation).params)
+        status = record.status
         # after `demcal stop` nothing is launched any more, retries included
         if (
             status == Status.FAILED
             and point.attempt < self.retries
             and not self.files.stop_calibration.exists()
         ):
-            self.retry(evaluation, point, record.get("reason", ""))
+            self.retry(evaluation, point, record.reason)
             return
         pid = proposal_id(evaluation)
         if status == Status.OK:
             self.optimizer.tell(
                 pid,
-                value=record["objective"],
+                value=record.objective,
                 replicates=self._replicate_values(record),
-                responses=record.get("replicates"),
+                responses=record.replicates,
             )
         elif status == Status.TERMINATED:  # what it did learn enters the response models
             self.optimizer.tell(
@@ -310,19 +281,17 @@ class Calibration:
             "%s: %s %s",
             evaluation,
             status,
-            record.get("objective", "") if status == Status.OK else record.get("reason", ""),
+            record.objective if status == Status.OK else record.reason,
         )
         self.write_tables()
 
-    def _replicate_values(self, record: dict) -> list[float] | None:
-        """Eq. 3.3 per replicate of an objective record, for the optimizer's noise estimate."""
-        if record.get("status") != Status.OK:
+    def _replicate_values(self, record: ObjectiveRecord) -> list[float] | None:
+        """Eq. 3.3 per replicate of an evaluation, for the optimizer's noise estimate: the
+        study's objective with the time-step cost its objective job recorded."""
+        if not record.ok:
             return None
-        cost = self.study.timestep_cost(record["parameters"])
         return (
-            replicate_objectives(
-                self.study.targets, record.get("replicates", {}), cost, self.study.objective_form
-            )
+            self.study.objective.per_replicate(record.replicates, record.timestep_cost or 0.0)
             or None
         )
 
@@ -331,12 +300,11 @@ class Calibration:
         files = self.files.evaluation(evaluation)
         for scene in self.study.scenes:
             shutil.rmtree(files.scene_dir(scene), ignore_errors=True)
-        for stale in (files.objective, files.stop):
+        for stale in (files.objective, files.rescored, files.stop):
             stale.unlink(missing_ok=True)
         self.stop_requested.discard(evaluation)
-        point.attempt += 1
-        point.previous_failures.append(reason)
-        write_point(files, point)
+        point = point.retried(reason)
+        point.write(files.params)
         log.info("%s failed (%s); retry %d of %d", evaluation, reason, point.attempt, self.retries)
         self.launch(evaluation)
 
@@ -381,14 +349,11 @@ class Calibration:
         cost = 0.0
         if self.study.rayleigh_cost_weight:
             try:
-                cost = self.study.timestep_cost(read_point(files).parameters)
+                cost = self.study.timestep_cost(PointRecord.read(files.params).parameters)
             except DemcalError:
                 return None  # the evaluation will record why
-        return estimated_objective(
-            self.study.targets,
-            latest_estimates(files, list(self.study.scenes), self.study.replicates),
-            cost,
-            self.study.objective_form,
+        return self.study.objective.estimate(
+            latest_estimates(files, list(self.study.scenes), self.study.replicates), cost
         )
 
     # -- outputs ---------------------------------------------------------------------
@@ -465,13 +430,8 @@ class Calibration:
             time.sleep(self.poll_seconds)
         self.write_tables(reason)
         show_progress(self.progress())
-        write_json(
-            self.files.finished,
-            {
-                "reason": reason,
-                "ended_at": time.time(),
-                "evaluations": self.optimizer.status_counts(),
-            },
+        FinishedRecord(reason, time.time(), self.optimizer.status_counts()).write(
+            self.files.finished
         )
         log.info("calibration finished: %s", reason)
         return reason

@@ -17,24 +17,24 @@ import time
 import traceback
 from collections import defaultdict
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from demcal.engines.base import RunMonitor, RunResult, SimulationJob
 from demcal.errors import ConfigError, DemcalError, SimulationFailed, bounded_reason
-from demcal.results.layout import (
-    EvaluationFiles,
+from demcal.results.layout import ReplicateFiles
+from demcal.results.records import (
+    ObjectiveRecord,
     PointRecord,
-    ReplicateFiles,
-    read_point,
-    write_point,
+    ResponsesRecord,
+    SimulationRecord,
+    Status,
 )
-from demcal.results.records import Status
-from demcal.results.storage import read_json, write_json
 from demcal.scenes.base import Scene
 from demcal.study.model import Study, load_frozen
-from demcal.study.objective import objective_value, relative_error, replicate_mean, replicate_spread
+from demcal.study.objective import relative_error, replicate_mean, replicate_spread
 
 log = logging.getLogger("demcal")
 
@@ -49,26 +49,16 @@ def response_paths(study: Study, evaluation: str) -> list[Path]:
     ]
 
 
-def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> dict:
+def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> SimulationRecord:
     """Run one scene replicate; write and return its simulation.json record."""
     files = study.files.evaluation(evaluation)
     replicate_files = files.replicate(scene, replicate)
     workdir = replicate_files.dir
     workdir.mkdir(parents=True, exist_ok=True)
     replicate_files.state.unlink(missing_ok=True)
-    record = {
-        "evaluation": evaluation,
-        "scene": scene,
-        "replicate": replicate,
-        "engine": study.engine.name,
-        "engine_version": study.engine.version(),
-        "settings": study.settings[scene],
-        "timestep_fraction": study.timestep_fraction,
-        "responses_needed": study.responses_needed(scene),
-        "started_at": time.time(),
-    }
+    started_at = time.time()
     try:
-        point = read_point(files)
+        point = PointRecord.read(files.params)
         attempt = point.attempt
         parameters = study.parameters_for(point.parameters)
     except (ConfigError, SimulationFailed) as exc:
@@ -81,17 +71,28 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> dict:
             parameters=parameters,
             settings=study.settings[scene],
             seed=seed,
-            responses=record["responses_needed"],
+            responses=study.responses_needed(scene),
             timestep_fraction=study.timestep_fraction,
             workdir=str(workdir.resolve()),
             stop_file=str(files.stop.resolve()),
             attempt=attempt,
         )
         result = run_engine(study, job)
+    state_file = None
     if result.status == Status.OK and result.arrays:
         np.savez(replicate_files.state, **result.arrays)
-        record["state_file"] = replicate_files.state.name
-    record.update(
+        state_file = replicate_files.state.name
+    record = SimulationRecord(
+        evaluation=evaluation,
+        scene=scene,
+        replicate=replicate,
+        engine=study.engine.name,
+        engine_version=study.engine.version(),
+        settings=study.settings[scene],
+        timestep_fraction=study.timestep_fraction,
+        responses_needed=study.responses_needed(scene),
+        started_at=started_at,
+        state_file=state_file,
         seed=seed,
         attempt=attempt,
         parameters=parameters,
@@ -101,7 +102,7 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> dict:
         cost=result.cost,
         ended_at=time.time(),
     )
-    write_json(replicate_files.simulation, record)
+    record.write(replicate_files.simulation)
     log.info(
         "simulation %s %s rep%d: %s %s", evaluation, scene, replicate, result.status, result.reason
     )
@@ -120,39 +121,40 @@ def run_engine(study: Study, job: SimulationJob) -> RunResult:
         return RunResult(Status.FAILED, f"engine error: {type(exc).__name__}: {exc}")
 
 
-def extract(study: Study, simulation_path: Path) -> dict:
+def extract(study: Study, simulation_path: Path) -> ResponsesRecord:
     """Responses of one simulation: measured by the engine or computed by the scene."""
     simulation_path = Path(simulation_path)
     try:
-        sim = read_json(simulation_path, "simulation.json")
-        record = {k: sim.get(k) for k in ("evaluation", "scene", "replicate", "seed", "cost")}
-        record.update(
-            status=sim.get("status", Status.FAILED),
-            reason=bounded_reason(sim.get("reason", "")),
-            responses={},
+        sim = SimulationRecord.read(simulation_path)
+        record = ResponsesRecord(
+            sim.status,
+            bounded_reason(sim.reason),
+            evaluation=sim.evaluation,
+            scene=sim.scene,
+            replicate=sim.replicate,
+            seed=sim.seed,
+            cost=sim.cost,
         )
-        if record["status"] == Status.OK:
-            record["responses"] = _responses(study, sim, simulation_path.parent)
+        if sim.status == Status.OK:
+            record = replace(record, responses=_responses(study, sim, simulation_path.parent))
     except SimulationFailed as exc:
-        record = {"status": Status.FAILED, "reason": str(exc), "responses": {}}
+        record = ResponsesRecord(Status.FAILED, str(exc))
     except (KeyError, TypeError, ValueError) as exc:
-        record = {
-            "status": Status.FAILED,
-            "reason": f"simulation.json malformed or response not "
-            f"measurable: {type(exc).__name__}: {exc}",
-            "responses": {},
-        }
-    write_json(ReplicateFiles(simulation_path.parent).responses, record)
+        record = ResponsesRecord(
+            Status.FAILED,
+            f"simulation.json malformed or response not measurable: {type(exc).__name__}: {exc}",
+        )
+    record.write(ReplicateFiles(simulation_path.parent).responses)
     return record
 
 
-def _responses(study: Study, sim: dict, workdir: Path) -> dict[str, float]:
+def _responses(study: Study, sim: SimulationRecord, workdir: Path) -> dict[str, float]:
     return scene_responses(
-        study.scenes[sim["scene"]],
-        study.responses_needed(sim["scene"]),
-        sim.get("measurements", {}),
+        study.scenes[sim.scene],
+        study.responses_needed(sim.scene),
+        sim.measurements,
         lambda: _load_state(workdir, sim),
-        sim["settings"],
+        sim.settings,
     )
 
 
@@ -182,17 +184,17 @@ def scene_responses(
     return out
 
 
-def _load_state(workdir: Path, sim: dict) -> dict:
-    if "state_file" not in sim:
+def _load_state(workdir: Path, sim: SimulationRecord) -> dict:
+    if sim.state_file is None:
         raise SimulationFailed("simulation saved no particle state to extract responses from")
     try:
-        with np.load(workdir / sim["state_file"]) as data:
+        with np.load(workdir / sim.state_file) as data:
             return {k: data[k] for k in data.files}
     except (OSError, ValueError) as exc:
         raise SimulationFailed(f"particle state unreadable: {exc}") from None
 
 
-def objective(study: Study, evaluation: str, response_paths: list[Path]) -> dict:
+def objective(study: Study, evaluation: str, response_paths: list[Path]) -> ObjectiveRecord:
     """Objective record of an evaluation from all its replicates' responses.
 
     Replicates are averaged per response before the relative error is taken
@@ -203,70 +205,80 @@ def objective(study: Study, evaluation: str, response_paths: list[Path]) -> dict
     failures, terminated, cpu, wall = [], False, 0.0, 0.0
     for path in response_paths:
         try:
-            rec = read_json(path, "responses.json")
+            rec = ResponsesRecord.read(path)
         except SimulationFailed as exc:
-            rec = {"status": Status.FAILED, "reason": str(exc)}
-        label = f"{rec.get('scene', Path(path).parent.parent.name)} rep{rec.get('replicate', '?')}"
-        cost = rec.get("cost") or {}
+            rec = ResponsesRecord(Status.FAILED, str(exc))
+        scene = Path(path).parent.parent.name if rec.scene is None else rec.scene
+        label = f"{scene} rep{'?' if rec.replicate is None else rec.replicate}"
+        cost = rec.cost or {}
         cpu += float(cost.get("cpu_s", 0.0))
         wall += float(cost.get("wall_s", 0.0))
-        if rec.get("status") == Status.FAILED:
-            failures.append(f"{label}: {rec.get('reason', 'unknown reason')}")
-        elif rec.get("status") == Status.TERMINATED:
+        if rec.status == Status.FAILED:
+            failures.append(f"{label}: {rec.reason or 'unknown reason'}")
+        elif rec.status == Status.TERMINATED:
             terminated = True
         else:
-            for name, value in (rec.get("responses") or {}).items():
-                values[f"{rec.get('scene')}.{name}"].append(value)
+            for name, value in rec.responses.items():
+                values[f"{rec.scene}.{name}"].append(value)
     files = study.files.evaluation(evaluation)
     try:
-        point = read_point(files).parameters
+        point = PointRecord.read(files.params).parameters
     except SimulationFailed:
         point = {}
-    record = {
-        "evaluation": evaluation,
-        "parameters": point,
-        "cost": {"cpu_s": cpu, "simulation_wall_s": wall},
-    }
+    record = ObjectiveRecord(
+        evaluation, Status.OK, parameters=point, cost={"cpu_s": cpu, "simulation_wall_s": wall}
+    )
     if failures:
-        record.update(status=Status.FAILED, reason=bounded_reason("; ".join(failures)))
+        record = replace(record, status=Status.FAILED, reason=bounded_reason("; ".join(failures)))
     elif terminated:
-        record.update(status=Status.TERMINATED, reason="stopped early (STOP requested)")
+        record = replace(record, status=Status.TERMINATED, reason="stopped early (STOP requested)")
     elif missing := [t.key for t in study.targets if t.key not in values]:
-        record.update(status=Status.FAILED, reason=f"no value for targeted responses {missing}")
+        record = replace(
+            record, status=Status.FAILED, reason=f"no value for targeted responses {missing}"
+        )
     else:
-        _objective_of_responses(study, point, values, record)
-    write_json(files.objective, record)
+        record = score(study, record, dict(values))
+    record.write(files.objective)
     return record
 
 
-def _objective_of_responses(
-    study: Study, point: dict, values: dict[str, list[float]], record: dict
-) -> None:
-    """Fill ``record`` with eq. 3.3 (plus the Rayleigh cost) of the replicate means, or a failure."""
+def score(
+    study: Study, record: ObjectiveRecord, replicates: dict[str, list[float]]
+) -> ObjectiveRecord:
+    """``record`` scored by the study's objective (eq. 3.3 plus the Rayleigh cost) from the
+    replicates' responses, or failed with the reason."""
     try:
-        timestep_cost = study.timestep_cost(point)
+        timestep_cost = study.timestep_cost(record.parameters)
     except DemcalError as exc:
-        record.update(status=Status.FAILED, reason=f"Rayleigh time-step cost: {exc}")
-        return
-    means = {key: replicate_mean(v) for key, v in values.items()}
+        return replace(record, status=Status.FAILED, reason=f"Rayleigh time-step cost: {exc}")
+    objective = study.objective
     try:
-        value = objective_value(study.targets, means, study.objective_form) + timestep_cost
+        value = objective.of_replicates(replicates, timestep_cost)
     except ValueError as exc:
-        record.update(status=Status.FAILED, reason=str(exc))
-        return
-    record.update(
+        return replace(record, status=Status.FAILED, reason=str(exc))
+    means = {key: replicate_mean(v) for key, v in replicates.items()}
+    return replace(
+        record,
         status=Status.OK,
         reason="",
         objective=value,
         timestep_cost=timestep_cost,
         responses=means,
-        replicates=dict(values),
-        spread={key: replicate_spread(v) for key, v in values.items()},
+        replicates=replicates,
+        spread={key: replicate_spread(v) for key, v in replicates.items()},
         relative_errors={t.key: relative_error(means[t.key], t.value) for t in study.targets},
-        targets={t.key: t.value for t in study.targets},
-        weights={t.key: t.weight for t in study.targets},
-        objective_form=study.objective_form,
+        scored_with=objective.version,
     )
+
+
+def rescore(study: Study, evaluation: str) -> ObjectiveRecord:
+    """An evaluation's objective against the study's current targets, from the replicates'
+    responses its objective job kept (no simulation runs), written to ``rescored.json``."""
+    files = study.files.evaluation(evaluation)
+    record = ObjectiveRecord.read(files.objective)
+    rescored = score(study, replace(record, reason=""), record.replicates)
+    rescored.write(files.rescored)
+    return rescored
 
 
 def run_snakemake_job(smk, stage: str) -> None:
@@ -294,7 +306,4 @@ def run_snakemake_job(smk, stage: str) -> None:
 def write_centre_point(smk) -> None:
     """params.json at the centre of the free parameters' bounds (the default evaluation)."""
     study = load_frozen(smk.params.study_file)
-    write_point(
-        EvaluationFiles(Path(smk.output[0]).parent),
-        PointRecord(study.centre_point(), proposed_by="centre of the bounds"),
-    )
+    PointRecord(study.centre_point(), proposed_by="centre of the bounds").write(Path(smk.output[0]))

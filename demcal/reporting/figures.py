@@ -17,7 +17,6 @@ from __future__ import annotations
 import html
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import matplotlib
@@ -29,11 +28,11 @@ import pandas as pd  # noqa: E402
 
 from demcal.daemon.termination import ESTIMATE_COLUMNS  # noqa: E402
 from demcal.reporting.terminal import time_unit  # noqa: E402
-from demcal.resources import SNAKEFILE  # noqa: E402
 from demcal.results.layout import proposal_id  # noqa: E402
-from demcal.results.records import Status  # noqa: E402
+from demcal.results.records import BestRecord, Status  # noqa: E402
 from demcal.results.storage import read_json  # noqa: E402
 from demcal.study.model import Study, load_frozen  # noqa: E402
+from demcal.workflow import dag_command  # noqa: E402
 
 FIGURES = (
     "objective_vs_evaluation",
@@ -143,7 +142,9 @@ def plot_objective_vs_time(study: Study, table: pd.DataFrame, path: Path) -> Non
     _save(fig, path)
 
 
-def plot_parameter_traces(study: Study, table: pd.DataFrame, best: dict | None, path: Path) -> None:
+def plot_parameter_traces(
+    study: Study, table: pd.DataFrame, best: BestRecord | None, path: Path
+) -> None:
     fig, axes = _stacked(len(study.free), 2.2)
     for ax, p in zip(axes, study.free):
         for status, color in (
@@ -154,7 +155,7 @@ def plot_parameter_traces(study: Study, table: pd.DataFrame, best: dict | None, 
             rows = table[table["status"] == status]
             ax.plot(rows["number"], rows[p.name], "o", color=color, markersize=4, label=status)
         if best is not None:
-            ax.axhline(best["parameters"][p.name], color="black", lw=1, label="best")
+            ax.axhline(best.parameters[p.name], color="black", lw=1, label="best")
         margin = 0.03 * (p.upper - p.lower)  # keep points on the bounds visible
         ax.set_ylim(p.lower - margin, p.upper + margin)
         for bound in (p.lower, p.upper):
@@ -166,7 +167,7 @@ def plot_parameter_traces(study: Study, table: pd.DataFrame, best: dict | None, 
 
 
 def plot_responses_vs_targets(
-    study: Study, table: pd.DataFrame, best: dict | None, path: Path
+    study: Study, table: pd.DataFrame, best: BestRecord | None, path: Path
 ) -> None:
     fig, axes = _stacked(len(study.targets), 2.4)
     ok = table[table["status"] == Status.OK]
@@ -183,7 +184,7 @@ def plot_responses_vs_targets(
                 label="measurement spread",
             )
         if best is not None:
-            row = table[table["evaluation"] == best["evaluation"]]
+            row = table[table["evaluation"] == best.evaluation]
             ax.plot(row["number"], row[t.key], "*", color="black", markersize=12, label="best")
         ax.set_ylabel(f"{t.key}\n[{unit}]", fontsize=8)
         ax.grid(True, alpha=0.3)
@@ -191,7 +192,7 @@ def plot_responses_vs_targets(
 
 
 def plot_parallel_coordinates(
-    study: Study, table: pd.DataFrame, best: dict | None, path: Path
+    study: Study, table: pd.DataFrame, best: BestRecord | None, path: Path
 ) -> None:
     """Every finished evaluation as a line across the free parameters (each axis its bounds),
     coloured by the objective: where the good points lie in all dimensions at once."""
@@ -208,7 +209,7 @@ def plot_parallel_coordinates(
     if best is not None:
         ax.plot(
             positions,
-            [(best["parameters"][p.name] - p.lower) / (p.upper - p.lower) for p in study.free],
+            [(best.parameters[p.name] - p.lower) / (p.upper - p.lower) for p in study.free],
             color="red",
             lw=2.5,
             label="best point",
@@ -305,8 +306,7 @@ def write_plots(study: Study, outdir: Path) -> list[Path]:
     """All figures of the calibration as PNG files in ``outdir``."""
     outdir.mkdir(parents=True, exist_ok=True)
     table = load_table(study)
-    best_file = study.files.best
-    best = read_json(best_file, "best.json") if best_file.exists() else None
+    best = BestRecord.read_if_any(study.files.best)
     paths = {name: outdir / f"{name}.png" for name in FIGURES}
     plot_objective_vs_evaluation(study, table, paths["objective_vs_evaluation"])
     plot_objective_vs_time(study, table, paths["objective_vs_time"])
@@ -334,8 +334,8 @@ def best_point_table(study: Study) -> pd.DataFrame:
                 }
             ]
         )
-    best = read_json(best_file, "best.json")
-    on_bounds = best.get("on_bounds", {})
+    best = BestRecord.read(best_file)
+    on_bounds = best.on_bounds
     rows = [
         {
             "quantity": name,
@@ -343,27 +343,27 @@ def best_point_table(study: Study) -> pd.DataFrame:
             "note": f"on its {on_bounds[name]} bound" if name in on_bounds else "",
             "unit": next(p.spec.unit for p in study.free if p.name == name),
         }
-        for name, value in best["parameters"].items()
+        for name, value in best.parameters.items()
     ]
-    predicted = best.get("predicted_responses", {})
+    predicted = best.predicted_responses
     for t in study.targets:
         rows.append(
             {
                 "quantity": t.key,
-                "value": best["responses"].get(t.key),
+                "value": best.responses.get(t.key),
                 "predicted": predicted.get(t.key, {}).get("mean", ""),
                 "predicted_sd": predicted.get(t.key, {}).get("sd", ""),
                 "target": t.value,
                 "target_spread": "" if t.spread is None else t.spread,
-                "relative_error_percent": 100 * best["relative_errors"].get(t.key, np.nan),
+                "relative_error_percent": 100 * best.relative_errors.get(t.key, np.nan),
                 "unit": study.scenes[t.scene].responses[t.response].unit,
             }
         )
     rows.append(
         {
             "quantity": "objective",
-            "value": best["objective"],
-            "predicted": best.get("predicted_objective", ""),
+            "value": best.objective,
+            "predicted": "" if best.predicted_objective is None else best.predicted_objective,
             "target": 0,
             "unit": "-",
         }
@@ -418,19 +418,7 @@ def dag_svg(dot_source: str) -> str:
 def write_evaluation_dag(smk) -> None:
     """Entry point of the workflow's evaluation_dag job."""
     proc = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "snakemake",
-            "-s",
-            str(SNAKEFILE),
-            "--config",
-            f"study_file={smk.params.study_file}",
-            "--nolock",
-            "--dag",
-            "dot",
-            smk.params.target,
-        ],
+        dag_command(smk.params.study_file, smk.params.target),
         capture_output=True,
         text=True,
         check=False,

@@ -16,7 +16,7 @@ from pathlib import Path
 import pandas as pd
 
 from demcal.reporting.terminal import CHOSEN_BY, duration, with_sd
-from demcal.results.records import Status
+from demcal.results.records import BestRecord, FinishedRecord, Status
 from demcal.study.model import Study
 
 
@@ -54,20 +54,21 @@ def report_headline(study: Study) -> str:
     """The report's first section as reStructuredText; says so when there is no result yet."""
     files = study.files
     lines = ["The answer", "==========", ""]
-    finished, best = _read(files.finished), _read(files.best)
+    finished = FinishedRecord.read_if_any(files.finished)
+    best = BestRecord.read_if_any(files.best)
     if finished is None:
         return "\n".join(
             [*lines, "The calibration has not finished (no finished.json): run it first.", ""]
         )
-    counts = finished.get("evaluations", {})
+    counts = finished.evaluations
     spent = ""
     if files.evaluations_csv.exists():
         cpu = pd.to_numeric(pd.read_csv(files.evaluations_csv)["cpu_s"], errors="coerce").sum()
         spent = f"; simulation CPU time {duration(cpu)}"
     lines += [
-        f"**Ended:** {finished.get('reason', 'unknown')}. **Evaluations:** "
-        f"{sum(counts.values())} ({counts.get(Status.OK, 0)} ok, {counts.get(Status.FAILED, 0)} failed, "
-        f"{counts.get(Status.TERMINATED, 0)} stopped early){spent}.",
+        f"**Ended:** {finished.reason}. **Evaluations:** {sum(counts.values())} "
+        f"({finished.count(Status.OK)} ok, {finished.count(Status.FAILED)} failed, "
+        f"{finished.count(Status.TERMINATED)} stopped early){spent}.",
         "",
     ]
     if best is None:
@@ -75,11 +76,11 @@ def report_headline(study: Study) -> str:
             [*lines, "No evaluation succeeded: the reasons are in ``evaluations.csv``.", ""]
         )
     lines += [
-        f"**Best parameters** (evaluation ``{best['evaluation']}``, "
-        f"the evaluated point with the {CHOSEN_BY.get(best.get('chosen_by'), 'lowest objective')}):",
+        f"**Best parameters** (evaluation ``{best.evaluation}``, "
+        f"the evaluated point with the {CHOSEN_BY.get(best.chosen_by, 'lowest objective')}):",
         "",
     ]
-    on_bounds = best.get("on_bounds", {})
+    on_bounds = best.on_bounds
     rows = []
     for p in study.free:
         unit = "" if p.spec.unit == "-" else f" {p.spec.unit}"
@@ -87,12 +88,12 @@ def report_headline(study: Study) -> str:
         rows.append(
             [
                 p.name,
-                f"{best['parameters'][p.name]:.4g}{unit}",
+                f"{best.parameters[p.name]:.4g}{unit}",
                 f"{p.lower:g} – {p.upper:g}{unit}{note}",
             ]
         )
     lines += _table(["parameter", "value", "bounds"], rows)
-    predicted = best.get("predicted_responses", {})
+    predicted = best.predicted_responses
     rows = []
     for t in study.targets:
         unit = study.scenes[t.scene].responses[t.response].unit
@@ -100,10 +101,10 @@ def report_headline(study: Study) -> str:
         rows.append(
             [
                 f"{t.key} [{unit}]",
-                with_sd(best["responses"].get(t.key), None),
+                with_sd(best.responses.get(t.key), None),
                 with_sd(model.get("mean"), model.get("sd")),
                 with_sd(t.value, t.spread),
-                f"{100 * best['relative_errors'].get(t.key, float('nan')):+.1f} %",
+                f"{100 * best.relative_errors.get(t.key, float('nan')):+.1f} %",
             ]
         )
     lines += [
@@ -112,7 +113,7 @@ def report_headline(study: Study) -> str:
         "",
     ]
     lines += _table(["response", "simulated", "predicted", "target", "error"], rows)
-    confirmation = best.get("confirmation")
+    confirmation = best.confirmation
     if confirmation and confirmation["responses"]:
         rows = []
         for t in study.targets:

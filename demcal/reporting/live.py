@@ -27,7 +27,8 @@ from demcal.reporting.figures import (
     plot_early_termination,
     plot_objective_vs_time,
 )
-from demcal.results.layout import evaluation_id, read_launch
+from demcal.results.layout import evaluation_id
+from demcal.results.records import LaunchRecord
 from demcal.results.storage import atomic_write_text, read_partial
 from demcal.study.model import Study
 
@@ -55,7 +56,8 @@ def running_rows(study: Study, pending: list[str], estimates: pd.DataFrame) -> l
     """Per running evaluation: its id, time running, progress, latest estimate and limit."""
     rows, now = [], time.time()
     for evaluation in pending:
-        started = read_launch(study.files.evaluation(evaluation)).get("started_at")
+        launch = LaunchRecord.read_if_any(study.files.evaluation(evaluation).launch)
+        started = None if launch is None else launch.started_at
         progress = simulation_progress(study, evaluation)
         mine = estimates[estimates["evaluation"] == evaluation]
         estimate, limit = (

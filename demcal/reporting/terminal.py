@@ -3,15 +3,13 @@
 from __future__ import annotations
 
 import subprocess
-import sys
 from pathlib import Path
 
 from demcal.errors import SimulationFailed
-from demcal.resources import SNAKEFILE
-from demcal.results.layout import read_objective
-from demcal.results.records import Status
+from demcal.results.records import BestRecord, ObjectiveRecord, Status
 from demcal.study.model import Study
 from demcal.study.objective import relative_error
+from demcal.workflow import report_command
 
 
 def time_unit(seconds: float) -> tuple[str, float]:
@@ -48,7 +46,9 @@ def _given(value) -> str:
     return f"{value:.4g}" if is_number else repr(value)
 
 
-def evaluation_summary(study: Study, record: dict, where: Path, best: dict | None = None) -> str:
+def evaluation_summary(
+    study: Study, record: ObjectiveRecord, where: Path, best: BestRecord | None = None
+) -> str:
     """Status, parameters, responses against targets and objective of one evaluation.
 
     With ``best`` (best.json of this evaluation), each response also shows
@@ -56,11 +56,10 @@ def evaluation_summary(study: Study, record: dict, where: Path, best: dict | Non
     parameters on a bound are flagged.
     """
     lines = [
-        f"demcal: evaluation {record.get('evaluation')!r} of study {study.name!r}: "
-        f"{record.get('status')}"
-        + (f", objective {record['objective']:.4g}" if "objective" in record else "")
+        f"demcal: evaluation {record.evaluation!r} of study {study.name!r}: {record.status}"
+        + (f", objective {record.objective:.4g}" if record.objective is not None else "")
     ]
-    params = record.get("parameters", {})
+    params = record.parameters
     units = {p.name: p.spec.unit for p in study.free if p.spec.unit != "-"}
     lines.append(
         "  parameters: "
@@ -69,15 +68,15 @@ def evaluation_summary(study: Study, record: dict, where: Path, best: dict | Non
             or "none recorded (see the reason)"
         )
     )
-    for name, side in (best or {}).get("on_bounds", {}).items():
+    for name, side in ({} if best is None else best.on_bounds).items():
         bound = next(p for p in study.free if p.name == name)
         lines.append(
             f"  warning: {name} lies on its {side} bound "
             f"({bound.lower if side == 'lower' else bound.upper:g}): the bounds may cut the "
             f"solution off; widen them if the physics allows"
         )
-    predicted = (best or {}).get("predicted_responses", {})
-    if record.get("status") == Status.OK:
+    predicted = {} if best is None else best.predicted_responses
+    if record.status == Status.OK:
         header = f"  {'response':34s} {'simulated':>14s}"
         if predicted:
             header += f" {'predicted':>16s}"
@@ -86,24 +85,23 @@ def evaluation_summary(study: Study, record: dict, where: Path, best: dict | Non
             unit = study.scenes[t.scene].responses[t.response].unit
             line = (
                 f"  {t.key + ' [' + unit + ']':34s} "
-                f"{with_sd(record['responses'][t.key], record.get('spread', {}).get(t.key)):>14s}"
+                f"{with_sd(record.responses[t.key], record.spread.get(t.key)):>14s}"
             )
             if predicted:
                 line += f" {with_sd(predicted[t.key]['mean'], predicted[t.key]['sd']):>16s}"
             lines.append(
                 line + f" {with_sd(t.value, t.spread):>14s} "
-                f"{100 * record['relative_errors'][t.key]:>+7.1f}%"
+                f"{100 * record.relative_errors[t.key]:>+7.1f}%"
             )
     else:
-        lines.append(f"  reason: {record.get('reason', '')}")
-    cost = record.get("cost", {})
-    lines.append(f"  simulation CPU time {cost.get('cpu_s', 0):.0f} s; files in {where}/")
+        lines.append(f"  reason: {record.reason}")
+    lines.append(f"  simulation CPU time {record.cost.get('cpu_s', 0):.0f} s; files in {where}/")
     return "\n".join(lines)
 
 
-def confirmation_summary(study: Study, best: dict) -> str | None:
+def confirmation_summary(study: Study, best: BestRecord) -> str | None:
     """The re-simulations of the best point (``confirm_replicates``) against the targets, or None."""
-    confirmation = best.get("confirmation")
+    confirmation = best.confirmation
     if not confirmation:
         return None
     lines = [
@@ -130,7 +128,7 @@ def recent_summaries(study: Study, since: float) -> list[str]:
         files = study.files.evaluation(evaluation.name)
         if files.objective.exists() and files.objective.stat().st_mtime >= since:
             try:
-                out.append(evaluation_summary(study, read_objective(files), files.dir))
+                out.append(evaluation_summary(study, ObjectiveRecord.read_latest(files), files.dir))
             except SimulationFailed as exc:
                 out.append(f"demcal: {exc}")
     return out
@@ -140,19 +138,7 @@ def write_report(study: Study) -> str:
     """Run ``snakemake --report`` for the frozen study; return a line saying where it is."""
     report = study.files.report
     proc = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "snakemake",
-            "-s",
-            str(SNAKEFILE),
-            "--config",
-            f"study_file={study.files.study}",
-            f"study={study.name}",
-            "--nolock",
-            "--report",
-            str(report),
-        ],
+        report_command(study.files.study, report),
         stdin=subprocess.DEVNULL,
         capture_output=True,
         text=True,

@@ -19,22 +19,19 @@ workflow's rules build their patterns from the same place::
         evals/<id>/
             params.json     the point (parameters, attempt, previous failures)
             launch.json     pid of the child Snakemake running it
-            objective.json  status, objective, responses per replicate
+            objective.json  status, objective, responses per replicate (its objective job)
+            rescored.json   the same, re-scored against corrected targets (the daemon)
             STOP            asks the running simulations to stop
             logs/
             <scene>/rep<r>/ simulation.json, responses.json, partial.csv, state.npz
 
-Readers and writers of the records whose shape several modules share live
-here too; a missing or damaged file is a ``SimulationFailed`` with the reason.
+What each file holds is its record in :mod:`demcal.results.records`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-
-from demcal.errors import SimulationFailed
-from demcal.results.storage import read_json, write_json
 
 RESULTS = Path("results")
 
@@ -79,6 +76,10 @@ class EvaluationFiles:
     @property
     def objective(self) -> Path:
         return self.dir / "objective.json"
+
+    @property
+    def rescored(self) -> Path:
+        return self.dir / "rescored.json"
 
     @property
     def launch(self) -> Path:
@@ -211,59 +212,3 @@ def evaluation_id(proposal_id: int) -> str:
 
 def proposal_id(evaluation: str) -> int:
     return int(evaluation[1:])
-
-
-# -- records --------------------------------------------------------------------------
-
-
-@dataclass
-class PointRecord:
-    """``params.json``: the free-parameter values of a point and how often it was run."""
-
-    parameters: dict
-    attempt: int = 0
-    previous_failures: list[str] = field(default_factory=list)
-    in_initial_design: bool = False
-    proposed_by: str | None = None
-
-
-def read_point(files: EvaluationFiles) -> PointRecord:
-    """The point of an evaluation; a malformed params.json is a SimulationFailed."""
-    record = read_json(files.params, "params.json")
-    if not isinstance(record.get("parameters"), dict):
-        raise SimulationFailed("params.json has no 'parameters' object")
-    attempt = record.get("attempt", 0)
-    if not isinstance(attempt, int) or isinstance(attempt, bool) or attempt < 0:
-        raise SimulationFailed(f"params.json: attempt {attempt!r} is not a count")
-    return PointRecord(
-        record["parameters"],
-        attempt,
-        list(record.get("previous_failures", [])),
-        bool(record.get("in_initial_design", False)),
-        record.get("proposed_by"),
-    )
-
-
-def write_point(files: EvaluationFiles, point: PointRecord) -> None:
-    record = {
-        "parameters": point.parameters,
-        "attempt": point.attempt,
-        "previous_failures": point.previous_failures,
-        "in_initial_design": point.in_initial_design,
-    }
-    if point.proposed_by is not None:
-        record["proposed_by"] = point.proposed_by
-    write_json(files.params, record)
-
-
-def read_objective(files: EvaluationFiles) -> dict:
-    """``objective.json``: status (ok | terminated | failed), reason, objective, responses."""
-    return read_json(files.objective, "objective.json")
-
-
-def read_launch(files: EvaluationFiles) -> dict:
-    """``launch.json``: pid and start time of the child Snakemake, or {} if never launched."""
-    try:
-        return read_json(files.launch, "launch.json")
-    except SimulationFailed:
-        return {}

@@ -1,13 +1,43 @@
-"""The records that the results files hold (see :mod:`demcal.results.layout` for where they live).
+"""The records that the results files hold (:mod:`demcal.results.layout` says where they live).
 
-For now the status words. A ``Status`` is a ``str``: it compares equal to the
-word read back from a file (``Status.OK == "ok"``), and JSON, CSV and
-f-strings write it as that word.
+One frozen dataclass per file, each with ``to_dict``/``from_dict``, a format
+version and ``read``/``write``:
+
+======================  ====================================================
+``PointRecord``         ``evals/<id>/params.json``: the point and its runs
+``LaunchRecord``        ``evals/<id>/launch.json``: the child Snakemake
+``SimulationRecord``    ``<scene>/rep<r>/simulation.json``: one simulation
+``ResponsesRecord``     ``<scene>/rep<r>/responses.json``: its responses
+``ObjectiveRecord``     ``evals/<id>/objective.json`` (the objective job) and
+                        ``evals/<id>/rescored.json`` (a re-score after the
+                        targets were corrected)
+``BestRecord``          ``best.json``: the best point so far
+``FinishedRecord``      ``finished.json``: why the calibration ended
+======================  ====================================================
+
+A file written by this version carries ``"format": 1``; older files without
+the key still load. A reader that meets a missing, damaged or malformed
+file raises ``SimulationFailed`` naming the file and what is wrong, which
+the callers record as the evaluation's failure or show as one line.
+
+A ``Status`` is a ``str``: it compares equal to the word read back from a
+file (``Status.OK == "ok"``), and JSON, CSV and f-strings write it as that
+word.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import enum
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, ClassVar, Self
+
+from demcal.errors import SimulationFailed
+from demcal.results.storage import read_json, write_json
+
+#: Format of the records this version writes (the ``"format"`` key of every file).
+FORMAT = 1
 
 
 class Status(enum.StrEnum):
@@ -35,3 +65,268 @@ class Status(enum.StrEnum):
     TERMINATED = "terminated"
     PENDING = "pending"
     RUNNING = "running"
+
+
+def status_of(value: Any, where: str) -> Status:
+    """The Status spelled ``value``; anything else is a SimulationFailed naming ``where``."""
+    try:
+        return Status(value)
+    except ValueError:
+        words = ", ".join(s.value for s in Status)
+        raise SimulationFailed(f"{where}: status {value!r} is not one of {words}") from None
+
+
+@dataclass(frozen=True)
+class Record:
+    """Base of the records: dict conversion, format check, reading and writing by file."""
+
+    #: the file's usual name, for messages
+    FILE: ClassVar[str] = ""
+
+    def to_dict(self) -> dict:
+        """The record as the file holds it: its fields (None-valued optional ones left out)."""
+        out: dict[str, Any] = {"format": FORMAT}
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if value is None and f.metadata.get("optional"):
+                continue
+            out[f.name] = value
+        return out
+
+    @classmethod
+    def from_dict(cls, data: dict, where: str = "") -> Self:
+        """The record of a file's dict; ``where`` names the file in errors."""
+        where = where or cls.FILE
+        if not isinstance(data, dict):
+            raise SimulationFailed(f"{where}: not a JSON object")
+        version = data.get("format", FORMAT)
+        if not isinstance(version, int) or version > FORMAT:
+            raise SimulationFailed(
+                f"{where}: format {version!r} was written by a newer demcal (this one reads "
+                f"format {FORMAT} and older)"
+            )
+        try:
+            return cls._from_dict(data, where)
+        except (KeyError, TypeError, ValueError) as exc:
+            raise SimulationFailed(f"{where}: malformed ({type(exc).__name__}: {exc})") from None
+
+    @classmethod
+    def _from_dict(cls, data: dict, where: str) -> Self:
+        names = {f.name for f in dataclasses.fields(cls)}
+        return cls(**{key: value for key, value in data.items() if key in names})
+
+    @classmethod
+    def read(cls, path: Path) -> Self:
+        """The record in ``path``; a missing or damaged file is a SimulationFailed naming it."""
+        return cls.from_dict(read_json(path, cls.FILE), str(path))
+
+    @classmethod
+    def read_if_any(cls, path: Path) -> Self | None:
+        """The record in ``path``, or None if there is none yet (or it is unreadable)."""
+        try:
+            return cls.read(path)
+        except SimulationFailed:
+            return None
+
+    def write(self, path: Path) -> None:
+        """Write the record atomically (non-finite numbers become null)."""
+        write_json(path, self.to_dict())
+
+
+def _optional(default: Any = None) -> Any:
+    """A field left out of the file while it is None."""
+    return field(default=default, metadata={"optional": True})
+
+
+@dataclass(frozen=True)
+class PointRecord(Record):
+    """``params.json``: the free-parameter values of a point and how often it was run.
+
+    ``parameters`` is kept as written (a hand-written file may hold text);
+    the simulate job checks it against the study.
+    """
+
+    FILE: ClassVar[str] = "params.json"
+
+    parameters: dict
+    attempt: int = 0
+    previous_failures: list[str] = field(default_factory=list)
+    in_initial_design: bool = False
+    proposed_by: str | None = _optional()
+
+    @classmethod
+    def _from_dict(cls, data: dict, where: str) -> Self:
+        if not isinstance(data.get("parameters"), dict):
+            raise SimulationFailed(f"{where} has no 'parameters' object")
+        attempt = data.get("attempt", 0)
+        if not isinstance(attempt, int) or isinstance(attempt, bool) or attempt < 0:
+            raise SimulationFailed(f"{where}: attempt {attempt!r} is not a count")
+        return cls(
+            data["parameters"],
+            attempt,
+            list(data.get("previous_failures", [])),
+            bool(data.get("in_initial_design", False)),
+            data.get("proposed_by"),
+        )
+
+    def retried(self, reason: str | None) -> PointRecord:
+        """The point for its next run (new seeds), with the reason of the failed one if given."""
+        failures = self.previous_failures + ([] if reason is None else [reason])
+        return dataclasses.replace(self, attempt=self.attempt + 1, previous_failures=failures)
+
+
+@dataclass(frozen=True)
+class LaunchRecord(Record):
+    """``launch.json``: pid and start time (Unix s) of the evaluation's child Snakemake."""
+
+    FILE: ClassVar[str] = "launch.json"
+
+    pid: int
+    started_at: float
+
+
+@dataclass(frozen=True)
+class SimulationRecord(Record):
+    """``simulation.json``: one scene replicate as the simulate job ran it.
+
+    ``parameters`` are the resolved material parameters (SI units) the engine
+    was given; ``measurements`` the responses the engine measured itself;
+    ``cost`` its ``cpu_s``/``wall_s``; ``state_file`` the saved particle
+    state (``state.npz``) when responses are computed from it.
+    """
+
+    FILE: ClassVar[str] = "simulation.json"
+
+    evaluation: str
+    scene: str
+    replicate: int
+    engine: str
+    engine_version: str
+    settings: dict
+    timestep_fraction: float
+    responses_needed: list[str]
+    started_at: float
+    status: Status
+    reason: str = ""
+    seed: int | None = None
+    attempt: int | None = None
+    parameters: dict = field(default_factory=dict)
+    measurements: dict = field(default_factory=dict)
+    cost: dict = field(default_factory=dict)
+    ended_at: float | None = None
+    state_file: str | None = _optional()
+
+    @classmethod
+    def _from_dict(cls, data: dict, where: str) -> Self:
+        record = super()._from_dict(data, where)
+        return dataclasses.replace(record, status=status_of(record.status, where))
+
+
+@dataclass(frozen=True)
+class ResponsesRecord(Record):
+    """``responses.json``: the responses of one simulation, or why there are none."""
+
+    FILE: ClassVar[str] = "responses.json"
+
+    status: Status
+    reason: str = ""
+    responses: dict[str, float] = field(default_factory=dict)
+    evaluation: str | None = None
+    scene: str | None = None
+    replicate: int | None = None
+    seed: int | None = None
+    cost: dict | None = None
+
+    @classmethod
+    def _from_dict(cls, data: dict, where: str) -> Self:
+        record = super()._from_dict(data, where)
+        return dataclasses.replace(
+            record, status=status_of(record.status, where), responses=record.responses or {}
+        )
+
+
+@dataclass(frozen=True)
+class ObjectiveRecord(Record):
+    """``objective.json`` (or ``rescored.json``): the outcome of one evaluation.
+
+    ``responses`` are the replicate means, ``replicates`` every replicate's
+    value and ``spread`` their sample sd, each keyed ``scene.response``;
+    ``objective`` is eq. 3.3 of the means (Samuelsson 2023) in the study's
+    form plus ``timestep_cost`` (Rackl & Hanley 2017, eq. 10), both from
+    the study's ``ResponseObjective``. ``scored_with`` names the version of
+    that objective (``ResponseObjective.version``; None in files written
+    before format 1): the targets themselves live in the frozen study only.
+    ``cost`` holds ``cpu_s`` and ``simulation_wall_s``.
+    """
+
+    FILE: ClassVar[str] = "objective.json"
+
+    evaluation: str
+    status: Status
+    reason: str = ""
+    parameters: dict = field(default_factory=dict)
+    cost: dict = field(default_factory=dict)
+    objective: float | None = _optional()
+    timestep_cost: float | None = _optional()
+    responses: dict[str, float] = field(default_factory=dict)
+    replicates: dict[str, list[float]] = field(default_factory=dict)
+    spread: dict[str, float] = field(default_factory=dict)
+    relative_errors: dict[str, float] = field(default_factory=dict)
+    scored_with: str | None = _optional()
+
+    @classmethod
+    def _from_dict(cls, data: dict, where: str) -> Self:
+        record = super()._from_dict(data, where)
+        return dataclasses.replace(record, status=status_of(record.status, where))
+
+    @property
+    def ok(self) -> bool:
+        return self.status == Status.OK
+
+    @classmethod
+    def read_latest(cls, files) -> ObjectiveRecord:
+        """The evaluation's outcome as it stands: its re-score (``files.rescored``) if there is
+        one, else what its objective job wrote (``files.objective``)."""
+        return cls.read(files.rescored if files.rescored.exists() else files.objective)
+
+
+@dataclass(frozen=True)
+class BestRecord(Record):
+    """``best.json``: the best point so far and why it is best, in the study's units.
+
+    ``predicted_responses``: ``{key: {"mean", "sd"}}`` of the response models
+    there; ``on_bounds``: parameters that lie on a bound, and which;
+    ``confirmation``: the re-simulations of the point, when asked for.
+    """
+
+    FILE: ClassVar[str] = "best.json"
+
+    evaluation: str
+    parameters: dict[str, float]
+    objective: float
+    stop_reason: str | None = None
+    units: dict[str, str] = field(default_factory=dict)
+    predicted_objective: float | None = None
+    chosen_by: str | None = None
+    responses: dict[str, float] = field(default_factory=dict)
+    targets: dict[str, float] = field(default_factory=dict)
+    relative_errors: dict[str, float] = field(default_factory=dict)
+    predicted_responses: dict[str, dict] = field(default_factory=dict)
+    target_spreads: dict[str, float | None] = field(default_factory=dict)
+    on_bounds: dict[str, str] = field(default_factory=dict)
+    confirmation: dict | None = _optional()
+
+
+@dataclass(frozen=True)
+class FinishedRecord(Record):
+    """``finished.json``: written only once the calibration has ended, with its reason and
+    the count of evaluations per status."""
+
+    FILE: ClassVar[str] = "finished.json"
+
+    reason: str
+    ended_at: float
+    evaluations: dict[str, int] = field(default_factory=dict)
+
+    def count(self, status: Status) -> int:
+        return int(self.evaluations.get(status, 0))

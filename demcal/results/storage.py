@@ -59,9 +59,27 @@ def _finite_or_none(value):
     return value
 
 
+def json_text(record: dict) -> str:
+    """A record as demcal writes JSON: sorted keys, indented, non-finite floats as null."""
+    return json.dumps(_finite_or_none(record), indent=2, sort_keys=True) + "\n"
+
+
 def write_json(path: Path, record: dict) -> None:
     """Atomically write a JSON record (non-finite floats become null)."""
-    atomic_write_text(path, json.dumps(_finite_or_none(record), indent=2, sort_keys=True) + "\n")
+    atomic_write_text(path, json_text(record))
+
+
+def write_json_if_changed(path: Path, record: dict) -> bool:
+    """Write a JSON record unless ``path`` already holds it, so that its modification time
+    (Snakemake's rerun trigger) moves only when it changes; True if written."""
+    text = json_text(record)
+    try:
+        if Path(path).read_text() == text:
+            return False
+    except (OSError, UnicodeDecodeError):
+        pass
+    atomic_write_text(path, text)
+    return True
 
 
 def byte_size(count: int) -> str:

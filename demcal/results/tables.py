@@ -7,9 +7,9 @@ import io
 from datetime import UTC, datetime
 
 from demcal.errors import SimulationFailed
-from demcal.results.layout import evaluation_id, read_launch, read_objective, read_point
-from demcal.results.records import Status
-from demcal.results.storage import atomic_write_text, write_json
+from demcal.results.layout import evaluation_id
+from demcal.results.records import BestRecord, LaunchRecord, ObjectiveRecord, PointRecord, Status
+from demcal.results.storage import atomic_write_text
 from demcal.study.model import Study
 
 #: Significant digits of the numbers in evaluations.csv (the JSON records keep every digit).
@@ -69,32 +69,33 @@ def write_evaluations_csv(study: Study) -> None:
     writer.writeheader()
     for files in study.files.evaluations():
         try:
-            point = read_point(files)
+            point = PointRecord.read(files.params)
         except SimulationFailed:
             continue
         try:
-            record = read_objective(files)
+            record = ObjectiveRecord.read_latest(files)
             ended = files.objective.stat().st_mtime
         except (SimulationFailed, OSError):
-            record, ended = {"status": Status.RUNNING}, ""
-        started = read_launch(files).get("started_at", "")
+            record, ended = ObjectiveRecord(files.id, Status.RUNNING), None
+        launch = LaunchRecord.read_if_any(files.launch)
+        started = None if launch is None else launch.started_at
         row = {
             "evaluation": files.id,
-            "status": record.get("status"),
-            "reason": record.get("reason", ""),
-            "objective": record.get("objective"),
+            "status": record.status,
+            "reason": record.reason,
+            "objective": record.objective,
             "attempts": point.attempt + 1,
             **point.parameters,
-            **record.get("responses", {}),
+            **record.responses,
             **{
                 f"{key}.rep{i}": value
-                for key, values in record.get("replicates", {}).items()
+                for key, values in record.replicates.items()
                 for i, value in enumerate(values)
             },
             "started_at": _iso(started),
             "ended_at": _iso(ended),
-            "wall_s": float(ended) - float(started) if ended != "" and started != "" else None,
-            "cpu_s": (record.get("cost") or {}).get("cpu_s"),
+            "wall_s": ended - started if ended is not None and started is not None else None,
+            "cpu_s": record.cost.get("cpu_s"),
         }
         writer.writerow({key: _number(value) for key, value in row.items()})
     atomic_write_text(study.files.evaluations_csv, buffer.getvalue())
@@ -110,41 +111,33 @@ def write_best(
     re-simulations that confirm it (``Optimizer.confirmation()``) where there are any, the units
     of every parameter and response, and why the calibration ended (None while it runs)."""
     files = study.files.evaluation(evaluation_id(best["id"]))
-    record = read_objective(files)
-    write_json(
-        study.files.best,
-        {
-            "evaluation": files.id,
-            "stop_reason": stop_reason,
-            "parameters": dict(zip([p.name for p in study.free], best["x"])),
-            "units": {
-                **{p.name: p.spec.unit for p in study.free},
-                **{t.key: study.scenes[t.scene].responses[t.response].unit for t in study.targets},
-            },
-            "objective": best["value"],
-            "predicted_objective": best["predicted"],
-            "chosen_by": best["chosen_by"],
-            "responses": record.get("responses", {}),
-            "targets": record.get("targets", {}),
-            "relative_errors": record.get("relative_errors", {}),
-            "predicted_responses": {
-                key: {"mean": mean, "sd": sd}
-                for key, (mean, sd) in best.get("responses", {}).items()
-            },
-            "target_spreads": {t.key: t.spread for t in study.targets},
-            "on_bounds": {study.free[i].name: side for i, side in best["on_bounds"]},
-            **(
-                {}
-                if confirmation is None
-                else {
-                    "confirmation": {
-                        "of": evaluation_id(confirmation["confirms"]),
-                        "evaluations": [evaluation_id(i) for i in confirmation["ids"]],
-                        "pending": confirmation["pending"],
-                        "failed": confirmation["failed"],
-                        "responses": confirmation["responses"],
-                    }
-                }
-            ),
+    record = ObjectiveRecord.read_latest(files)
+    BestRecord(
+        evaluation=files.id,
+        stop_reason=stop_reason,
+        parameters=dict(zip([p.name for p in study.free], best["x"])),
+        units={
+            **{p.name: p.spec.unit for p in study.free},
+            **{t.key: study.scenes[t.scene].responses[t.response].unit for t in study.targets},
         },
-    )
+        objective=best["value"],
+        predicted_objective=best["predicted"],
+        chosen_by=best["chosen_by"],
+        responses=record.responses,
+        targets={t.key: t.value for t in study.targets},
+        relative_errors=record.relative_errors,
+        predicted_responses={
+            key: {"mean": mean, "sd": sd} for key, (mean, sd) in best.get("responses", {}).items()
+        },
+        target_spreads={t.key: t.spread for t in study.targets},
+        on_bounds={study.free[i].name: side for i, side in best["on_bounds"]},
+        confirmation=None
+        if confirmation is None
+        else {
+            "of": evaluation_id(confirmation["confirms"]),
+            "evaluations": [evaluation_id(i) for i in confirmation["ids"]],
+            "pending": confirmation["pending"],
+            "failed": confirmation["failed"],
+            "responses": confirmation["responses"],
+        },
+    ).write(study.files.best)

@@ -25,7 +25,7 @@ from demcal.resources import SCHEMA_PATH
 from demcal.scenes import SCENES, Scene
 from demcal.study.catalogue import CATALOG
 from demcal.study.model import FreeParameter, Study
-from demcal.study.objective import Target
+from demcal.study.objective import DEFAULT_FORM, Target
 
 
 def _field_path(error: jsonschema.ValidationError) -> str:
@@ -285,7 +285,7 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
     form = config.get("objective", default("objective"))
     unspread = [i for i, t in enumerate(targets) if not t.spread]
     if form == "auto":  # weigh each error by its measurement spread when every spread is known
-        form = "relative" if unspread else "precision"
+        form = DEFAULT_FORM if unspread else "precision"
     if form == "precision" and unspread:
         raise ConfigError(
             f"targets[{unspread[0]}].spread: the precision-weighted objective "

@@ -26,10 +26,10 @@ from demcal.errors import ConfigError, SimulationFailed
 from demcal.optimizer import OptimizerSettings
 from demcal.physics.timestep import RAYLEIGH_PARAMETERS, rayleigh_cost, rayleigh_time_range
 from demcal.results.layout import StudyFiles
-from demcal.results.storage import read_json, write_json
+from demcal.results.storage import read_json, write_json_if_changed
 from demcal.scenes import SCENES, Scene
 from demcal.study.catalogue import CATALOG, ParameterSpec
-from demcal.study.objective import Target
+from demcal.study.objective import DEFAULT_FORM, ResponseObjective, Target
 
 #: Optimizer settings a resumed calibration takes from the current study file.
 RESUMABLE_OPTIMIZER_SETTINGS = (
@@ -73,11 +73,16 @@ class Study:
     timestep_fraction: float
     optimizer: OptimizerSettings
     #: "relative" (eq. 3.3) or "precision" (errors in units of the targets' spreads)
-    objective_form: str = "relative"
+    objective_form: str = DEFAULT_FORM
     #: W_RL of the Rayleigh time-step cost term (Rackl & Hanley 2017, eq. 10); 0 = off.
     rayleigh_cost_weight: float = 0.0
     calibration: dict = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+
+    @property
+    def objective(self) -> ResponseObjective:
+        """The objective of this study's targets in its form (the one computation of it)."""
+        return ResponseObjective(tuple(self.targets), self.objective_form)
 
     @property
     def files(self) -> StudyFiles:
@@ -225,7 +230,7 @@ def study_from_record(record: dict) -> Study:
         seed=record["seed"],
         timestep_fraction=record["timestep_fraction"],
         optimizer=OptimizerSettings.from_dict(record["optimizer"]),
-        objective_form=record.get("objective", "relative"),
+        objective_form=record.get("objective", DEFAULT_FORM),
         rayleigh_cost_weight=record["rayleigh_cost_weight"],
         calibration=record["calibration"],
         warnings=record["warnings"],
@@ -324,7 +329,7 @@ def freeze(study: Study) -> Study:
                 f"{study.files.dir} holds a calibration of a different study ({shown}); "
                 f"give the study a new name, or move {study.files.dir} away"
             )
-    write_json(path, record)
+    write_json_if_changed(path, record)  # unchanged: its time stays, nothing reruns
     return study_from_record(read_json(path, "study.json"))
 
 

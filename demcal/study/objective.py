@@ -18,6 +18,8 @@ caller as ``cost``. Pure functions: no files.
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -26,6 +28,8 @@ from statistics import fmean, stdev
 import numpy as np
 
 OBJECTIVE_FORMS = ("relative", "precision")
+#: The form a study gets when it names none and its targets have no spreads (``Study.objective_form``).
+DEFAULT_FORM = "relative"
 
 
 @dataclass(frozen=True)
@@ -61,7 +65,7 @@ def replicate_spread(values: list[float]) -> float:
 
 
 def objective_value(
-    targets: list[Target], mean_responses: dict[str, float], form: str = "relative"
+    targets: list[Target], mean_responses: dict[str, float], form: str = DEFAULT_FORM
 ) -> float:
     """The objective of replicate-mean responses: eq. 3.3, or its precision-weighted form.
 
@@ -76,7 +80,7 @@ def objective_value(
 def objective_values(
     targets: list[Target] | tuple[Target, ...],
     responses: Mapping[str, float | np.ndarray],
-    form: str = "relative",
+    form: str = DEFAULT_FORM,
 ) -> float | np.ndarray:
     """The objective of responses given as numbers or as arrays of one shape (element-wise).
 
@@ -90,7 +94,7 @@ def objective_values(
 
 
 def target_error(
-    target: Target, simulated: float | np.ndarray, form: str = "relative"
+    target: Target, simulated: float | np.ndarray, form: str = DEFAULT_FORM
 ) -> float | np.ndarray:
     """The error of one response in the objective's form: (y - r) / r (Rackl & Hanley 2017, eq. 9;
     y - r where r is 0), or (y - r) / s in units of the target's spread (precision form)."""
@@ -103,7 +107,7 @@ def target_error(
 def weighted_residuals(
     targets: list[Target] | tuple[Target, ...],
     responses: Mapping[str, float | np.ndarray],
-    form: str = "relative",
+    form: str = DEFAULT_FORM,
 ) -> np.ndarray:
     """sqrt(w_i) e_i per target (rows): the residuals whose squares sum to the objective (least squares)."""
     return np.array(
@@ -113,10 +117,19 @@ def weighted_residuals(
 
 @dataclass(frozen=True)
 class ResponseObjective:
-    """The objective as a function of responses: what the optimizer applies to its response data."""
+    """The study's objective as a function of responses: the one computation of it.
+
+    The objective job scores an evaluation with it (``of_replicates``), the
+    daemon takes each replicate's value for the optimizer's noise estimate
+    (``per_replicate``) and early-termination estimates (``estimate``), and
+    the optimizer applies it to its response data and its models'
+    predictions (calling it). ``cost`` is the Rayleigh time-step term of the
+    point (Rackl & Hanley 2017, eq. 10; ``Study.timestep_cost``), added to
+    every value of that point.
+    """
 
     targets: tuple[Target, ...]
-    form: str = "relative"
+    form: str = DEFAULT_FORM
 
     def __call__(self, responses: Mapping[str, float | np.ndarray]) -> float | np.ndarray:
         return objective_values(self.targets, responses, self.form)
@@ -124,6 +137,32 @@ class ResponseObjective:
     @property
     def keys(self) -> list[str]:
         return [t.key for t in self.targets]
+
+    @property
+    def version(self) -> str:
+        """A short fingerprint of the targets, weights, spreads and form: what an evaluation's
+        objective record names as what it was scored against."""
+        text = json.dumps(self.to_dict(), sort_keys=True, allow_nan=True)
+        return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+    def of_means(self, means: Mapping[str, float], cost: float = 0.0) -> float:
+        """Eq. 3.3 (or its precision form) of replicate-mean responses, plus ``cost``."""
+        return objective_value(list(self.targets), dict(means), self.form) + cost
+
+    def of_replicates(self, replicates: Mapping[str, list[float]], cost: float = 0.0) -> float:
+        """The objective of an evaluation: its replicates averaged per response first
+        (Samuelsson 2023, sec. 2.5), then eq. 3.3, plus ``cost``. ValueError if not finite."""
+        return self.of_means({key: replicate_mean(v) for key, v in replicates.items()}, cost)
+
+    def per_replicate(
+        self, replicates: Mapping[str, list[float]], cost: float = 0.0
+    ) -> list[float]:
+        """The objective of each replicate index alone (see ``replicate_objectives``)."""
+        return replicate_objectives(list(self.targets), dict(replicates), cost, self.form)
+
+    def estimate(self, estimates: Mapping[str, list[float]], cost: float = 0.0) -> float | None:
+        """The objective of a running evaluation from its early estimates (``estimated_objective``)."""
+        return estimated_objective(list(self.targets), dict(estimates), cost, self.form)
 
     def to_dict(self) -> dict:
         return {
@@ -149,7 +188,7 @@ def replicate_objectives(
     targets: list[Target],
     replicates: dict[str, list[float]],
     cost: float = 0.0,
-    form: str = "relative",
+    form: str = DEFAULT_FORM,
 ) -> list[float]:
     """Eq. 3.3 of each replicate index alone (for the optimizer's noise estimate).
 
@@ -170,7 +209,7 @@ def estimated_objective(
     targets: list[Target],
     estimates: dict[str, list[float]],
     cost: float = 0.0,
-    form: str = "relative",
+    form: str = DEFAULT_FORM,
 ) -> float | None:
     """Objective from early estimates of a running evaluation (thesis sec. 3.6.1).
 

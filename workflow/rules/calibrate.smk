@@ -6,24 +6,13 @@
 # daemon watches this Snakemake's pid and ends when it is gone, so a killed
 # Snakemake leaves no orphan that holds the study.
 
-from demcal.resources import PROFILES_DIR
-
-
-def invocation_profile():
-    """The --profile this Snakemake was started with (or $SNAKEMAKE_PROFILE), else local."""
-    args = sys.argv
-    for i, arg in enumerate(args):
-        if arg == "--profile" and i + 1 < len(args):
-            return os.path.abspath(args[i + 1])
-        if arg.startswith("--profile="):
-            return os.path.abspath(arg.split("=", 1)[1])
-    return os.path.abspath(os.environ.get("SNAKEMAKE_PROFILE", PROFILES_DIR / "local"))
+from demcal.workflow import invocation_profile
 
 
 rule calibrate:
     input:
-        # the study file as given (YAML); the daemon validates and freezes it
-        config=STUDY_FILE if "study_file" in config else STUDY_YAML[0],
+        # the study as this Snakemake froze it (the YAML is not read again)
+        study=STUDY_FILE,
     output:
         str(FILES.finished),
     log:
@@ -31,8 +20,8 @@ rule calibrate:
     localrule: True
     params:
         python=sys.executable,
-        profile=invocation_profile(),
+        profile=invocation_profile(sys.argv, os.environ),
         snakemake_pid=os.getpid(),
     shell:
-        "{params.python:q} -m demcal.cli run {input.config:q} --profile {params.profile:q}"
+        "{params.python:q} -m demcal.cli run {input.study:q} --frozen --profile {params.profile:q}"
         " --watch-pid {params.snakemake_pid} --log {log:q}"

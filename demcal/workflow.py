@@ -1,0 +1,100 @@
+"""demcal's Snakemake workflow as demcal itself runs it: every command line and profile fact.
+
+Three Snakemake runs start from demcal code, all on the frozen study
+(``--config study_file=...``, never the YAML) and built by
+:func:`snakemake_command`:
+
+- an evaluation's child (the daemon, one per evaluation): its run settings
+  (``nolock``, ``rerun-incomplete``, ``rerun-triggers``, the executor, the
+  logger) come from the profile, the local one when none is given;
+- the report (``--report``), from the workflow's ``onsuccess``;
+- an evaluation's DAG (``--dag``), from the ``evaluation_dag`` job.
+
+The last two run inside a running Snakemake, so they take no directory lock.
+
+Snakemake does not tell a workflow which profile or report it was started
+with, so the Snakefile reads its own command line with
+:func:`invocation_profile` and :func:`report_requested`.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import yaml
+
+from demcal.errors import DemcalError
+from demcal.resources import PROFILES_DIR, SNAKEFILE
+
+#: The profile of ``demcal run`` and of child Snakemakes when none is given.
+LOCAL_PROFILE = PROFILES_DIR / "local"
+
+
+def snakemake_command(
+    study_file: Path | str,
+    *arguments: str,
+    profile: Path | None = None,
+    cores: int | None = None,
+) -> list[str]:
+    """``python -m snakemake`` on demcal's Snakefile for the frozen study, then ``arguments``."""
+    command = [sys.executable, "-m", "snakemake", "-s", str(SNAKEFILE)]
+    command += ["--config", f"study_file={Path(study_file).resolve()}"]
+    if profile is not None:
+        command += ["--profile", str(profile)]
+    if cores is not None:
+        command += ["--cores", str(cores)]
+    return [*command, *arguments]
+
+
+def child_command(
+    study_file: Path | str, target: Path | str, profile: Path | None, cores: int | None
+) -> list[str]:
+    """The child Snakemake that builds one evaluation's ``target`` (its objective.json)."""
+    return snakemake_command(study_file, str(target), profile=profile or LOCAL_PROFILE, cores=cores)
+
+
+def report_command(study_file: Path | str, report: Path | str) -> list[str]:
+    """``snakemake --report`` of the calibration (figures flagged in the rules)."""
+    return snakemake_command(study_file, "--nolock", "--report", str(report))
+
+
+def dag_command(study_file: Path | str, target: Path | str) -> list[str]:
+    """The DAG of the jobs that build ``target``, in Graphviz's dot language on stdout."""
+    return snakemake_command(study_file, "--nolock", "--dag", "dot", str(target))
+
+
+def profile_settings(profile: Path | None) -> dict:
+    """The settings of a Snakemake profile (its config.yaml), {} without a profile."""
+    if profile is None:
+        return {}
+    path = Path(profile) / "config.yaml"
+    try:
+        return yaml.safe_load(path.read_text()) or {}
+    except (OSError, yaml.YAMLError) as exc:
+        raise DemcalError(f"profile {profile}: cannot read {path}: {exc}") from None
+
+
+def child_cores(profile: Path | None, workers: int) -> int | None:
+    """Cores each child Snakemake may use: none set on a cluster executor, else a fair share."""
+    if profile_settings(profile).get("executor", "local") != "local":
+        return None
+    return max(1, (os.cpu_count() or 1) // workers)
+
+
+def invocation_profile(argv: Sequence[str], environ: Mapping[str, str]) -> Path:
+    """The ``--profile`` a Snakemake was started with (or ``$SNAKEMAKE_PROFILE``), else the
+    local profile; absolute, so that the daemon's children find it from anywhere."""
+    for i, arg in enumerate(argv):
+        if arg == "--profile" and i + 1 < len(argv):
+            return Path(os.path.abspath(argv[i + 1]))
+        if arg.startswith("--profile="):
+            return Path(os.path.abspath(arg.split("=", 1)[1]))
+    return Path(os.path.abspath(environ.get("SNAKEMAKE_PROFILE", LOCAL_PROFILE)))
+
+
+def report_requested(argv: Sequence[str]) -> bool:
+    """Whether a Snakemake command line asks for the report."""
+    return any(arg == "--report" or arg.startswith("--report=") for arg in argv)

@@ -1,0 +1,145 @@
+"""The calibration loop in-process: a launcher that runs each evaluation's jobs here.
+
+No Snakemake and no subprocess: ``Calibration`` takes the launcher, so its
+bookkeeping (proposals, records, retries, re-scoring, the tables and
+finished.json) is tested directly and deterministically.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import time
+from dataclasses import dataclass
+
+import pandas as pd
+import pytest
+from conftest import ANALYTIC_STUDY
+
+from demcal.daemon.loop import Calibration
+from demcal.jobs.evaluation import extract, objective, response_paths, simulate
+from demcal.results.layout import EvaluationFiles
+from demcal.results.records import FinishedRecord, ObjectiveRecord, Status
+from demcal.study.config import load_study
+from demcal.study.model import Study, freeze
+
+
+@dataclass
+class Ended:
+    """An evaluation that ran to its end within ``launch``."""
+
+    evaluation: str
+    started: float
+
+    def finished(self) -> bool:
+        return True
+
+    def returncode(self) -> int | None:
+        return 0
+
+
+@dataclass
+class InProcessLauncher:
+    """Runs simulate -> extract -> objective of every scene replicate in this process."""
+
+    study: Study
+    fail: tuple[str, ...] = ()
+
+    def __post_init__(self):
+        self.launched: list[str] = []
+
+    def launch(self, files: EvaluationFiles) -> Ended:
+        self.launched.append(files.id)
+        if files.id in self.fail and self.launched.count(files.id) == 1:
+            ObjectiveRecord(files.id, Status.FAILED, "node lost").write(files.objective)
+            return Ended(files.id, time.time())
+        for scene in self.study.scenes:
+            for replicate in range(self.study.replicates):
+                simulate(self.study, files.id, scene, replicate)
+                extract(self.study, files.replicate(scene, replicate).simulation)
+        objective(self.study, files.id, response_paths(self.study, files.id))
+        return Ended(files.id, time.time())
+
+    def reattach(self, files: EvaluationFiles) -> None:
+        return None
+
+
+def config(**changes) -> dict:
+    study = copy.deepcopy(ANALYTIC_STUDY)
+    study.update(
+        optimizer={"max_evaluations": 8, "early_termination": {"enabled": False}},
+        calibration={"poll_seconds": 0.001, "retries": 1},
+        **changes,
+    )
+    return study
+
+
+def calibrate(study_config: dict, **launcher) -> tuple[Calibration, InProcessLauncher, str]:
+    study = freeze(load_study(study_config))
+    runner = InProcessLauncher(study, **launcher)
+    calibration = Calibration(study, runner, workers=2)
+    return calibration, runner, calibration.run(show_progress=lambda progress: None)
+
+
+def evaluations_table(study_name: str) -> pd.DataFrame:
+    table = pd.read_csv(f"results/{study_name}/evaluations.csv")
+    return table.drop(columns=["started_at", "ended_at", "wall_s", "cpu_s"])  # measured times
+
+
+def test_the_loop_runs_the_budget_and_writes_every_record(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    calibration, runner, reason = calibrate(config())
+    assert reason == "evaluation budget reached (8 of 8)"
+    assert runner.launched == [f"e{i:04d}" for i in range(8)]
+    finished = FinishedRecord.read(calibration.files.finished)
+    assert finished.reason == reason and finished.count(Status.OK) == 8
+    table = evaluations_table("unit")
+    assert list(table["status"]) == ["ok"] * 8
+    told = {r["id"]: r["value"] for r in calibration.optimizer.records}
+    for files in calibration.files.evaluations():
+        record = ObjectiveRecord.read(files.objective)
+        assert record.scored_with == calibration.study.objective.version
+        assert told[int(files.id[1:])] == record.objective
+    best = json.loads(calibration.files.best.read_text())
+    assert best["objective"] == told[int(best["evaluation"][1:])]
+
+
+def test_same_seed_same_evaluations(tmp_path, monkeypatch):
+    tables = []
+    for run in ("a", "b"):
+        (tmp_path / run).mkdir()
+        monkeypatch.chdir(tmp_path / run)
+        calibrate(config())
+        tables.append(evaluations_table("unit"))
+    pd.testing.assert_frame_equal(*tables)
+    (tmp_path / "c").mkdir()
+    monkeypatch.chdir(tmp_path / "c")
+    calibrate(config(seed=4))
+    assert not evaluations_table("unit")["objective"].equals(tables[0]["objective"])
+
+
+def test_a_failed_evaluation_is_retried_with_its_reason_kept(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    calibration, runner, _ = calibrate(config(), fail=("e0001",))
+    assert runner.launched.count("e0001") == 2
+    point = json.loads(calibration.files.evaluation("e0001").params.read_text())
+    assert point["attempt"] == 1 and point["previous_failures"] == ["node lost"]
+    assert evaluations_table("unit").set_index("evaluation").loc["e0001", "status"] == "ok"
+
+
+def test_corrected_targets_rescore_into_their_own_record(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    first, _, _ = calibrate(config())
+    jobs = {f.id: f.objective.read_text() for f in first.files.evaluations()}
+    changed = config()
+    changed["targets"] = copy.deepcopy(changed["targets"])
+    changed["targets"][0]["value"] = 26.0
+    second = Calibration(freeze(load_study(changed)), InProcessLauncher(first.study), workers=2)
+    assert {f.id: f.objective.read_text() for f in second.files.evaluations()} == jobs
+    for files in second.files.evaluations():
+        rescored = ObjectiveRecord.read(files.rescored)
+        assert rescored.scored_with == second.study.objective.version
+        angle = rescored.responses["cylinder_lift.angle_of_repose"]
+        density = rescored.responses["cylinder_lift.bulk_density"]
+        expected = ((angle - 26.0) / 26.0) ** 2 + ((density - 1450.0) / 1450.0) ** 2
+        assert rescored.objective == pytest.approx(expected, rel=1e-12)
