@@ -242,7 +242,8 @@ def objective(study: Study, evaluation: str, response_paths: list[Path]) -> dict
 def _objective_of_responses(
     study: Study, point: dict, values: dict[str, list[float]], record: dict
 ) -> None:
-    """Fill ``record`` with eq. 3.3 (plus the Rayleigh cost) of the replicate means, or a failure."""
+    """Fill ``record`` with eq. 3.3 (plus the Rayleigh cost) of the replicate
+    means, or a failure."""
     try:
         timestep_cost = study.timestep_cost(point)
     except DemcalError as exc:

@@ -65,8 +65,8 @@ def report_headline(study: Study) -> str:
         cpu = pd.to_numeric(pd.read_csv(files.evaluations_csv)["cpu_s"], errors="coerce").sum()
         spent = f"; simulation CPU time {duration(cpu)}"
     lines += [
-        f"**Ended:** {finished.get('reason', 'unknown')}. **Evaluations:** "
-        f"{sum(counts.values())} ({counts.get(Status.OK, 0)} ok, {counts.get(Status.FAILED, 0)} failed, "
+        f"**Ended:** {finished.get('reason', 'unknown')}. **Evaluations:** {sum(counts.values())} "
+        f"({counts.get(Status.OK, 0)} ok, {counts.get(Status.FAILED, 0)} failed, "
         f"{counts.get(Status.TERMINATED, 0)} stopped early){spent}.",
         "",
     ]
@@ -75,8 +75,8 @@ def report_headline(study: Study) -> str:
             [*lines, "No evaluation succeeded: the reasons are in ``evaluations.csv``.", ""]
         )
     lines += [
-        f"**Best parameters** (evaluation ``{best['evaluation']}``, "
-        f"the evaluated point with the {CHOSEN_BY.get(best.get('chosen_by'), 'lowest objective')}):",
+        f"**Best parameters** (evaluation ``{best['evaluation']}``, the evaluated point with the "
+        f"{CHOSEN_BY.get(best.get('chosen_by'), 'lowest objective')}):",
         "",
     ]
     on_bounds = best.get("on_bounds", {})
@@ -107,8 +107,8 @@ def report_headline(study: Study) -> str:
             ]
         )
     lines += [
-        "**Responses against the targets** (simulated at the best point; predicted there by the response "
-        "models ± their sd; target ± its measurement spread):",
+        "**Responses against the targets** (simulated at the best point; predicted there by the "
+        "response models ± their sd; target ± its measurement spread):",
         "",
     ]
     lines += _table(["response", "simulated", "predicted", "target", "error"], rows)
@@ -127,16 +127,16 @@ def report_headline(study: Study) -> str:
                     ]
                 )
         lines += [
-            f"**Confirmed** by {len(confirmation['evaluations'])} more simulations of the best point "
-            f"(new seeds; mean ± sd of their responses):",
+            f"**Confirmed** by {len(confirmation['evaluations'])} more simulations of the best "
+            "point (new seeds; mean ± sd of their responses):",
             "",
         ]
         lines += _table(["response", "mean", "simulations", "target"], rows)
     solutions = _read(files.solutions_summary)
     if solutions:
         lines += [
-            f"**What the targets identify** ({solutions['accepted']} of {solutions['sampled']} sampled "
-            f"parameter sets meet every target within {solutions['k']:g} sd):",
+            f"**What the targets identify** ({solutions['accepted']} of {solutions['sampled']} "
+            f"sampled parameter sets meet every target within {solutions['k']:g} sd):",
             "",
         ]
         lines += [f"- {verdict['sentence']}" for verdict in solutions["verdicts"]] + [""]

@@ -158,7 +158,8 @@ def _targets(config: dict, scenes: dict[str, Scene]) -> list[Target]:
 
 
 def _target_value(target: dict, index: int) -> tuple[float, float | None]:
-    """The target's value and spread: as given, or the mean and standard deviation of its repeats."""
+    """The target's value and spread: as given, or the mean and standard
+    deviation of its repeats."""
     if "repeats" not in target:
         if "value" not in target:
             raise ConfigError(
@@ -412,7 +413,8 @@ def _yaml_problem(error: yaml.YAMLError) -> str:
 
 
 def read_study_yaml(path: str | Path) -> dict:
-    """The mapping of a YAML study file, read strictly; every problem is a ConfigError naming the file."""
+    """The mapping of a YAML study file, read strictly; every problem is a
+    ConfigError naming the file."""
     path = Path(path)
     try:
         with path.open("rb") as stream:

@@ -105,7 +105,8 @@ def weighted_residuals(
     responses: Mapping[str, float | np.ndarray],
     form: str = "relative",
 ) -> np.ndarray:
-    """sqrt(w_i) e_i per target (rows): the residuals whose squares sum to the objective (least squares)."""
+    """sqrt(w_i) e_i per target (rows): the residuals whose squares sum to the
+    objective (least squares)."""
     return np.array(
         [math.sqrt(t.weight) * target_error(t, responses[t.key], form) for t in targets]
     )
