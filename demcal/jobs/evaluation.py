@@ -16,8 +16,9 @@ import logging
 import time
 import traceback
 from collections import defaultdict
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -39,6 +40,16 @@ from demcal.study.objective import objective_value, relative_error, replicate_me
 log = logging.getLogger("demcal")
 
 
+class ScriptJob(Protocol):
+    """What Snakemake hands a workflow script as ``snakemake`` (the parts used here)."""
+
+    input: Sequence[str]
+    output: Sequence[str]
+    log: Sequence[str]
+    params: Any  # the rule's params by name (study_file)
+    wildcards: Any  # the job's wildcards by name (evaluation, scene, replicate)
+
+
 def response_paths(study: Study, evaluation: str) -> list[Path]:
     """The responses.json of every scene replicate of an evaluation (the objective's inputs)."""
     files = study.files.evaluation(evaluation)
@@ -56,7 +67,7 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> dict:
     workdir = replicate_files.dir
     workdir.mkdir(parents=True, exist_ok=True)
     replicate_files.state.unlink(missing_ok=True)
-    record = {
+    record: dict[str, Any] = {
         "evaluation": evaluation,
         "scene": scene,
         "replicate": replicate,
@@ -75,7 +86,7 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> dict:
         result = RunResult(Status.FAILED, f"bad parameters: {exc}")
         parameters, seed, attempt = {}, None, None
     else:
-        seed = study.simulation_seed(evaluation, scene, replicate, attempt)
+        seed = study.simulation_seed(evaluation, scene, replicate, point.attempt)
         job = SimulationJob(
             scene=scene,
             parameters=parameters,
@@ -85,11 +96,12 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> dict:
             timestep_fraction=study.timestep_fraction,
             workdir=str(workdir.resolve()),
             stop_file=str(files.stop.resolve()),
-            attempt=attempt,
+            attempt=point.attempt,
         )
         result = run_engine(study, job)
     if result.status == Status.OK and result.arrays:
-        np.savez(replicate_files.state, **result.arrays)
+        # numpy's stub types **kwds as if a key could be its allow_pickle: bool
+        np.savez(replicate_files.state, **result.arrays)  # type: ignore[arg-type]
         record["state_file"] = replicate_files.state.name
     record.update(
         seed=seed,
@@ -270,7 +282,7 @@ def _objective_of_responses(
     )
 
 
-def run_snakemake_job(smk, stage: str) -> None:
+def run_snakemake_job(smk: ScriptJob, stage: str) -> None:
     """Entry point of the workflow's scripts: log to the rule's log, run one stage."""
     logging.basicConfig(
         filename=smk.log[0],
@@ -292,7 +304,7 @@ def run_snakemake_job(smk, stage: str) -> None:
         raise SystemExit(f"demcal {stage}: {exc}") from None
 
 
-def write_centre_point(smk) -> None:
+def write_centre_point(smk: ScriptJob) -> None:
     """params.json at the centre of the free parameters' bounds (the default evaluation)."""
     study = load_frozen(smk.params.study_file)
     write_point(

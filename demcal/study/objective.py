@@ -22,10 +22,14 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from statistics import fmean, stdev
+from typing import TypeVar
 
 import numpy as np
 
 OBJECTIVE_FORMS = ("relative", "precision")
+
+#: A response as a number, or as an array of them (model predictions, posterior samples).
+Values = TypeVar("Values", float, np.ndarray)
 
 
 @dataclass(frozen=True)
@@ -43,7 +47,7 @@ class Target:
         return f"{self.scene}.{self.response}"
 
 
-def relative_error(simulated: float, target: float) -> float:
+def relative_error(simulated: Values, target: float) -> Values:
     """(y - r) / r, or the absolute error y - r where the target r is 0."""
     if target == 0.0:
         return simulated - target
@@ -82,7 +86,7 @@ def objective_values(
 
     Used on simulated means and on model predictions or posterior samples.
     """
-    total = 0.0
+    total: float | np.ndarray = 0.0
     for t in targets:
         error = target_error(t, responses[t.key], form)
         total = total + t.weight * error * error
@@ -96,6 +100,7 @@ def target_error(
     y - r where r is 0), or (y - r) / s in units of the target's spread (precision form)."""
     y = np.asarray(simulated, float)
     if form == "precision":
+        assert target.spread is not None, "the study's config requires spreads for this form"
         return (y - target.value) / target.spread
     return relative_error(y, target.value)
 
