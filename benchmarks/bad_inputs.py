@@ -1,7 +1,8 @@
 """How each route handles the bad-input corpus: counts of clean refusals, tracebacks, silence.
 
     python benchmarks/bad_inputs.py                   # this checkout
-    python benchmarks/bad_inputs.py --root /tmp/old   # another checkout (its demcal, Snakefile, profiles)
+    python benchmarks/bad_inputs.py --root /tmp/old   # another checkout: its demcal,
+                                                      # Snakefile and profiles
 
 Every study file of tests/bad_inputs.py goes through ``demcal run`` and the
 README's ``snakemake --profile profiles/<local|slurm> --configfile=FILE``;
@@ -30,7 +31,8 @@ from bad_inputs import CASES, POINTS, ROOT, ROUTES, route_command, run_route, wr
 
 
 def point_verdict(root: Path, point, folder: Path, env: dict) -> str:
-    """The README's "evaluate your own point" with a bad params.json: failed with its reason, exit 0."""
+    """The README's "evaluate your own point" with a bad params.json: failed with
+    its reason, exit 0."""
     folder.mkdir(parents=True)
     study, target = write_point(folder, point)
     done = subprocess.run(

@@ -93,7 +93,8 @@ def run_calibration(workdir: Path, config: Path, profile: str, workers: int, lim
 
 
 def evaluation_times(workdir: Path, study: str) -> list[dict]:
-    """Per evaluation: wall, simulation wall and the overhead before and after the simulation [s]."""
+    """Per evaluation: wall, simulation wall and the overhead before and after
+    the simulation [s]."""
     rows = []
     for evaldir in sorted((workdir / "results" / study / "evals").glob("e[0-9]*")):
         launched = json.loads((evaldir / "launch.json").read_text())["started_at"]

@@ -70,9 +70,9 @@ def main() -> None:
             seconds.append(elapsed)
         optimizer.tell(proposal.id, responses=simulate(np.asarray(proposal.x)))
     print(
-        f"{args.model}, {args.responses} responses, {d}-D, proposals at {args.points - args.window // 2}"
-        f"-{args.points + args.window // 2} points: median {statistics.median(seconds):.2f} s, "
-        f"max {max(seconds):.2f} s"
+        f"{args.model}, {args.responses} responses, {d}-D, proposals at "
+        f"{args.points - args.window // 2}-{args.points + args.window // 2} points: median "
+        f"{statistics.median(seconds):.2f} s, max {max(seconds):.2f} s"
     )
 
 

@@ -32,7 +32,8 @@ EVALUATION = "noise"
 
 
 def run_seed(config: str, scene: str, replicate: int) -> dict:
-    """One simulate -> extract of replicate ``replicate`` (its own seed) in the current directory."""
+    """One simulate -> extract of replicate ``replicate`` (its own seed) in the
+    current directory."""
     study = load_study_file(config)
     start = time.monotonic()
     sim = simulate(study, EVALUATION, scene, replicate)

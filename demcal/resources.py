@@ -29,3 +29,6 @@ WORKFLOW_DIR = PROJECT_ROOT / "workflow"
 SNAKEFILE = WORKFLOW_DIR / "Snakefile"
 SCHEMA_PATH = WORKFLOW_DIR / "schemas" / "config.schema.yaml"
 PROFILES_DIR = PROJECT_ROOT / "profiles"
+#: The study file a command or Snakemake reads when given none; unlike the paths
+#: above, relative to the folder it runs in (the user's project, not demcal's).
+DEFAULT_CONFIG = "config/config.yaml"

@@ -1,4 +1,5 @@
-"""Snakemake job: params.json of the 'centre' evaluation (middle of every free parameter's bounds)."""
+"""Snakemake job: params.json of the 'centre' evaluation (middle of every free
+parameter's bounds)."""
 
 from demcal.jobs.evaluation import write_centre_point
 

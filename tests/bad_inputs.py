@@ -510,7 +510,8 @@ POINTS = [
 
 
 def write_point(folder: Path, point: BadPoint) -> tuple[Path, Path]:
-    """A valid study and ``point`` as the params.json of evaluation ``point.name``: (study, target)."""
+    """A valid study and ``point`` as the params.json of evaluation
+    ``point.name``: (study, target)."""
     study = folder / "study.yaml"
     study.write_text(yaml.safe_dump(BASE, sort_keys=False))
     evaluation = folder / "results" / BASE["study"] / "evals" / point.name
@@ -520,7 +521,8 @@ def write_point(folder: Path, point: BadPoint) -> tuple[Path, Path]:
 
 
 def files_outside_results(folder: Path, given: Path) -> list[str]:
-    """What a run left in ``folder`` besides the study file, ``results/`` and Snakemake's ``.snakemake/``."""
+    """What a run left in ``folder`` besides the study file, ``results/`` and
+    Snakemake's ``.snakemake/``."""
     left = []
     for path in folder.iterdir():
         if path.name in ("results", ".snakemake", given.name, "in.data"):

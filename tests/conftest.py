@@ -33,7 +33,8 @@ ANALYTIC_STUDY = {
 
 
 def run_and_extract(engine, job):
-    """Run one simulation on ``engine``; its responses as the workflow's extract job computes them."""
+    """Run one simulation on ``engine``; its responses as the workflow's extract
+    job computes them."""
     from demcal.engines.base import RunMonitor
     from demcal.jobs.evaluation import scene_responses
     from demcal.results.records import Status

@@ -360,7 +360,8 @@ def wait_for_objectives(evals, count, proc=None, timeout=120):
 
 
 def test_killed_snakemake_leaves_no_orphan_and_no_lock_the_same_command_finishes(tmp_path):
-    """kill -9 of the top Snakemake: its daemon ends, no lock is left, a rerun resumes to the end."""
+    """kill -9 of the top Snakemake: its daemon ends, no lock is left, a rerun
+    resumes to the end."""
     config = study(tmp_path, "orphan")
     results = tmp_path / "results" / "orphan"
     top = snakemake_calibration(tmp_path, config)

@@ -212,8 +212,8 @@ def test_run_uses_the_driver_it_is_given(tmp_path, monkeypatch):
     "body, expected",
     [
         (
-            'echo "ERROR: Lost atoms: original 200 current 199 (src/thermo.cpp:445)" > liggghts.log\n'
-            "exit 1",
+            'echo "ERROR: Lost atoms: original 200 current 199 (src/thermo.cpp:445)" '
+            "> liggghts.log\nexit 1",
             "LIGGGHTS error: Lost atoms: original 200 current 199",
         ),
         ("kill -SEGV $$", "LIGGGHTS died from SIGSEGV"),

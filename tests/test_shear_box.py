@@ -67,13 +67,14 @@ def test_mean_sphere_volume_of_the_truncated_lognormal():
         ),
         (
             {"box_size_dmax": 4.0, "sigma_ln": 0.0, "d50": 3.0e-3},
-            "s.box_size_dmax: the box is only 4 median diameters long (0.012 m); the slope fit needs "
-            "at least 5: raise box_size_dmax",
+            "s.box_size_dmax: the box is only 4 median diameters long (0.012 m); the slope fit "
+            "needs at least 5: raise box_size_dmax",
         ),
         (
             {"sigma_ln": 1.2, "psd_truncation": 4.0},
-            "s.sigma_ln: the box (smallest side 10 largest particles) needs 7697268 spheres of this "
-            "PSD, more than 100000; narrow the PSD (sigma_ln, psd_truncation) or lower box_size_dmax",
+            "s.sigma_ln: the box (smallest side 10 largest particles) needs 7697268 spheres of "
+            "this PSD, more than 100000; narrow the PSD (sigma_ln, psd_truncation) or lower "
+            "box_size_dmax",
         ),
         (
             {"box_size_dmax": 2.0},

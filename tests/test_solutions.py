@@ -20,7 +20,8 @@ LOWER, UPPER = np.array([0.2, 0.2]), np.array([0.9, 0.9])
 
 
 def predictor_of(responses: dict, targets: tuple[Target, ...]) -> ResponsePredictor:
-    """Cubic RBF models of closed-form responses of the unit box, fitted on a seeded 40-point sample."""
+    """Cubic RBF models of closed-form responses of the unit box, fitted on a
+    seeded 40-point sample."""
     x = np.random.default_rng(3).random((40, 2))
     models = {key: ResponseRBF().fit(x, f(x), np.zeros(len(x))) for key, f in responses.items()}
     return ResponsePredictor(models, ResponseObjective(targets))
@@ -39,7 +40,8 @@ def analyse(responses, targets):
 
 
 def test_a_response_of_one_parameter_pins_it_and_leaves_the_other_free():
-    """Mass flow = 10 x0 with a target of 5 ± 0.2: x0 within 0.46-0.54 of the unit box (pinned), x1 anywhere."""
+    """Mass flow = 10 x0 with a target of 5 ± 0.2: x0 within 0.46-0.54 of the unit box
+    (pinned), x1 anywhere."""
     target = Target("calibration_device", "mass_flow", 5.0, spread=0.2)
     solutions, indices, (pp, pw) = analyse({target.key: lambda x: 10 * x[:, 0]}, (target,))
     assert pp.verdict == "pinned" and pw.verdict == "not identified"
@@ -57,7 +59,8 @@ def test_a_response_of_one_parameter_pins_it_and_leaves_the_other_free():
 
 
 def test_a_trade_off_between_two_parameters_is_named_as_such():
-    """Angle = 20 (x0 + x1) with a target of 20 ± 0.5: a line through the box, neither parameter identified."""
+    """Angle = 20 (x0 + x1) with a target of 20 ± 0.5: a line through the box, neither
+    parameter identified."""
     target = Target("cylinder_lift", "angle_of_repose", 20.0, spread=0.5)
     _, _, verdicts = analyse({target.key: lambda x: 20 * (x[:, 0] + x[:, 1])}, (target,))
     assert [v.verdict for v in verdicts] == ["not identified", "not identified"]

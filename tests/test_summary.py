@@ -1,4 +1,5 @@
-"""The terminal summary of the best point: simulated, predicted ± sd, target ± spread, bound warnings."""
+"""The terminal summary of the best point: simulated, predicted ± sd, target ±
+spread, bound warnings."""
 
 from conftest import study
 

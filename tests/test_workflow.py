@@ -177,7 +177,8 @@ def test_garbled_files_become_recorded_failures(tmp_path, analytic_config, monke
 
 @pytest.fixture(scope="module")
 def reported(tmp_path_factory):
-    """A 5-evaluation calibration on the analytic engine through the default target (report made)."""
+    """A 5-evaluation calibration on the analytic engine through the default
+    target (report made)."""
     from conftest import ANALYTIC_STUDY
 
     config = {
@@ -228,7 +229,8 @@ CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 
 @pytest.mark.skipif(CHROMIUM is None, reason="needs Chromium (.ci/run installs it)")
 def test_the_report_opens_with_the_answer_in_a_browser(reported):
-    """The report rendered by headless Chromium (its JavaScript builds the page): what a user sees first."""
+    """The report rendered by headless Chromium (its JavaScript builds the page): what
+    a user sees first."""
     tmp_path, proc = reported
     assert proc.returncode == 0, proc.stderr[-3000:]
     shown = subprocess.run(
@@ -409,7 +411,8 @@ def test_when_every_evaluation_fails_the_run_ends_with_the_commonest_reason(tmp_
     assert proc.returncode == 0, proc.stderr[-3000:]
     text = proc.stdout + proc.stderr
     assert re.search(
-        r"no evaluation succeeded, most often: 'cylinder_lift rep0: solver diverged[^']*' \(3 of 3\)",
+        r"no evaluation succeeded, most often: "
+        r"'cylinder_lift rep0: solver diverged[^']*' \(3 of 3\)",
         text,
     ), text
     assert "latency" not in text and "Traceback" not in text and "Exception" not in text

@@ -105,7 +105,8 @@ class Problem:
         return self.objective(self.response_values(x))
 
     def worst_miss_in_spreads(self, x) -> float:
-        """The largest |y - r| / s over the responses at x: noise-free y, s the target's measurement spread."""
+        """The largest |y - r| / s over the responses at x: noise-free y, s the target's
+        measurement spread."""
         clean, targets, spreads = self.response_values(x), self.targets, self.spreads
         return max(abs(clean[k] - targets[k]) / spreads[k] for k in self.keys)
 
@@ -197,8 +198,8 @@ PROBLEMS = {
     for p in (
         Problem(
             "p3r3",
-            "3 parameters / 3 responses, identifiable: sliding and rolling friction and particle density "
-            "against angle of repose and bulk density (cylinder lift) and hopper mass flow",
+            "3 parameters / 3 responses, identifiable: sliding and rolling friction and particle "
+            "density against angle of repose and bulk density (cylinder lift) and hopper mass flow",
             ("sliding_friction", "rolling_friction", "particle_density"),
             (0.1, 0.02, 2000.0),
             (0.9, 0.3, 3000.0),
@@ -212,9 +213,9 @@ PROBLEMS = {
         ),
         Problem(
             "p5r2",
-            "5 parameters / 2 responses, non-unique (a 3-D manifold of solutions): particle density, "
-            "sliding and rolling friction particle-particle and particle-wall against angle of repose and "
-            "bulk density (cylinder lift, as in Rackl & Hanley 2017)",
+            "5 parameters / 2 responses, non-unique (a 3-D manifold of solutions): particle "
+            "density, sliding and rolling friction particle-particle and particle-wall against "
+            "angle of repose and bulk density (cylinder lift, as in Rackl & Hanley 2017)",
             (
                 "particle_density",
                 "sliding_friction_pp",
@@ -233,8 +234,9 @@ PROBLEMS = {
         ),
         Problem(
             "p2r2rep",
-            "2 parameters / 2 responses, 2 replicates per evaluation: sliding friction particle-particle "
-            "and particle-wall against mass flow and angle of repose (calibration device)",
+            "2 parameters / 2 responses, 2 replicates per evaluation: sliding friction "
+            "particle-particle and particle-wall against mass flow and angle of repose "
+            "(calibration device)",
             ("sliding_friction_pp", "sliding_friction_pw"),
             (0.2, 0.2),
             (0.9, 0.9),

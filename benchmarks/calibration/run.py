@@ -93,7 +93,8 @@ def demcal_strategies() -> list[str]:
 def make_demcal_optimizer(
     problem: Problem, strategy: str, budget: int, seed: int, form: str = "relative"
 ):
-    """A demcal optimizer for ``problem`` with strategy ``strategy``, ``budget`` evaluations and objective form."""
+    """A demcal optimizer for ``problem`` with strategy ``strategy``, ``budget`` evaluations
+    and objective form."""
     from demcal.optimizer import Optimizer
     from demcal.study.objective import ResponseObjective
 
@@ -146,7 +147,8 @@ def demcal_targets(problem: Problem):
 def run_demcal(
     problem: Problem, evaluator: Evaluator, seed: int, budget: int, strategy: str
 ) -> dict:
-    """demcal ask/tell, one simulation at a time; the running answer is ``opt.best()`` after each tell.
+    """demcal ask/tell, one simulation at a time; the running answer is ``opt.best()``
+    after each tell.
 
     ``strategy``: a registered name, optionally ``@precision`` for that objective form.
     """
@@ -203,7 +205,8 @@ def run_optuna_gp(problem: Problem, evaluator: Evaluator, seed: int, budget: int
 
 
 def run_pysot_dycors(problem: Problem, evaluator: Evaluator, seed: int, budget: int) -> dict:
-    """pySOT DYCORS with a cubic RBF, as in benchmarks/optimizer; answer: its best evaluated point."""
+    """pySOT DYCORS with a cubic RBF, as in benchmarks/optimizer; answer: its
+    best evaluated point."""
     from poap.controller import SerialController
     from pySOT.experimental_design import SymmetricLatinHypercube
     from pySOT.optimization_problems import OptimizationProblem
@@ -254,7 +257,8 @@ def _cap_memory() -> None:
 def run_subprocess_peer(
     tool: str, problem: Problem, seed: int, budget: int, np1_python: Path
 ) -> dict:
-    """Run worker_np1.py in the NumPy-1 venv; its JSON has evaluations, answer, extra, tool_seconds."""
+    """Run worker_np1.py in the NumPy-1 venv; its JSON has evaluations, answer,
+    extra, tool_seconds."""
     if not np1_python.exists():
         return {"error": f"not installed: no {np1_python} (see README.md: requirements-np1.txt)"}
     with tempfile.TemporaryDirectory(prefix="calibration_worker_") as folder:
@@ -362,7 +366,8 @@ def one_run(tool: str, problem: Problem, budget: int, seed: int, np1_python: Pat
 
 # ------------------------------------------------------------------- report
 def median_evaluations(values: list, budget: int) -> str:
-    """Median over the runs of the evaluations to the noise level; a run that never got there counts as infinite."""
+    """Median over the runs of the evaluations to the noise level; a run that never got there
+    counts as infinite."""
     counts = sorted(float(v) if v not in ("", None) else math.inf for v in values)
     median = float(np.median(counts)) if counts else math.inf
     return f"never (> {budget})" if math.isinf(median) else f"{median:g}"
@@ -454,8 +459,8 @@ def demcal_revision() -> str:
 
 def problem_lines() -> list[str]:
     lines = [
-        "| problem | parameters (bounds) | responses: target, simulation noise sd, measurement spread | "
-        "replicates | noise level |",
+        "| problem | parameters (bounds) | responses: target, simulation noise sd, measurement "
+        "spread | replicates | noise level |",
         "|---|---|---|---|---|",
     ]
     for p in PROBLEMS.values():
@@ -483,8 +488,8 @@ def write_report(
         "",
         f"Command: `{command}`",
         "",
-        f"Date: {datetime.now(UTC):%Y-%m-%d %H:%M} UTC; total {elapsed / 60:.1f} min. "
-        f"Machine: {platform.machine()}, {os.cpu_count()} cores (shared with other work, so wall times and "
+        f"Date: {datetime.now(UTC):%Y-%m-%d %H:%M} UTC; total {elapsed / 60:.1f} min. Machine: "
+        f"{platform.machine()}, {os.cpu_count()} cores (shared with other work, so wall times and "
         f"seconds per proposal vary), {platform.system()} {platform.release()}. Written by run.py.",
         "",
         f"Versions: demcal at {revision} (when the run started); main venv: {main_venv}; "
@@ -494,31 +499,34 @@ def write_report(
         "",
         *problem_lines(),
         "",
-        "Targets are the noise-free responses at a hidden true point (true objective 0 there). Noise: Gaussian, sd = "
-        "the given share of the target value. Noise level = expected eq. 3.3 of the noise alone at the true point, "
-        "sum of sd_rel^2 / replicates.",
+        "Targets are the noise-free responses at a hidden true point (true objective 0 there). "
+        "Noise: Gaussian, sd = the given share of the target value. Noise level = expected eq. "
+        "3.3 of the noise alone at the true point, sum of sd_rel^2 / replicates.",
         "",
         "## Results",
         "",
-        "True objective: eq. 3.3 (sum of squared relative errors, unit weights) of the noise-free responses at the "
-        "answer the tool reports. At noise level: runs whose answer has a true objective at or below the noise level. "
-        "Sims to noise level: median over the runs of the number of simulations until the running answer first "
-        "reaches the noise level (a run that never does counts as infinite); running answer = `opt.best()` after "
-        "each tell for demcal, the best-so-far point by the noisy objective for the peers. Best evaluated: median "
-        "true objective of the best point each run evaluated. s/proposal: tool wall time (minus simulations) per "
-        "evaluation, median over the runs. Worst miss: the largest |y - r| / s over the responses at the answer "
-        "(noise-free y, s the target's measurement spread), median over the runs: how many measurement sds the "
-        "answer's worst response is off. `@precision`: demcal with the precision-weighted objective form.",
+        "True objective: eq. 3.3 (sum of squared relative errors, unit weights) of the noise-free "
+        "responses at the answer the tool reports. At noise level: runs whose answer has a true "
+        "objective at or below the noise level. Sims to noise level: median over the runs of the "
+        "number of simulations until the running answer first reaches the noise level (a run that "
+        "never does counts as infinite); running answer = `opt.best()` after each tell for "
+        "demcal, the best-so-far point by the noisy objective for the peers. Best evaluated: "
+        "median true objective of the best point each run evaluated. s/proposal: tool wall time "
+        "(minus simulations) per evaluation, median over the runs. Worst miss: the largest |y - "
+        "r| / s over the responses at the answer (noise-free y, s the target's measurement "
+        "spread), median over the runs: how many measurement sds the answer's worst response is "
+        "off. `@precision`: demcal with the precision-weighted objective form.",
         "",
-        "| problem | budget | tool | runs | median true objective | worst | at noise level | sims to noise level "
-        "| median best evaluated | median worst miss [spreads] | s/proposal |",
+        "| problem | budget | tool | runs | median true objective | worst | at noise level | sims "
+        "to noise level | median best evaluated | median worst miss [spreads] | s/proposal |",
         "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     failures = []
     for e in table:
         if not e["ok"]:
             lines.append(
-                f"| {e['problem']} | {e['budget']} | {e['tool']} | {e['runs']} | failed | | | | | | |"
+                f"| {e['problem']} | {e['budget']} | {e['tool']} | {e['runs']} | failed | | | | | "
+                "| |"
             )
             failures.append(
                 f"- {e['tool']} on {e['problem']}, budget {e['budget']}: {e['failure']}"
@@ -526,9 +534,9 @@ def write_report(
             continue
         runs = f"{e['ok']}" if e["ok"] == e["runs"] else f"{e['ok']} of {e['runs']} ok"
         lines.append(
-            f"| {e['problem']} | {e['budget']} | {e['tool']} | {runs} | {e['median']:.3g} | {e['worst']:.3g} "
-            f"| {e['at_noise']}/{e['ok']} | {e['to_noise']} | {e['best_evaluated']:.3g} | {e['worst_miss']:.2g} "
-            f"| {e['seconds']:.3g} |"
+            f"| {e['problem']} | {e['budget']} | {e['tool']} | {runs} | {e['median']:.3g} | "
+            f"{e['worst']:.3g} | {e['at_noise']}/{e['ok']} | {e['to_noise']} | "
+            f"{e['best_evaluated']:.3g} | {e['worst_miss']:.2g} | {e['seconds']:.3g} |"
         )
         if e["ok"] < e["runs"]:
             failures.append(
@@ -540,23 +548,28 @@ def write_report(
         "",
         "## Tool settings",
         "",
-        "- demcal:<strategy>: `Optimizer(lower, upper, {strategy, max_evaluations: budget}, seed)`, other settings "
-        "at their defaults; one simulation at a time; told the eq. 3.3 of the replicate means and the per-replicate "
-        'values (run.py: `tell_demcal`); answer `opt.best()["x"]`. Its tool time includes the `opt.best()` call '
-        "after each tell (for the running answer).",
-        "- optuna_gp: `GPSampler(seed=seed)` defaults, objective = noisy eq. 3.3; answer `study.best_params`.",
-        "- pysot_dycors: DYCORS, cubic RBF with linear tail, symmetric Latin hypercube of 2(d+1) points, 100 d "
-        "candidates (as benchmarks/optimizer); answer: the best evaluated point (noisy value).",
-        "- grainlearning: iterative Bayesian filter, budget/10 iterations of 10 samples, Halton start, ess_target 0.3, "
-        "one Gaussian-mixture component (tutorial settings), sampling from the mixture as by default (the tutorials' "
-        "slice sampling ran out of memory here, see worker_np1.py); data = replicate-mean responses vs targets; "
-        "answer `get_most_prob_params()`; `posterior_mean_true_objective` in results.csv scores the posterior mean "
-        "instead. Its tool time includes the resampling after the last iteration, which `run()` does too. It stops "
-        "early if its sigma falls below sigma_tol.",
-        "- acces: coexist.Access, population 5 (budget/5 epochs), errors ((y - r)/r)^2 per response combined by "
-        "`coexist.combiners.Sum()` (= eq. 3.3), stopped once the budget is spent; answer: what `learn` returns "
-        "(`AccessData.parameters`, the best evaluated combination). Its simulations are separate processes "
-        "(ACCES's design); their wall time counts as simulation time.",
+        "- demcal:<strategy>: `Optimizer(lower, upper, {strategy, max_evaluations: budget}, "
+        "seed)`, other settings at their defaults; one simulation at a time; told the eq. 3.3 "
+        "of the replicate means and the per-replicate values (run.py: `tell_demcal`); answer "
+        '`opt.best()["x"]`. Its tool time includes the `opt.best()` call after each tell (for '
+        "the running answer).",
+        "- optuna_gp: `GPSampler(seed=seed)` defaults, objective = noisy eq. 3.3; answer "
+        "`study.best_params`.",
+        "- pysot_dycors: DYCORS, cubic RBF with linear tail, symmetric Latin hypercube of 2(d+1) "
+        "points, 100 d candidates (as benchmarks/optimizer); answer: the best evaluated point "
+        "(noisy value).",
+        "- grainlearning: iterative Bayesian filter, budget/10 iterations of 10 samples, Halton "
+        "start, ess_target 0.3, one Gaussian-mixture component (tutorial settings), sampling from "
+        "the mixture as by default (the tutorials' slice sampling ran out of memory here, see "
+        "worker_np1.py); data = replicate-mean responses vs targets; answer "
+        "`get_most_prob_params()`; `posterior_mean_true_objective` in results.csv scores the "
+        "posterior mean instead. Its tool time includes the resampling after the last iteration, "
+        "which `run()` does too. It stops early if its sigma falls below sigma_tol.",
+        "- acces: coexist.Access, population 5 (budget/5 epochs), errors ((y - r)/r)^2 per "
+        "response combined by `coexist.combiners.Sum()` (= eq. 3.3), stopped once the budget is "
+        "spent; answer: what `learn` returns (`AccessData.parameters`, the best evaluated "
+        "combination). Its simulations are separate processes (ACCES's design); their wall time "
+        "counts as simulation time.",
         "",
     ]
     (out / "RESULTS.md").write_text("\n".join(lines))
@@ -615,7 +628,8 @@ def main(argv: list[str] | None = None) -> None:
                 )
         elif tool not in PEERS:
             parser.error(
-                f"unknown tool {tool!r}; choose demcal:<{'|'.join(strategies)}> or {', '.join(PEERS)}"
+                f"unknown tool {tool!r}; choose demcal:<{'|'.join(strategies)}> or "
+                f"{', '.join(PEERS)}"
             )
     problems = []
     for name in (p for p in args.problems.split(",") if p):
@@ -644,14 +658,16 @@ def main(argv: list[str] | None = None) -> None:
                         handle.flush()
                         if row["status"] == "ok":
                             print(
-                                f"{problem.name} budget={budget} {tool} seed={seed}: true objective "
-                                f"{row['true_objective']:.3g} (noise level {problem.noise_level:.3g}), "
-                                f"{row['seconds_per_proposal']:.3g} s/proposal",
+                                f"{problem.name} budget={budget} {tool} seed={seed}: true "
+                                f"objective {row['true_objective']:.3g} (noise level "
+                                f"{problem.noise_level:.3g}), {row['seconds_per_proposal']:.3g} "
+                                "s/proposal",
                                 flush=True,
                             )
                         else:
                             print(
-                                f"{problem.name} budget={budget} {tool} seed={seed}: {row['status']}",
+                                f"{problem.name} budget={budget} {tool} seed={seed}: "
+                                f"{row['status']}",
                                 flush=True,
                             )
     rows = [{k: ("" if v is None else v) for k, v in r.items()} for r in rows]

@@ -54,8 +54,8 @@ def run_grainlearning(problem: Problem, seed: int, budget: int) -> dict:
     from the mixture as the package's default does (``slice_sampling``
     False): with the tutorials' slice sampling, the resampling here kept
     multiplying its number of draws by 10 and ran out of memory (up to
-    73 GiB asked) in 4 of 5 trial runs (p3r3, p5r2; budgets 20 and 40). The simulation data of a sample
-    is its replicate-mean responses (one "time step", one observable per
+    73 GiB asked) in 4 of 5 trial runs (p3r3, p5r2; budgets 20 and 40). The
+    simulation data of a sample is its replicate-mean responses (one "time step", one observable per
     response); the observations are the targets. GrainLearning's likelihood
     uses a diagonal covariance sigma * target^2, so its weights follow the
     same relative errors as eq. 3.3. Answer: ``get_most_prob_params()`` (the

@@ -415,37 +415,43 @@ def write_report(
         f"Command: `{command}`",
         "",
         f"Machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores (shared), "
-        f"Python {platform.python_version()}; total {elapsed / 60:.1f} min. Written by run_benchmark.py.",
+        f"Python {platform.python_version()}; total {elapsed / 60:.1f} min. Written by "
+        "run_benchmark.py.",
         note,
         "",
         "Regret: true function value at the point the tool reports as best, minus the optimum. "
-        "Noise: Gaussian, sd 2 % of the function range. Seconds: tool time per proposal "
-        "(wall time minus objective time). Best evaluated: median over the runs of the true regret of the best "
-        "point each run evaluated (what a perfect choice among its own points would have reported).",
+        "Noise: Gaussian, sd 2 % of the function range. Seconds: tool time per proposal (wall "
+        "time minus objective time). Best evaluated: median over the runs of the true regret of "
+        "the best point each run evaluated (what a perfect choice among its own points would have "
+        "reported).",
         "",
-        "| problem | noise | tool | runs | median regret | worst regret | median best evaluated | median s/proposal |",
+        "| problem | noise | tool | runs | median regret | worst regret | median best evaluated | "
+        "median s/proposal |",
         "|---|---|---|---|---|---|---|---|",
     ]
     for row in table:
         lines.append(
-            f"| {row['problem']} | {row['noise']} | {row['tool']} | {row['runs']} | {row['median_regret']:.3g} "
-            f"| {row['worst_regret']:.3g} | {row['median_best_evaluated']:.3g} | {row['median_s_per_proposal']:.3g} |"
+            f"| {row['problem']} | {row['noise']} | {row['tool']} | {row['runs']} | "
+            f"{row['median_regret']:.3g} | {row['worst_regret']:.3g} | "
+            f"{row['median_best_evaluated']:.3g} | {row['median_s_per_proposal']:.3g} |"
         )
     if async_rows:
         lines += [
             "",
             "## Asynchronous workers (demcal, simulated durations U(0.5, 1.5))",
             "",
-            "Speedup = simulated time for P=1 to reach the target median regret / time for P workers; "
-            "target = the larger of the two final median regrets. Curves in async.csv.",
+            "Speedup = simulated time for P=1 to reach the target median regret / time for P "
+            "workers; target = the larger of the two final median regrets. Curves in async.csv.",
             "",
-            "| problem | noise | P | target regret | time P=1 | time P | speedup | final regret P=1 | final regret P |",
+            "| problem | noise | P | target regret | time P=1 | time P | speedup | final regret "
+            "P=1 | final regret P |",
             "|---|---|---|---|---|---|---|---|---|",
         ]
         for a in async_rows:
             lines.append(
-                f"| {a['problem']} | {a['noise']} | {a['workers']} | {a['target_regret']:.3g} | {a['time_P1']:.1f} "
-                f"| {a['time_P']:.1f} | {a['speedup']:.2f} | {a['final_P1']:.3g} | {a['final_P']:.3g} |"
+                f"| {a['problem']} | {a['noise']} | {a['workers']} | {a['target_regret']:.3g} | "
+                f"{a['time_P1']:.1f} | {a['time_P']:.1f} | {a['speedup']:.2f} | "
+                f"{a['final_P1']:.3g} | {a['final_P']:.3g} |"
             )
     lines += ["", "## Targets", ""] + target_lines(table, async_rows)
     (out / "RESULTS.md").write_text("\n".join(lines) + "\n")
@@ -464,8 +470,8 @@ def target_lines(table: list[dict], async_rows: list[dict]) -> list[str]:
         best = peers[best_tool]["median_regret"]
         verdict = "met" if ours["median_regret"] <= best else "MISSED"
         lines.append(
-            f"- {problem}, noise {noise}: demcal median regret {ours['median_regret']:.3g} vs best peer "
-            f"{best_tool} {best:.3g}: {verdict}"
+            f"- {problem}, noise {noise}: demcal median regret {ours['median_regret']:.3g} vs best "
+            f"peer {best_tool} {best:.3g}: {verdict}"
         )
         if "pysot_dycors" in peers:
             dycors = peers["pysot_dycors"]["median_regret"]
@@ -474,7 +480,8 @@ def target_lines(table: list[dict], async_rows: list[dict]) -> list[str]:
         if problem == "hartmann6":
             seconds = ours["median_s_per_proposal"]
             lines.append(
-                f"  - seconds per proposal {seconds:.3g} < 0.5: {'met' if seconds < 0.5 else 'MISSED'}"
+                f"  - seconds per proposal {seconds:.3g} < 0.5: "
+                f"{'met' if seconds < 0.5 else 'MISSED'}"
             )
     for a in async_rows:
         lines.append(
@@ -504,7 +511,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument(
         "--reuse",
         type=Path,
-        help="earlier results.csv: its rows of tools not run now join the table (said in RESULTS.md)",
+        help="earlier results.csv: its rows of tools not run now join the table "
+        "(said in RESULTS.md)",
     )
     parser.add_argument(
         "--out", type=Path, default=HERE, help="folder for results.csv, async.csv, RESULTS.md"
@@ -543,8 +551,9 @@ def main(argv: list[str] | None = None) -> None:
                         writer.writerow(row)
                         handle.flush()
                         print(
-                            f"{problem.name} noise={row['noise']} {tool} seed={seed}: regret {row['regret']:.3g} "
-                            f"(best evaluated {row['best_evaluated_regret']:.3g}), "
+                            f"{problem.name} noise={row['noise']} {tool} seed={seed}: regret "
+                            f"{row['regret']:.3g} (best evaluated "
+                            f"{row['best_evaluated_regret']:.3g}), "
                             f"{row['seconds_per_proposal']:.3f} s/proposal",
                             flush=True,
                         )

@@ -89,7 +89,8 @@ def run_variant(
     point: dict[str, float],
     workdir: str,
 ) -> dict:
-    """One simulation of ``variant``; returns its responses and cost (a failure keeps its reason)."""
+    """One simulation of ``variant``; returns its responses and cost (a failure
+    keeps its reason)."""
     study = load_study_file(config)
     settings = variant_settings(study, scene, variant, "settings")
     Path(workdir).mkdir(parents=True, exist_ok=True)

@@ -170,8 +170,8 @@ def plot_corner(analysis: SolutionAnalysis, best: dict | None, path: Path, seed:
     s = analysis.solutions
     fig.suptitle(
         f"Parameter sets whose predicted responses meet every target within {s.k:g} sd\n"
-        f"{len(s.points_unit)} of {s.sampled} sampled; blue: supported by the simulations, grey: where the "
-        f"models are unsure; best point in red",
+        f"{len(s.points_unit)} of {s.sampled} sampled; blue: supported by the simulations, grey: "
+        "where the models are unsure; best point in red",
         fontsize="medium",
     )
     fig.tight_layout()
@@ -223,7 +223,8 @@ def plot_objective_slices(
 
 
 def plot_sensitivity(rows: list[dict], path: Path) -> None:
-    """Total (light) and first-order (dark) Sobol index of each parameter, one panel per response."""
+    """Total (light) and first-order (dark) Sobol index of each parameter, one
+    panel per response."""
     table = pd.DataFrame(rows)
     responses = list(dict.fromkeys(table["response"]))
     columns = min(2, len(responses))
@@ -289,7 +290,8 @@ def write_solutions(
 
 
 def write_report_files(smk) -> None:
-    """Entry point of the workflow's solutions job: the figures, or figures saying why there are none."""
+    """Entry point of the workflow's solutions job: the figures, or figures saying
+    why there are none."""
     import logging
 
     logging.basicConfig(filename=smk.log[0], level=logging.INFO, force=True)

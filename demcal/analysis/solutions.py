@@ -110,7 +110,8 @@ def sample_solutions(
     samples: int = 2**16,
     seed: int = 0,
 ) -> SolutionSet:
-    """The points of a scrambled Sobol sample of the unit box that meet every target within ``k`` sd."""
+    """The points of a scrambled Sobol sample of the unit box that meet every
+    target within ``k`` sd."""
     sampler = qmc.Sobol(dimension, scramble=True, seed=seed)
     points = sampler.random_base2(int(math.ceil(math.log2(samples))))
     kept, means, stds = (
@@ -184,8 +185,8 @@ def identifiability(
     if int(np.sum(solutions.supported)) >= MIN_SOLUTIONS and unsure > 0.0:
         points = points[solutions.supported]
         caveat = (
-            f" (over the {len(points)} sets the simulations support; the other {100 * unsure:.0f} % "
-            f"of the set lie where the models are unsure, too little explored to rule out)"
+            f" (over the {len(points)} sets the simulations support; the other {100 * unsure:.0f} "
+            "% of the set lie where the models are unsure, too little explored to rule out)"
         )
     else:
         caveat = ""
@@ -194,8 +195,9 @@ def identifiability(
         box = f"{_fmt(lower[i])}–{_fmt(upper[i])}" + ("" if unit in ("-", "") else f" {unit}")
         if count < MIN_SOLUTIONS:
             sentence = (
-                f"{name}: no verdict: only {count} of {solutions.sampled} sampled parameter sets meet all "
-                f"targets within {solutions.k:g} sd (the targets may lie outside what these bounds reach)"
+                f"{name}: no verdict: only {count} of {solutions.sampled} sampled parameter sets "
+                f"meet all targets within {solutions.k:g} sd (the targets may lie outside what "
+                "these bounds reach)"
             )
             verdicts.append(
                 Verdict(
@@ -227,13 +229,13 @@ def identifiability(
             index = None if total_index is None else total_index.get(name)
             if index is not None and index < INSENSITIVE_INDEX:
                 why = (
-                    f"no targeted response is sensitive to it (total Sobol index at most {index:.2f}); "
-                    f"a test sensitive to {name} would pin it"
+                    "no targeted response is sensitive to it (total Sobol index at most "
+                    f"{index:.2f}); a test sensitive to {name} would pin it"
                 )
             else:
                 why = (
-                    "it trades off against other parameters (several combinations match the targets "
-                    f"equally well); one more test sensitive to {name} would pin it"
+                    "it trades off against other parameters (several combinations match the "
+                    f"targets equally well); one more test sensitive to {name} would pin it"
                 )
             sentence = f"{name}: not identified by these targets: {spans}; {why}"
         verdicts.append(

@@ -82,7 +82,8 @@ class Calibration:
 
     # -- state ------------------------------------------------------------------
     def _load_or_create_optimizer(self) -> Optimizer:
-        """The saved optimizer (with the study's current budget and stopping rules), or a new one."""
+        """The saved optimizer (with the study's current budget and stopping
+        rules), or a new one."""
         if self.files.optimizer.exists():
             try:
                 optimizer = Optimizer.from_json(self.files.optimizer.read_text())
@@ -379,7 +380,8 @@ class Calibration:
         elapsed = self.elapsed()
         finished = self.optimizer.completed_evaluations()
         s = self.optimizer.settings
-        # "to budget" only when the budget is the stop to expect: no other rule may end the run first
+        # "to budget" only when the budget is the stop to expect: no other rule
+        # may end the run first
         budget_rules = not (
             s.max_seconds or s.target_objective is not None or s.no_improvement_evaluations
         )

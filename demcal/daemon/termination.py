@@ -45,7 +45,8 @@ def _reports(path: Path) -> LatestReports:
 def _latest(
     files: EvaluationFiles, scenes: list[str], replicates: int
 ) -> dict[str, list[tuple[float, bool]]]:
-    """Per ``scene.response``: (value, final) of the latest report of each replicate that has one."""
+    """Per ``scene.response``: (value, final) of the latest report of each
+    replicate that has one."""
     reports: dict[str, list[tuple[float, bool]]] = {}
     for scene in scenes:
         for replicate in range(replicates):

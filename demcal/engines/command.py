@@ -190,7 +190,8 @@ class CommandEngine(Engine):
             why = (
                 "a directory"
                 if path.is_dir()
-                else "no execute permission: chmod +x it, or put its interpreter first in the command"
+                else "no execute permission: chmod +x it, "
+                "or put its interpreter first in the command"
             )
             raise ConfigError(f"engine.command: {executable!r} is not executable ({why})")
         for word in words:

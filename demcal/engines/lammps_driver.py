@@ -113,7 +113,8 @@ class LammpsDriver:
         return contact_model(self.p, self.s, wall=True)
 
     def insert_particles(self, region: str, where: str) -> None:
-        """Place the sampled spheres at random, non-overlapping, in ``region``; set radii, density."""
+        """Place the sampled spheres at random, non-overlapping, in ``region``;
+        set radii, density."""
         self.lmp.command(
             f"create_atoms 1 random {len(self.diameters)} {self.job.seed} {region} "
             f"overlap {num(1.001 * self.d_max)} maxtry 1000"

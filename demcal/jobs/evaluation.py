@@ -16,9 +16,10 @@ import logging
 import time
 import traceback
 from collections import defaultdict
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -37,6 +38,16 @@ from demcal.study.model import Study, load_frozen
 from demcal.study.objective import relative_error, replicate_mean, replicate_spread
 
 log = logging.getLogger("demcal")
+
+
+class ScriptJob(Protocol):
+    """What Snakemake hands a workflow script as ``snakemake`` (the parts used here)."""
+
+    input: Sequence[str]
+    output: Sequence[str]
+    log: Sequence[str]
+    params: Any  # the rule's params by name (study_file)
+    wildcards: Any  # the job's wildcards by name (evaluation, scene, replicate)
 
 
 def response_paths(study: Study, evaluation: str) -> list[Path]:
@@ -65,7 +76,7 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> Simul
         result = RunResult(Status.FAILED, f"bad parameters: {exc}")
         parameters, seed, attempt = {}, None, None
     else:
-        seed = study.simulation_seed(evaluation, scene, replicate, attempt)
+        seed = study.simulation_seed(evaluation, scene, replicate, point.attempt)
         job = SimulationJob(
             scene=scene,
             parameters=parameters,
@@ -75,12 +86,13 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> Simul
             timestep_fraction=study.timestep_fraction,
             workdir=str(workdir.resolve()),
             stop_file=str(files.stop.resolve()),
-            attempt=attempt,
+            attempt=point.attempt,
         )
         result = run_engine(study, job)
     state_file = None
     if result.status == Status.OK and result.arrays:
-        np.savez(replicate_files.state, **result.arrays)
+        # numpy's stub types **kwds as if a key could be its allow_pickle: bool
+        np.savez(replicate_files.state, **result.arrays)  # type: ignore[arg-type]
         state_file = replicate_files.state.name
     record = SimulationRecord(
         evaluation=evaluation,
@@ -96,7 +108,7 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> Simul
         seed=seed,
         attempt=attempt,
         parameters=parameters,
-        status=result.status,
+        status=Status(result.status),
         reason=bounded_reason(result.reason),
         measurements=result.measurements,
         cost=result.cost,
@@ -281,7 +293,7 @@ def rescore(study: Study, evaluation: str) -> ObjectiveRecord:
     return rescored
 
 
-def run_snakemake_job(smk, stage: str) -> None:
+def run_snakemake_job(smk: ScriptJob, stage: str) -> None:
     """Entry point of the workflow's scripts: log to the rule's log, run one stage."""
     logging.basicConfig(
         filename=smk.log[0],
@@ -303,7 +315,7 @@ def run_snakemake_job(smk, stage: str) -> None:
         raise SystemExit(f"demcal {stage}: {exc}") from None
 
 
-def write_centre_point(smk) -> None:
+def write_centre_point(smk: ScriptJob) -> None:
     """params.json at the centre of the free parameters' bounds (the default evaluation)."""
     study = load_frozen(smk.params.study_file)
     PointRecord(study.centre_point(), proposed_by="centre of the bounds").write(Path(smk.output[0]))

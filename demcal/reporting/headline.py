@@ -108,8 +108,8 @@ def report_headline(study: Study) -> str:
             ]
         )
     lines += [
-        "**Responses against the targets** (simulated at the best point; predicted there by the response "
-        "models ± their sd; target ± its measurement spread):",
+        "**Responses against the targets** (simulated at the best point; predicted there by the "
+        "response models ± their sd; target ± its measurement spread):",
         "",
     ]
     lines += _table(["response", "simulated", "predicted", "target", "error"], rows)
@@ -128,16 +128,16 @@ def report_headline(study: Study) -> str:
                     ]
                 )
         lines += [
-            f"**Confirmed** by {len(confirmation['evaluations'])} more simulations of the best point "
-            f"(new seeds; mean ± sd of their responses):",
+            f"**Confirmed** by {len(confirmation['evaluations'])} more simulations of the best "
+            "point (new seeds; mean ± sd of their responses):",
             "",
         ]
         lines += _table(["response", "mean", "simulations", "target"], rows)
     solutions = _read(files.solutions_summary)
     if solutions:
         lines += [
-            f"**What the targets identify** ({solutions['accepted']} of {solutions['sampled']} sampled "
-            f"parameter sets meet every target within {solutions['k']:g} sd):",
+            f"**What the targets identify** ({solutions['accepted']} of {solutions['sampled']} "
+            f"sampled parameter sets meet every target within {solutions['k']:g} sd):",
             "",
         ]
         lines += [f"- {verdict['sentence']}" for verdict in solutions["verdicts"]] + [""]

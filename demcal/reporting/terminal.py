@@ -13,7 +13,8 @@ from demcal.workflow import report_command
 
 
 def time_unit(seconds: float) -> tuple[str, float]:
-    """The unit that keeps a time reaching ``seconds`` readable (text or axis), and its size in s."""
+    """The unit that keeps a time reaching ``seconds`` readable (text or axis),
+    and its size in s."""
     if seconds < 180:
         return "s", 1.0
     return ("min", 60.0) if seconds < 3 * 3600 else ("h", 3600.0)
@@ -100,7 +101,8 @@ def evaluation_summary(
 
 
 def confirmation_summary(study: Study, best: BestRecord) -> str | None:
-    """The re-simulations of the best point (``confirm_replicates``) against the targets, or None."""
+    """The re-simulations of the best point (``confirm_replicates``) against the
+    targets, or None."""
     confirmation = best.confirmation
     if not confirmation:
         return None
@@ -114,8 +116,9 @@ def confirmation_summary(study: Study, best: BestRecord) -> str | None:
         if entry:
             unit = study.scenes[t.scene].responses[t.response].unit
             lines.append(
-                f"  {t.key + ' [' + unit + ']':34s} mean {with_sd(entry['mean'], entry['sd']):>16s} "
-                f"(n = {entry['count']})  target {with_sd(t.value, t.spread)}  "
+                f"  {t.key + ' [' + unit + ']':34s} mean "
+                f"{with_sd(entry['mean'], entry['sd']):>16s} (n = {entry['count']})  target "
+                f"{with_sd(t.value, t.spread)}  "
                 f"{100 * relative_error(entry['mean'], t.value):+.1f}%"
             )
     return "\n".join(lines)

@@ -118,7 +118,7 @@ class StudyFiles:
     dir: Path
     evals: Path = field(init=False)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         object.__setattr__(self, "evals", self.dir / "evals")
 
     @classmethod

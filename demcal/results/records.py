@@ -34,6 +34,7 @@ from pathlib import Path
 from typing import Any, ClassVar, Self
 
 from demcal.errors import SimulationFailed
+from demcal.results.layout import EvaluationFiles
 from demcal.results.storage import read_json, write_json
 
 #: Format of the records this version writes (the ``"format"`` key of every file).
@@ -284,7 +285,7 @@ class ObjectiveRecord(Record):
         return self.status == Status.OK
 
     @classmethod
-    def read_latest(cls, files) -> ObjectiveRecord:
+    def read_latest(cls, files: EvaluationFiles) -> ObjectiveRecord:
         """The evaluation's outcome as it stands: its re-score (``files.rescored``) if there is
         one, else what its objective job wrote (``files.objective``)."""
         return cls.read(files.rescored if files.rescored.exists() else files.objective)

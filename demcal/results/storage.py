@@ -12,9 +12,11 @@ import json
 import math
 import os
 import tempfile
+from collections.abc import Callable
 from itertools import zip_longest
 from pathlib import Path
 from stat import S_ISREG
+from typing import IO, Any
 
 from demcal.errors import SimulationFailed
 
@@ -48,7 +50,7 @@ def atomic_write_text(path: Path, text: str) -> None:
         raise
 
 
-def _finite_or_none(value):
+def _finite_or_none(value: Any) -> Any:
     """JSON has no NaN/Infinity: store non-finite floats as null."""
     if isinstance(value, float) and not math.isfinite(value):
         return None
@@ -87,7 +89,7 @@ def byte_size(count: int) -> str:
     return f"{count} bytes" if count < 2**20 else f"{count / 2**20:.3g} MB"
 
 
-def read_json(path: Path, what: str, limit: int | None = None) -> dict:
+def read_json(path: Path | str, what: str, limit: int | None = None) -> dict:
     """Read a JSON object; a missing, truncated or garbled file, or one of more than ``limit``
     bytes (read no further), raises SimulationFailed."""
     path = Path(path)
@@ -119,7 +121,7 @@ class PartialWriter:
     one by one so the daemon can read them during the run.
     """
 
-    def __init__(self, path: Path, clock):
+    def __init__(self, path: Path, clock: Callable[[], float]):
         self.path = Path(path)
         self.clock = clock
         self.start = clock()
@@ -134,7 +136,9 @@ class PartialWriter:
         estimates: dict[str, float] | None = None,
         final: bool = False,
     ) -> None:
-        rows = [(r, v, int(final)) for r, v in (estimates or {}).items()] or [("", "", "")]
+        rows: list[tuple[str, float | str, int | str]] = [
+            (r, v, int(final)) for r, v in (estimates or {}).items()
+        ] or [("", "", "")]
         wall = f"{self.clock() - self.start:.3f}"
         with open(self.path, "a", newline="") as handle:
             writer = csv.writer(handle)
@@ -191,8 +195,9 @@ class GrowingCsv:
     def take(self, row: dict) -> None:
         """Learn from one row."""
 
-    def _start(self, identity: tuple | None) -> None:
-        self.identity, self.offset, self.mark, self.columns = identity, 0, b"", None
+    def _start(self, identity: tuple[int, int] | None) -> None:
+        self.identity, self.offset, self.mark = identity, 0, b""
+        self.columns: list[str] | None = None
         self.forget()
 
     def read_on(self) -> None:
@@ -203,7 +208,7 @@ class GrowingCsv:
         except OSError:
             return  # not written yet, or unreadable: nothing new
 
-    def _read_on(self, handle) -> None:
+    def _read_on(self, handle: IO[bytes]) -> None:
         stat = os.fstat(handle.fileno())
         if not S_ISREG(stat.st_mode):
             return

@@ -16,7 +16,7 @@ from demcal.study.model import Study
 CSV_DIGITS = 7
 
 
-def _number(value) -> str:
+def _number(value: object) -> str:
     return (
         f"{value:.{CSV_DIGITS}g}"
         if isinstance(value, float)
@@ -24,7 +24,7 @@ def _number(value) -> str:
     )
 
 
-def _iso(epoch) -> str:
+def _iso(epoch: float | str | None) -> str:
     """A Unix time as ISO 8601 in UTC to the second, '' if unknown."""
     if epoch in ("", None):
         return ""
@@ -72,6 +72,7 @@ def write_evaluations_csv(study: Study) -> None:
             point = PointRecord.read(files.params)
         except SimulationFailed:
             continue
+        ended: float | None  # None while the objective is not written
         try:
             record = ObjectiveRecord.read_latest(files)
             ended = files.objective.stat().st_mtime

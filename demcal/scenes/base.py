@@ -12,7 +12,8 @@ from demcal.study.catalogue import CATALOG
 
 #: Largest possible angle of a slope (repose, shear), deg.
 MAX_ANGLE = 90.0
-#: A bulk density cannot exceed the solid density of its particles (the catalogue's largest), kg/m^3.
+#: A bulk density cannot exceed the solid density of its particles (the
+#: catalogue's largest), kg/m^3.
 MAX_BULK_DENSITY = CATALOG["particle_density"].upper
 
 
@@ -64,7 +65,8 @@ class SettingSpec:
 
 @dataclass(frozen=True)
 class ResponseSpec:
-    """A bulk response a scene can produce, in ``unit``, physically between ``lower`` and ``upper``."""
+    """A bulk response a scene can produce, in ``unit``, physically between
+    ``lower`` and ``upper``."""
 
     unit: str
     description: str

@@ -11,7 +11,9 @@ import functools
 import math
 import re
 import statistics
+from collections.abc import Hashable
 from pathlib import Path
+from typing import Any
 
 import jsonschema
 import yaml
@@ -37,16 +39,20 @@ def _field_path(error: jsonschema.ValidationError) -> str:
 
 def _schema_message(error: jsonschema.ValidationError, schema: dict) -> str:
     """One clear sentence for a schema violation: field, value, what is allowed."""
-    where, value, kind = _field_path(error), error.instance, error.validator
+    where, kind = _field_path(error), error.validator
+    # jsonschema's stubs add an "unset" marker to these; a reported error has them all set
+    value: Any = error.instance
+    expected: Any = error.validator_value
+    subschema: Any = error.schema
     if kind == "additionalProperties":
-        allowed = sorted(error.schema.get("properties", {}))
+        allowed = sorted(subschema.get("properties", {}))
         extra = sorted(set(value) - set(allowed)) if isinstance(value, dict) else []
         name = f"{where}.{extra[0]}" if where != "(top level)" and extra else (extra or [where])[0]
         return f"{name}: unknown field; allowed here: {', '.join(allowed) or 'none'}"
     if kind == "required":
         return f"{where}: missing required field {error.message.split(' ')[0]}"
     if kind in ("enum", "const"):
-        choices = error.validator_value if kind == "enum" else [error.validator_value]
+        choices = expected if kind == "enum" else [expected]
         return f"{where}: {value!r} is not one of {', '.join(map(str, choices))}"
     if kind == "pattern":
         return (
@@ -55,33 +61,30 @@ def _schema_message(error: jsonschema.ValidationError, schema: dict) -> str:
         )
     if kind in ("minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum"):
         words = {"minimum": ">=", "maximum": "<=", "exclusiveMinimum": ">", "exclusiveMaximum": "<"}
-        return f"{where}: {value!r} must be {words[kind]} {error.validator_value}"
+        return f"{where}: {value!r} must be {words[kind]} {expected}"
     if kind in ("minItems", "minProperties"):
         given = len(value)
-        return f"{where}: {given or 'none'} given; give at least {error.validator_value}" + (
+        return f"{where}: {given or 'none'} given; give at least {expected}" + (
             " (their standard deviation is the spread)" if where.endswith("repeats") else ""
         )
     if kind == "type":
-        wanted = (
-            error.validator_value
-            if isinstance(error.validator_value, list)
-            else [error.validator_value]
-        )
+        wanted = expected if isinstance(expected, list) else [expected]
         if isinstance(value, str) and {"number", "integer"} & set(wanted):
             return (
                 f"{where}: {value!r} is text, not a number ({' or '.join(wanted)}); "
                 f"write it without quotes"
             )
-        return f"{where}: {value!r} is not of type {error.validator_value}"
+        return f"{where}: {value!r} is not of type {expected}"
     return f"{where}: {error.message}"
 
 
 @functools.cache
 def load_schema() -> dict:
-    return yaml.safe_load(SCHEMA_PATH.read_text())
+    schema: dict = yaml.safe_load(SCHEMA_PATH.read_text())  # a mapping: the schema's top level
+    return schema
 
 
-def default(*path: str):
+def default(*path: str) -> Any:
     """The schema's ``default`` of a study field, e.g. ``default("calibration", "retries")``.
 
     The schema is the one place for the defaults of the study file.
@@ -158,7 +161,8 @@ def _targets(config: dict, scenes: dict[str, Scene]) -> list[Target]:
 
 
 def _target_value(target: dict, index: int) -> tuple[float, float | None]:
-    """The target's value and spread: as given, or the mean and standard deviation of its repeats."""
+    """The target's value and spread: as given, or the mean and standard
+    deviation of its repeats."""
     if "repeats" not in target:
         if "value" not in target:
             raise ConfigError(
@@ -239,7 +243,7 @@ def _parameters(config: dict, scenes: dict[str, Scene]) -> tuple[list[FreeParame
     return free, {**defaults, **fixed}
 
 
-def refuse_non_finite(value, where: str = "") -> None:
+def refuse_non_finite(value: object, where: str = "") -> None:
     """Raise ConfigError naming the first NaN or infinite number in a config mapping.
 
     JSON Schema's range checks compare with NaN as false, so ``.nan`` would
@@ -351,7 +355,7 @@ class StrictLoader(yaml.SafeLoader):
     YAML 1.1, where an exponent needs a dot and a sign); quoted text stays text.
     """
 
-    def construct_mapping(self, node, deep=False):
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Hashable, Any]:
         seen = set()
         for key_node, _ in node.value:
             key = self.construct_object(key_node, deep=deep)
@@ -412,7 +416,8 @@ def _yaml_problem(error: yaml.YAMLError) -> str:
 
 
 def read_study_yaml(path: str | Path) -> dict:
-    """The mapping of a YAML study file, read strictly; every problem is a ConfigError naming the file."""
+    """The mapping of a YAML study file, read strictly; every problem is a
+    ConfigError naming the file."""
     path = Path(path)
     try:
         with path.open("rb") as stream:

@@ -15,8 +15,10 @@ from __future__ import annotations
 
 import math
 import zlib
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from importlib import metadata
+from pathlib import Path
 
 import numpy as np
 
@@ -94,12 +96,12 @@ class Study:
         wanted = {t.response for t in self.targets if t.scene == scene}
         return [r for r in self.scenes[scene].responses if r in wanted]
 
-    def centre_point(self, overrides: list[str] = ()) -> dict[str, float]:
+    def centre_point(self, overrides: Sequence[str] = ()) -> dict[str, float]:
         """Free values at the centre of the bounds, changed by ``NAME=VALUE`` overrides."""
         point = {p.name: 0.5 * (p.lower + p.upper) for p in self.free}
         return {**point, **self.free_values(overrides, "--point")}
 
-    def free_values(self, items: list[str], option: str) -> dict[str, float]:
+    def free_values(self, items: Sequence[str], option: str) -> dict[str, float]:
         """``NAME=VALUE`` words of a command line as free-parameter values (finite numbers);
         a ConfigError names ``option``, the word and what is wrong."""
         names = [p.name for p in self.free]
@@ -237,7 +239,7 @@ def study_from_record(record: dict) -> Study:
     )
 
 
-def load_frozen(path) -> Study:
+def load_frozen(path: Path | str) -> Study:
     """The study frozen in a ``study.json`` (what jobs and child processes work from)."""
     try:
         return study_from_record(read_json(path, "study.json"))
@@ -281,7 +283,7 @@ def incompatible_changes(old: dict, new: dict) -> list[str]:
     return changed
 
 
-def _differences(old, new, where: str) -> list[str]:
+def _differences(old: object, new: object, where: str) -> list[str]:
     """Dotted paths of the leaves in which two JSON values differ."""
     if isinstance(old, dict) and isinstance(new, dict):
         return [
@@ -333,12 +335,12 @@ def freeze(study: Study) -> Study:
     return study_from_record(read_json(path, "study.json"))
 
 
-def _short(value, limit: int = 60) -> str:
+def _short(value: object, limit: int = 60) -> str:
     text = repr(value)
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
-def _at(record, dotted: str):
+def _at(record: object, dotted: str) -> object:
     """The value at a dotted path such as ``targets[0].response`` (None if absent)."""
     node = record
     for part in dotted.replace("[", ".[").split("."):

@@ -24,12 +24,16 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from statistics import fmean, stdev
+from typing import TypeVar
 
 import numpy as np
 
 OBJECTIVE_FORMS = ("relative", "precision")
 #: The form a study gets when it names none and its targets have no spreads (``Study.objective_form``).
 DEFAULT_FORM = "relative"
+
+#: A response as a number, or as an array of them (model predictions, posterior samples).
+Values = TypeVar("Values", float, np.ndarray)
 
 
 @dataclass(frozen=True)
@@ -47,7 +51,7 @@ class Target:
         return f"{self.scene}.{self.response}"
 
 
-def relative_error(simulated: float, target: float) -> float:
+def relative_error(simulated: Values, target: float) -> Values:
     """(y - r) / r, or the absolute error y - r where the target r is 0."""
     if target == 0.0:
         return simulated - target
@@ -86,7 +90,7 @@ def objective_values(
 
     Used on simulated means and on model predictions or posterior samples.
     """
-    total = 0.0
+    total: float | np.ndarray = 0.0
     for t in targets:
         error = target_error(t, responses[t.key], form)
         total = total + t.weight * error * error
@@ -100,6 +104,7 @@ def target_error(
     y - r where r is 0), or (y - r) / s in units of the target's spread (precision form)."""
     y = np.asarray(simulated, float)
     if form == "precision":
+        assert target.spread is not None, "the study's config requires spreads for this form"
         return (y - target.value) / target.spread
     return relative_error(y, target.value)
 
@@ -109,7 +114,8 @@ def weighted_residuals(
     responses: Mapping[str, float | np.ndarray],
     form: str = DEFAULT_FORM,
 ) -> np.ndarray:
-    """sqrt(w_i) e_i per target (rows): the residuals whose squares sum to the objective (least squares)."""
+    """sqrt(w_i) e_i per target (rows): the residuals whose squares sum to the
+    objective (least squares)."""
     return np.array(
         [math.sqrt(t.weight) * target_error(t, responses[t.key], form) for t in targets]
     )

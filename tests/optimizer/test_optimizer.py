@@ -155,7 +155,8 @@ def test_reopened_failure_is_pending_again_and_can_be_told():
 
 
 def test_four_workers_start_the_adaptive_phase_with_a_surrogate():
-    """d = 2, P = 4: design of 2d + P = 8; when the last design point is running, 2d + 1 = 5 are finished."""
+    """d = 2, P = 4: design of 2d + P = 8; when the last design point is running, 2d + 1
+    = 5 are finished."""
     optimizer = Optimizer([0, 0], [1, 1], {"max_evaluations": 20}, seed=3, workers=4)
     running = [p.id for p in optimizer.ask(4)]
     for value in (4.0, 3.0, 2.0, 1.0):

@@ -1,4 +1,5 @@
-"""Rackl & Hanley's procedure: LHS of 3 per parameter, LM on the Kriging models, then LM on the simulations."""
+"""Rackl & Hanley's procedure: LHS of 3 per parameter, LM on the Kriging models, then LM
+on the simulations."""
 
 import json
 

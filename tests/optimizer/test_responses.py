@@ -1,4 +1,5 @@
-"""Responses as the optimizer's data: per-response models, the objective on top, stopped runs that teach."""
+"""Responses as the optimizer's data: per-response models, the objective on top,
+stopped runs that teach."""
 
 import numpy as np
 import pytest
@@ -9,7 +10,8 @@ from demcal.study.objective import ResponseObjective, Target, objective_values
 
 
 def lift(x):
-    """A cylinder-lift-like pair of responses over (sliding, rolling) friction in [0.1, 0.9] x [0.02, 0.3]."""
+    """A cylinder-lift-like pair of responses over (sliding, rolling) friction in [0.1,
+    0.9] x [0.02, 0.3]."""
     mu, mr = x
     return {
         "lift.angle": 12.0 + 30.0 * (1.0 - np.exp(-mu / 0.35)) + 25.0 * mr,
@@ -130,7 +132,8 @@ def test_best_is_the_evaluated_point_with_the_lowest_predicted_objective():
 
 
 def test_a_best_point_on_a_bound_is_flagged_in_best_and_in_the_summary():
-    """Targets beyond the box's upper friction end: the answer sits on the sliding-friction bound."""
+    """Targets beyond the box's upper friction end: the answer sits on the
+    sliding-friction bound."""
     targets = (
         Target("lift", "angle", lift((1.2, 0.1))["lift.angle"]),
         Target("lift", "density", lift((1.2, 0.1))["lift.density"]),

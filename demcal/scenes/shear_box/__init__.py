@@ -1,4 +1,5 @@
-"""Shear box test (Richter & Will 2021, sec. 3.5, after Rössler et al.): bulk density and shear angle.
+"""Shear box test (Richter & Will 2021, sec. 3.5, after Rössler et al.): bulk density and
+shear angle.
 
 Not a direct shear cell: a box is filled with material, one end wall (the
 flap) is opened, and the material flows out until the rest stands in the box

@@ -1,0 +1,122 @@
+"""``demcal status``, ``demcal studies`` and ``demcal watch``: the state of the studies."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from demcal.cli.run import print_best
+from demcal.daemon.control import running_daemon
+from demcal.errors import ConfigError, DemcalError
+from demcal.optimizer import Optimizer
+from demcal.results.layout import RESULTS, StudyFiles
+from demcal.results.records import BestRecord, FinishedRecord, Status
+from demcal.study.config import load_study_file
+from demcal.study.model import Study, load_frozen
+
+
+def study_of(argument: str) -> Study:
+    """The study named by its YAML file or its name: as it ran (its results/<name>/study.json)
+    once it has run, else as the YAML file gives it."""
+    frozen = StudyFiles.of(argument).study
+    if not Path(argument).is_file() and "/" not in argument and frozen.is_file():
+        return load_frozen(frozen)
+    study = load_study_file(argument, check_engine=False)
+    return load_frozen(study.files.study) if study.files.study.is_file() else study
+
+
+STATUS_WORDS = {
+    Status.OK: "ok",
+    Status.FAILED: "failed",
+    Status.TERMINATED: "stopped early",
+    Status.PENDING: "pending",
+}
+
+
+def study_state(study: Study) -> tuple[str, str]:
+    """Whether the study runs, ended (and why) or was interrupted; and its evaluation counts."""
+    optimizer = Optimizer.from_json(study.files.optimizer.read_text())
+    counts = optimizer.status_counts()
+    daemon = running_daemon(study)
+    finished = FinishedRecord.read_if_any(study.files.finished)
+    if daemon is not None:
+        state = f"running (daemon pid {daemon})"
+    elif finished is not None:
+        state = f"ended: {finished.reason}"
+    else:
+        state = "not running and not finished (interrupted): 'demcal run' continues it"
+    pending = counts.pop(Status.PENDING, 0)
+    line = ", ".join(f"{n} {STATUS_WORDS.get(s, s)}" for s, n in sorted(counts.items()))
+    if pending:
+        line += f", {pending} " + (
+            "running" if daemon is not None else "pending (resumed by the next run)"
+        )
+    confirmations = sum("confirms" in r for r in optimizer.records)
+    extra = f", plus {confirmations} confirmation runs" if confirmations else ""
+    return (
+        state,
+        f"{line or 'no evaluations yet'} (budget {optimizer.settings.max_evaluations}{extra})",
+    )
+
+
+def status(args) -> int:
+    study = study_of(args.config)
+    if not study.files.optimizer.exists():
+        print(f"demcal: study {study.name!r} has not started ({study.files.optimizer} missing)")
+        return 0
+    state, counts = study_state(study)
+    print(f"study {study.name!r}: {state}\n  {counts}")
+    if study.files.best.exists():
+        print_best(study)
+    return 0
+
+
+def studies(args) -> int:
+    """Every study under the results folder with its state, counts and best objective."""
+    found = sorted(path.parent for path in RESULTS.glob("*/study.json"))
+    if not found:
+        print(f"demcal: no studies in {RESULTS}/ (a study appears there once it has run)")
+        return 0
+    for folder in found:
+        try:
+            study = load_frozen(folder / "study.json")
+        except DemcalError as exc:
+            print(f"{folder.name}: unreadable study.json ({exc})")
+            continue
+        if not study.files.optimizer.exists():
+            print(f"{study.name}: not started")
+            continue
+        state, counts = study_state(study)
+        best = BestRecord.read_if_any(study.files.best)
+        answer = "" if best is None else f"; best {best.evaluation}, objective {best.objective:.4g}"
+        print(f"{study.name}: {state}\n  {counts}{answer}")
+    return 0
+
+
+def watch(args) -> int:
+    """Keep results/<study>/live.html up to date while the calibration runs."""
+    from demcal.reporting.live import write_live_page
+
+    study = study_of(args.config)
+    if not 1 <= args.every <= 3600:  # NaN fails too
+        raise ConfigError(f"--every {args.every}: give 1 to 3600 s between updates")
+    if not study.files.optimizer.exists():
+        print(f"demcal: study {study.name!r} has not started; start it, then watch it")
+        return 0
+    print(
+        f"demcal: live view of {study.name!r}: open {study.files.live.resolve()} in a browser "
+        f"(it reloads itself every {args.every:g} s); Ctrl-C ends the watch, not the calibration"
+    )
+    try:
+        while True:
+            state, counts = study_state(study)
+            write_live_page(study, state, counts, args.every)
+            if running_daemon(study) is None:
+                print(
+                    f"demcal: {study.name!r} is not running ({state}); "
+                    f"the page shows its last state"
+                )
+                return 0
+            time.sleep(args.every)
+    except KeyboardInterrupt:
+        return 0

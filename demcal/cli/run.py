@@ -1,0 +1,137 @@
+"""``demcal run``: run (or resume) a calibration, and its closing answer (the best point)."""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import sys
+from pathlib import Path
+
+import pandas as pd
+
+from demcal.daemon.control import lock_study
+from demcal.daemon.launcher import SnakemakeLauncher
+from demcal.daemon.loop import Calibration
+from demcal.daemon.progress import ProgressDisplay
+from demcal.errors import ConfigError, DemcalError
+from demcal.reporting.terminal import CHOSEN_BY, confirmation_summary, evaluation_summary
+from demcal.results.layout import StudyFiles
+from demcal.results.records import BestRecord, ObjectiveRecord
+from demcal.study.config import load_study_file
+from demcal.study.model import Study, freeze, load_frozen
+from demcal.workflow import child_cores, profile_settings
+
+#: Evaluations in flight when neither the study, the command line nor the profile says.
+DEFAULT_WORKERS = 2
+
+
+def _workers(study: Study, profile: Path | None, given: int | None) -> int:
+    """Evaluations in flight: --workers, else calibration.workers, else the profile's jobs,
+    else 2."""
+    if given is not None and given < 1:
+        raise ConfigError(f"--workers {given}: give at least 1 (evaluations in flight)")
+    return int(
+        given
+        or study.calibration.get("workers")
+        or profile_settings(profile).get("jobs", DEFAULT_WORKERS)
+    )
+
+
+def run(args) -> int:
+    with _log_file(args.log) as log:
+        try:
+            return _run(args, log)
+        except (DemcalError, OSError) as exc:  # main() prints it; the log keeps it too
+            if log is not None:
+                print(f"demcal: {exc}", file=log, flush=True)
+            raise
+
+
+def _run(args, log) -> int:
+    # the workflow hands over the study it froze (and warned about); a YAML is frozen here
+    study = load_frozen(args.config) if args.frozen else load_study_file(args.config)
+    profile = Path(args.profile) if args.profile else None
+    lock = lock_study(study, args.watch_pid)  # noqa: F841  (held until the process ends)
+    if not args.frozen:
+        for warning in study.warnings:
+            _say(f"demcal: warning: {warning}", log)
+        study = freeze(study)  # from here on: the study as the jobs read it
+    logging.basicConfig(
+        filename=study.files.daemon_log,
+        level=logging.INFO,
+        format="%(asctime)s %(levelname)s %(message)s",
+    )
+    workers = _workers(study, profile, args.workers)
+    launcher = SnakemakeLauncher(study.files.study, profile, child_cores(profile, workers))
+    calibration = Calibration(study, launcher, workers, watch_pid=args.watch_pid)
+    display = ProgressDisplay(sys.stderr, log)
+    try:
+        reason = calibration.run(display)
+    except KeyboardInterrupt:
+        display.close()
+        _say(
+            f"demcal: interrupted; {len(calibration.children)} evaluations keep running "
+            f"and are collected by the next 'demcal run' ('demcal stop' stops them)",
+            log,
+        )
+        return 130
+    display.close()
+    print(f"demcal: calibration of {study.name!r} finished: {reason}")
+    print_best(study)
+    return 0
+
+
+@contextlib.contextmanager
+def _log_file(path: str | None):
+    """The --log file opened for appending (None without one)."""
+    if path is None:
+        yield None
+        return
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "a") as log:
+        yield log
+
+
+def _say(message: str, log=None) -> None:
+    """A message on stderr, and in the log if there is one."""
+    for stream in (sys.stderr, log):
+        if stream is not None:
+            print(message, file=stream, flush=True)
+
+
+def print_best(study: Study) -> None:
+    files = study.files
+    if not files.best.exists():
+        print(
+            f"demcal: no evaluation succeeded{_commonest_failure(files)}; every reason is in "
+            f"{files.evaluations_csv}"
+        )
+        return
+    best = BestRecord.read(files.best)
+    evaluation = files.evaluation(best.evaluation)
+    print(
+        f"best point ({CHOSEN_BY.get(best.chosen_by, 'lowest objective')} among the "
+        f"evaluated points):"
+    )
+    print(evaluation_summary(study, ObjectiveRecord.read_latest(evaluation), evaluation.dir, best))
+    if best.predicted_responses:
+        print(
+            "(simulated: this evaluation, ± spread of its replicates; predicted: the response "
+            "models there, ± their sd; target ± its spread)"
+        )
+    confirmed = confirmation_summary(study, best)
+    if confirmed:
+        print(confirmed)
+    print(f"all evaluations: {files.evaluations_csv}")
+
+
+def _commonest_failure(files: StudyFiles) -> str:
+    """ ", most often: REASON (n of N)" from evaluations.csv; "" when it has none."""
+    try:
+        reasons = pd.read_csv(files.evaluations_csv)["reason"].dropna()
+    except (OSError, ValueError, KeyError):
+        return ""
+    if reasons.empty:
+        return ""
+    counts = reasons.value_counts()
+    return f", most often: {counts.index[0]!r} ({counts.iloc[0]} of {len(reasons)})"
