@@ -39,7 +39,7 @@ def run_and_extract(engine, job):
     from demcal.jobs.evaluation import scene_responses
     from demcal.results.records import Status
 
-    scene = SCENES[job.scene]
+    scene = SCENES.load(job.scene)
     result = engine.run(job, RunMonitor(job), scene.driver(engine.name))
     responses = {}
     if result.status == Status.OK:
@@ -116,7 +116,7 @@ def true_targets():
         "particle_density": 2500.0,
         **TRUTH,
     }
-    exact = SCENES["cylinder_lift"].analytic_model(params, {})
+    exact = SCENES.load("cylinder_lift").analytic_model(params, {})
     return [
         {"scene": "cylinder_lift", "response": name, "value": value}
         for name, value in exact.items()

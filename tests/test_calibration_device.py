@@ -16,7 +16,7 @@ from demcal.scenes import SCENES
 from demcal.scenes.calibration_device import device_geometry
 from demcal.study.catalogue import CATALOG
 
-SCENE = SCENES["calibration_device"]
+SCENE = SCENES.load("calibration_device")
 
 
 # -- measures -------------------------------------------------------------------

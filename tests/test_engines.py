@@ -27,7 +27,7 @@ from demcal.results.storage import read_partial
 from demcal.scenes import SCENES
 from demcal.study.catalogue import CATALOG
 
-SCENE = SCENES["cylinder_lift"]
+SCENE = SCENES.load("cylinder_lift")
 
 
 def make_job(tmp_path, **parameters):
@@ -46,7 +46,7 @@ def make_job(tmp_path, **parameters):
 
 
 def run(engine, job):
-    return engine.run(job, RunMonitor(job), SCENES[job.scene].driver(engine.name))
+    return engine.run(job, RunMonitor(job), SCENES.load(job.scene).driver(engine.name))
 
 
 def stop_after(path, seconds):
@@ -409,7 +409,7 @@ def test_scenes_name_their_drivers_per_engine():
     assert SCENE.driver("analytic") is SCENE.analytic_model is analytic.analytic_model
     assert SCENE.driver("lammps") is lammps.run
     assert SCENE.driver("liggghts") is liggghts.case
-    assert SCENES["shear_box"].driver("liggghts") is None
+    assert SCENES.load("shear_box").driver("liggghts") is None
     assert SCENE.driver("command") is None
 
 

@@ -21,7 +21,7 @@ from demcal.study.catalogue import CATALOG
 
 pytestmark = pytest.mark.lammps
 
-SCENE = SCENES["cylinder_lift"]
+SCENE = SCENES.load("cylinder_lift")
 TINY = {
     "particle_count": 200,
     "d50": 3.0e-3,

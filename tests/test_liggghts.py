@@ -31,7 +31,7 @@ from demcal.scenes.cylinder_lift.liggghts import (
 from demcal.study.catalogue import CATALOG
 from demcal.study.config import load_study
 
-SCENE = SCENES["cylinder_lift"]
+SCENE = SCENES.load("cylinder_lift")
 TINY = {
     "particle_count": 200,
     "d50": 3.0e-3,
@@ -187,7 +187,7 @@ def test_check_names_the_install_and_refuses_settings_and_other_scenes(monkeypat
     with pytest.raises(ConfigError, match="takes no settings"):
         LiggghtsEngine({"binary": "x"}).check([SCENE])
     with pytest.raises(ConfigError, match="no LIGGGHTS driver for scene 'shear_box'"):
-        LiggghtsEngine().check([SCENE, SCENES["shear_box"]])
+        LiggghtsEngine().check([SCENE, SCENES.load("shear_box")])
     LiggghtsEngine().check([SCENE])
 
 

@@ -23,7 +23,7 @@ from demcal.scenes.shear_box import box_dimensions, fill_particle_count, mean_sp
 from demcal.scenes.shear_box.lammps import random_loose_packing
 from demcal.study.catalogue import CATALOG
 
-SCENE = SCENES["shear_box"]
+SCENE = SCENES.load("shear_box")
 DEFAULTS = {name: spec.default for name, spec in CATALOG.items()}
 
 

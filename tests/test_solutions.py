@@ -12,7 +12,8 @@ from demcal.analysis.solutions import (
     tolerance_sd,
     within_tolerance,
 )
-from demcal.optimizer.responses import ResponsePredictor, ResponseRBF
+from demcal.optimizer.responses import ResponsePredictor
+from demcal.optimizer.surrogates.cubic_rbf import ResponseRBF
 from demcal.study.objective import ResponseObjective, Target
 
 NAMES, UNITS = ["sliding_friction_pp", "sliding_friction_pw"], ["-", "-"]

@@ -61,7 +61,7 @@ def test_objective_matches_eq_3_3_of_the_closed_form(tmp_path, analytic_config):
         "poisson_ratio": 0.3,
         "particle_density": 2500.0,
     }
-    exact = SCENES["cylinder_lift"].analytic_model(params, {})
+    exact = SCENES.load("cylinder_lift").analytic_model(params, {})
     expected = ((exact["angle_of_repose"] - 25.0) / 25.0) ** 2 + (
         (exact["bulk_density"] - 1450.0) / 1450.0
     ) ** 2

@@ -10,7 +10,8 @@ up by the caller) and never imports scenes. ``lammps_driver`` is the base
 class of the scenes' LAMMPS drivers.
 
 Adding a simulator: subclass ``Engine`` (``check``, ``version``, ``run``),
-register it in ``ENGINES``, describe its settings in
+add an entry to ``ENGINES`` (a :class:`~demcal.plugins.Registry`: its
+``"module:Class"``, imported when a study first uses the engine), describe its settings in
 workflow/schemas/config.schema.yaml and give the scenes a driver for it (a
 module ``demcal/scenes/<scene>/<engine>.py`` named in the scene's
 ``drivers``); or use the ``command`` engine without writing code (README,
@@ -19,16 +20,20 @@ module ``demcal/scenes/<scene>/<engine>.py`` named in the scene's
 
 from __future__ import annotations
 
-from demcal.engines.analytic import AnalyticEngine
 from demcal.engines.base import Engine
-from demcal.engines.command import CommandEngine
-from demcal.engines.lammps import LammpsEngine
-from demcal.engines.liggghts import LiggghtsEngine
+from demcal.plugins import Entry, Registry
 
-ENGINES: dict[str, type[Engine]] = {
-    cls.name: cls for cls in (LammpsEngine, AnalyticEngine, CommandEngine, LiggghtsEngine)
-}
+ENGINES: Registry[Entry] = Registry(
+    "engine",
+    {
+        "lammps": Entry("demcal.engines.lammps:LammpsEngine"),
+        "analytic": Entry("demcal.engines.analytic:AnalyticEngine"),
+        "command": Entry("demcal.engines.command:CommandEngine"),
+        "liggghts": Entry("demcal.engines.liggghts:LiggghtsEngine"),
+    },
+)
 
 
 def make_engine(name: str, settings: dict) -> Engine:
-    return ENGINES[name](settings)
+    """The engine registered as ``name`` with its ``settings``."""
+    return ENGINES.load(name)(settings)

@@ -12,7 +12,7 @@ improvements and halves after C_fail consecutive non-improvements.
 The Kriging strategy scores the same kind of candidates by expected
 improvement (Samuelsson 2023, section 2.2.2.3), damped near running points.
 
-The strategy classes that put these together are in :mod:`.search`.
+The strategy classes that put these together are in :mod:`.strategies`.
 """
 
 from __future__ import annotations

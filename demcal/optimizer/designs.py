@@ -16,6 +16,8 @@ import numpy as np
 from scipy.spatial.distance import pdist
 from scipy.stats import qmc
 
+from .registry import DESIGNS
+
 
 def default_initial_size(dimension: int, workers: int = 1) -> int:
     """Initial design size q + P with q = 2d + 1 (Samuelsson 2023, sec. 3.7, Table 4.2).
@@ -80,13 +82,6 @@ def maximin_design(
     return best
 
 
-DESIGNS = {
-    "symmetric_latin_hypercube": symmetric_latin_hypercube,
-    "latin_hypercube": latin_hypercube,
-    "sobol": sobol_sequence,
-}
-
-
 def initial_design(
     kind: str,
     size: int,
@@ -100,16 +95,18 @@ def initial_design(
     Each point of ``include`` (already in the unit box) replaces the design
     point nearest to it, so the size stays ``size`` (or grows to the number
     of user points) and the space filling is disturbed as little as possible.
-    Latin hypercubes are chosen by maximin; Sobol sequences are used as drawn.
+    ``kind`` names a design in :data:`~.registry.DESIGNS`; Latin hypercubes
+    are chosen by maximin, Sobol sequences are used as drawn.
     """
-    generate = DESIGNS[kind]
+    entry = DESIGNS[kind]
+    generate = entry.load()
     include = (
         np.empty((0, dimension)) if include is None else np.atleast_2d(np.asarray(include, float))
     )
     generated_size = max(size, 1)
     design = (
         generate(generated_size, dimension, rng)
-        if kind == "sobol"
+        if not entry.maximin
         else maximin_design(generate, generated_size, dimension, rng, tries)
     )
     keep = np.ones(len(design), dtype=bool)

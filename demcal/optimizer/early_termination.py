@@ -8,12 +8,23 @@ the optimization proceeds: with the thesis' pattern c = 10 during the first
 half of the evaluations after the initial design, 5 during the third
 quarter and 2.5 for the rest. Runs of the initial design are never stopped.
 The rule assumes a non-negative objective (a sum of squared errors).
+:func:`reference` is the f* the optimizer compares with.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from demcal.results.records import Status
+
+if TYPE_CHECKING:
+    from demcal.study.objective import ResponseObjective
+
+    from .responses import ResponsePredictor
 
 
 @dataclass(frozen=True)
@@ -78,3 +89,35 @@ def early_termination_decision(
         f"partial estimate {partial_estimate:g} <= {factor:g} x best {best_value:g}",
         limit,
     )
+
+
+def reference(
+    best: dict | None,
+    best_observed: float | None,
+    records: list[dict],
+    predictor: Callable[[], ResponsePredictor],
+    objective: ResponseObjective | None,
+) -> float | None:
+    """The best objective f* a running evaluation is compared with (thesis eq. 3.4).
+
+    With response models (``best`` chosen by them): their best prediction at
+    an evaluated point plus the objective's noise floor, the mean objective
+    of the models' residuals at the evaluated points (what simulation noise
+    alone adds to a single run's objective). A lucky noisy sample does not
+    set the bar, and once the best prediction is below the noise, a run is
+    not stopped for being as noisy as every run is. Else ``best_observed``,
+    the best observed value.
+    """
+    if best is None or best["chosen_by"] != "response models":
+        return best_observed
+    finished = [r for r in records if r["status"] == Status.OK and r.get("responses")]
+    if not finished:
+        return best["predicted"]
+    predicted, _ = predictor().predict(np.array([r["x"] for r in finished]))
+    residuals = {
+        key: np.array([np.mean(r["responses"][key]["values"]) for r in finished])
+        - predicted[key]
+        + target.value
+        for key, target in zip(objective.keys, objective.targets)
+    }
+    return best["predicted"] + float(np.mean(objective(residuals)))

@@ -2,13 +2,18 @@
 
 The optimizer hands out the initial design first, then one adaptive point
 per request, chosen by the strategy named in the settings (:mod:`.registry`,
-:mod:`.search`) from a :class:`~.search.History` of the evaluations. It
-keeps the bookkeeping, the step size, the surrogate cache and the state;
-the strategy only chooses. Every point handed out, finished, given up or
-stopped early joins the distance set A, so running points repel new ones
-and parallel workers never get the same point; only finished values enter
-the surrogate data B (section 3.6.2: a terminated run updates A but not B).
-Failed points additionally exclude a small ball around them.
+:mod:`.strategies`) from a :class:`~.strategies.base.History` of the
+evaluations. It keeps the bookkeeping and the step size; the strategy only
+chooses. Every point handed out, finished, given up or stopped early joins
+the distance set A, so running points repel new ones and parallel workers
+never get the same point; only finished values enter the surrogate data B
+(section 3.6.2: a terminated run updates A but not B). Failed points
+additionally exclude a small ball around them.
+
+The best-point rule (:mod:`.best`), the early-termination reference
+(:mod:`.early_termination`), the confirmation runs (:mod:`.confirmation`),
+the objective's surrogate (:mod:`.objective_surrogate`) and the JSON state
+(:mod:`.state`) each have their own module.
 
 Given the targets (``objective``, a :class:`~demcal.study.objective.ResponseObjective`),
 the optimizer also keeps each evaluation's responses (:mod:`.responses`):
@@ -21,7 +26,6 @@ early is not proposed again and again.
 
 from __future__ import annotations
 
-import json
 import math
 from collections import Counter
 from dataclasses import dataclass
@@ -32,17 +36,20 @@ from demcal.results.records import Status
 from demcal.study.objective import ResponseObjective, replicate_objectives
 
 from . import candidates as st
-from .bounds import Bounds, on_bounds
+from . import state
+from .best import best_point
+from .bounds import Bounds
+from .confirmation import confirmation_summary, confirmed_id
 from .designs import default_initial_size, initial_design
-from .early_termination import EarlyTerminationDecision, early_termination_decision
-from .registry import RESPONSE_STRATEGIES, STRATEGIES, strategy_class
+from .early_termination import EarlyTerminationDecision, early_termination_decision, reference
+from .objective_surrogate import fit_surrogate, training_data
+from .registry import STRATEGIES, strategy_class
 from .responses import ResponseModels, ResponsePredictor
-from .search import History, WeightCycle
 from .settings import OptimizerSettings
 from .stopping import stop_reason
-from .surrogates import Surrogate, make_surrogate
+from .strategies.base import History, WeightCycle
+from .surrogates.base import Surrogate
 
-STATE_VERSION = 1
 STATUSES = (Status.OK, Status.FAILED, Status.TERMINATED)
 
 
@@ -126,24 +133,25 @@ class Optimizer:
         self.weight_index = 0
         self.best_observed: float | None = None
         self.evaluations_without_improvement = 0
-        self._surrogate: Surrogate | None = None
-        self._surrogate_version = -1
         #: what a strategy must remember between proposals (saved with the state)
         self.strategy_state: dict = {}
         self.objective = objective
         self._check_objective()
-        self._response_models = self._new_response_models()
+        self._start_models()
 
     def _check_objective(self) -> None:
-        if self.objective is None and self.settings.strategy in RESPONSE_STRATEGIES:
+        if self.objective is None and STRATEGIES[self.settings.strategy].needs_targets:
             raise ValueError(
                 f"optimizer.strategy: {self.settings.strategy} works on the responses and "
                 f"needs the targets; give the Optimizer an objective"
             )
 
-    def _new_response_models(self) -> ResponseModels:
+    def _start_models(self) -> None:
+        """Empty caches of the objective's surrogate and the response models (not saved)."""
         s = self.settings
-        return ResponseModels(
+        self._surrogate: Surrogate | None = None
+        self._surrogate_version = -1
+        self._response_models = ResponseModels(
             s.response_model, s.duplicate_tolerance, s.kriging_restarts, self.seed
         )
 
@@ -217,7 +225,7 @@ class Optimizer:
             settings=self.settings,
             initial_size=self.initial_size,
             responses=self.response_predictor()
-            if self.settings.strategy in RESPONSE_STRATEGIES
+            if STRATEGIES[self.settings.strategy].needs_targets
             else None,
             response_means=tuple(
                 {
@@ -351,55 +359,14 @@ class Optimizer:
         return [r["id"] for r in self.records if r["status"] == Status.PENDING]
 
     def best(self) -> dict | None:
-        """The best evaluated point, and how it was chosen (``chosen_by``).
+        """The best evaluated point, and how it was chosen (``chosen_by``); see :mod:`.best`.
 
-        With response models (an objective and enough responses): the
-        evaluated point whose objective, applied to the models' predicted
-        responses, is lowest — noise-aware, since each model averages the
-        scatter of nearby simulations (``chosen_by`` "response models").
-        Otherwise each evaluated point is scored by the larger of its
-        observed value and the surrogate's prediction there, and the lowest
-        score wins: a lucky noisy sample (observed low, predicted high) is
-        passed over, and so is a point where a smoothing surrogate blurs a
-        sharp valley (``chosen_by`` "objective surrogate"). Once the best point
-        has been confirmed (:meth:`confirm`), it stays the answer. Returns x (real
-        units), value (observed, mean of replicates), predicted (the
-        objective predicted there), chosen_by, id, on_bounds (index and
-        "lower"/"upper" of each coordinate on a bound) and, with response
-        models, responses ({key: (predicted mean, sd)}); None before any value.
+        Once the best point has been confirmed (:meth:`confirm`), it stays
+        the answer. None before any value.
         """
-        finished = [r for r in self.records if r["status"] == Status.OK]
-        if not finished:
-            return None
-        observed = np.array([r["value"] for r in finished])
-        points = np.array([r["x"] for r in finished])
-        predictor = self.response_predictor()
-        if predictor is not None:
-            predicted = predictor.objective_mean(points)
-            index, chosen_by = int(np.argmin(predicted)), "response models"
-        else:
-            surrogate = self._fitted_surrogate()
-            predicted = observed if surrogate is None else surrogate.predict(points)
-            index, chosen_by = (
-                int(np.argmin(np.maximum(observed, predicted))),
-                "objective surrogate",
-            )
-        confirmed = next((r["confirms"] for r in self.records if "confirms" in r), None)
-        if confirmed is not None:  # the answer stays the point that was chosen and then confirmed
-            index = next((i for i, r in enumerate(finished) if r["id"] == confirmed), index)
-        record = finished[index]
-        best = {
-            "id": record["id"],
-            "x": self.bounds.from_unit(record["x"])[0].tolist(),
-            "value": record["value"],
-            "predicted": float(predicted[index]),
-            "chosen_by": chosen_by,
-            "on_bounds": on_bounds(record["x"]),
-        }
-        if predictor is not None:
-            means, stds = predictor.predict(points[index])
-            best["responses"] = {key: (float(means[key][0]), float(stds[key][0])) for key in means}
-        return best
+        return best_point(
+            self.records, self.bounds, self.response_predictor, self._fitted_surrogate
+        )
 
     def response_predictor(
         self, objective: ResponseObjective | None = None
@@ -440,7 +407,13 @@ class Optimizer:
         adaptive_budget = max(self.settings.max_evaluations - self.initial_size, 1)
         progress = (self.completed_evaluations() - self.initial_size) / adaptive_budget
         return early_termination_decision(
-            self._reference_for_stopping(),
+            reference(
+                self.best(),
+                self.best_observed,
+                self.records,
+                self.response_predictor,
+                self.objective,
+            ),
             partial_estimate,
             progress,
             in_initial_design=record["in_initial_design"],
@@ -451,33 +424,6 @@ class Optimizer:
             progress_boundaries=et.progress_boundaries,
         )
 
-    def _reference_for_stopping(self) -> float | None:
-        """The best objective a running evaluation is compared with (thesis eq. 3.4).
-
-        With response models: their best prediction at an evaluated point
-        plus the objective's noise floor, the mean objective of the models'
-        residuals at the evaluated points (what simulation noise alone adds
-        to a single run's objective). A lucky noisy sample does not set the
-        bar, and once the best prediction is below the noise, a run is not
-        stopped for being as noisy as every run is. Else the best observed
-        value.
-        """
-        best = self.best()
-        if best is None or best["chosen_by"] != "response models":
-            return self.best_observed
-        finished = [r for r in self.records if r["status"] == Status.OK and r.get("responses")]
-        if not finished:
-            return best["predicted"]
-        predicted, _ = self.response_predictor().predict(np.array([r["x"] for r in finished]))
-        residuals = {
-            key: np.array([np.mean(r["responses"][key]["values"]) for r in finished])
-            - predicted[key]
-            + target.value
-            for key, target in zip(self.objective.keys, self.objective.targets)
-        }
-        return best["predicted"] + float(np.mean(self.objective(residuals)))
-
-    # ------------------------------------------------------------ helpers
     # ------------------------------------------------------- confirmation
     def confirm(self) -> list[Proposal]:
         """Proposals that simulate the best point ``confirm_replicates`` more times; once per run.
@@ -488,7 +434,7 @@ class Optimizer:
         wanted, they were made already or there is no best point.
         """
         wanted, best = self.settings.confirm_replicates, self.best()
-        if not wanted or best is None or any("confirms" in r for r in self.records):
+        if not wanted or best is None or confirmed_id(self.records) is not None:
             return []
         unit = np.array(self._record(best["id"])["x"])
         proposals = [self._issue(unit, in_design=False) for _ in range(wanted)]
@@ -497,32 +443,8 @@ class Optimizer:
         return proposals
 
     def confirmation(self) -> dict | None:
-        """The confirmation runs so far: which point, their ids, pending count, and per response the
-        mean, sd and count of their replicate means; None before any confirmation."""
-        runs = [r for r in self.records if "confirms" in r]
-        if not runs:
-            return None
-        finished = [r for r in runs if r["status"] == Status.OK and r.get("responses")]
-        responses = {}
-        for key in self.objective.keys if self.objective else []:
-            means = [
-                float(np.mean(r["responses"][key]["values"]))
-                for r in finished
-                if key in r["responses"]
-            ]
-            if means:
-                responses[key] = {
-                    "mean": float(np.mean(means)),
-                    "sd": float(np.std(means, ddof=1)) if len(means) > 1 else 0.0,
-                    "count": len(means),
-                }
-        return {
-            "confirms": runs[0]["confirms"],
-            "ids": [r["id"] for r in runs],
-            "pending": sum(r["status"] == Status.PENDING for r in runs),
-            "failed": sum(r["status"] in (Status.FAILED, Status.TERMINATED) for r in runs),
-            "responses": responses,
-        }
+        """The confirmation runs so far (see :func:`.confirmation.confirmation_summary`)."""
+        return confirmation_summary(self.records, self.objective.keys if self.objective else [])
 
     def _record(self, id: int) -> dict:
         for record in self.records:
@@ -531,109 +453,25 @@ class Optimizer:
         raise ValueError(f"unknown evaluation id {id!r}")
 
     def _fitted_surrogate(self) -> Surrogate | None:
-        """The surrogate of the objective, refitted only when its data changed.
-
-        Its data: the finished values, and the objective of every stopped run
-        that completed all targeted responses (so a stopped region is known
-        to the surrogate, not proposed again).
-        """
-        finished = [r for r in self.records if r["status"] == Status.OK]
-        if len(finished) < self.bounds.dimension + 2:
+        """The surrogate of the objective (:mod:`.objective_surrogate`), refitted only when its data
+        changed."""
+        data = training_data(self.records, self.bounds.dimension, self.objective)
+        if data is None:
             return None
-        data = [
-            (r["x"], r["value"], r["variance"] or 0.0) for r in finished
-        ] + self._stopped_values()
         if self._surrogate_version != len(data):
-            s = self.settings
-            surrogate = make_surrogate(
-                s.surrogate_name, s.duplicate_tolerance, s.kriging_restarts, self.seed
-            )
-            x, y, variance = (np.array(column) for column in zip(*data))
-            self._surrogate = surrogate.fit(x, y, variance)
+            self._surrogate = fit_surrogate(self.settings, self.seed, data)
             self._surrogate_version = len(data)
         return self._surrogate
 
-    def _stopped_values(self) -> list[tuple[list[float], float, float]]:
-        """(x, objective, 0) of the stopped runs whose targeted responses were all final."""
-        if self.objective is None:
-            return []
-        keys = self.objective.keys
-        complete = [
-            r
-            for r in self.records
-            if r["status"] == Status.TERMINATED
-            and r.get("responses")
-            and all(key in r["responses"] and r["responses"][key]["final"] for key in keys)
-        ]
-        return [
-            (
-                r["x"],
-                float(
-                    self.objective({key: np.mean(r["responses"][key]["values"]) for key in keys})
-                ),
-                0.0,
-            )
-            for r in complete
-        ]
-
     # -------------------------------------------------------------- state
     def to_json(self) -> str:
-        """The whole state as JSON; :meth:`from_json` resumes to the same next proposal."""
-        state = {
-            "version": STATE_VERSION,
-            "lower": list(self.bounds.lower),
-            "upper": list(self.bounds.upper),
-            "settings": self.settings.to_dict(),
-            "seed": self.seed,
-            "workers": self.workers,
-            "initial_size": self.initial_size,
-            "design_queue": self.design_queue,
-            "records": self.records,
-            "next_id": self.next_id,
-            "step": {
-                "sigma": self.step.sigma,
-                "successes": self.step.successes,
-                "failures": self.step.failures,
-                "collapsed": self.step.collapsed,
-            },
-            "weight_index": self.weight_index,
-            "best_observed": self.best_observed,
-            "evaluations_without_improvement": self.evaluations_without_improvement,
-            "rng": self.rng.bit_generator.state,
-        }
-        if self.strategy_state:
-            state["strategy_state"] = self.strategy_state
-        if self.objective is not None:
-            state["objective"] = self.objective.to_dict()
-        return json.dumps(state)
+        """The whole state as JSON (:mod:`.state`); :meth:`from_json` resumes to the same next
+        proposal."""
+        return state.encode(self)
 
     @classmethod
     def from_json(cls, text: str) -> Optimizer:
-        state = json.loads(text)
-        if state.get("version") != STATE_VERSION:
-            raise ValueError(
-                f"optimizer state version {state.get('version')!r} is not {STATE_VERSION}"
-            )
         optimizer = cls.__new__(cls)
-        optimizer.bounds = Bounds.of(state["lower"], state["upper"])
-        optimizer.settings = OptimizerSettings.from_dict(state["settings"])
-        optimizer.seed = state["seed"]
-        optimizer.workers = state["workers"]
-        optimizer.rng = np.random.default_rng()
-        optimizer.rng.bit_generator.state = state["rng"]
-        optimizer.initial_size = state["initial_size"]
-        optimizer.design_queue = state["design_queue"]
-        optimizer.records = state["records"]
-        optimizer.next_id = state["next_id"]
-        optimizer.step = st.StepSize(**state["step"])
-        optimizer.weight_index = state["weight_index"]
-        optimizer.best_observed = state["best_observed"]
-        optimizer.evaluations_without_improvement = state["evaluations_without_improvement"]
-        optimizer._surrogate = None
-        optimizer._surrogate_version = -1
-        optimizer.strategy_state = state.get("strategy_state", {})
-        optimizer.objective = (
-            ResponseObjective.from_dict(state["objective"]) if "objective" in state else None
-        )
-        optimizer._response_models = optimizer._new_response_models()
+        vars(optimizer).update(state.decode(text))
+        optimizer._start_models()
         return optimizer

@@ -23,13 +23,8 @@ import numpy as np
 from demcal.results.records import Status
 from demcal.study.objective import ResponseObjective
 
-from .surrogates import (
-    CubicRBF,
-    KrigingSurrogate,
-    Surrogate,
-    cubic_rbf_system,
-    leave_one_out_errors,
-)
+from .registry import RESPONSE_MODELS
+from .surrogates.base import ResponseModel
 
 #: Standard deviation of an early estimate relative to its value, when a run
 #: stopped before the response was final (the calibration device's mass flow
@@ -90,55 +85,10 @@ def final_means(records: list[dict], key: str, dimension: int) -> tuple[np.ndarr
     )
 
 
-class ResponseRBF(CubicRBF):
-    """The cubic RBF for a response: values uncapped, and a standard deviation.
-
-    The standard deviation is the root mean square of the leave-one-out
-    errors (Rippa 1999), the same everywhere: a rough but honest measure
-    of how well the interpolant predicts a point it has not seen.
-    """
-
-    caps_large_values = False
-
-    def _fit_standardised(self, data) -> None:
-        super()._fit_standardised(data)
-        n, d = data.x.shape
-        if n >= d + 2:
-            system = cubic_rbf_system(data.x, self.chosen_smoothing + data.noise)
-            self.loo_rms = float(np.sqrt(np.mean(leave_one_out_errors(system, data.z) ** 2)))
-        else:
-            self.loo_rms = 1.0  # too few points to judge: one standard deviation of the data
-
-    def predict_std(self, x) -> np.ndarray:
-        x = np.atleast_2d(np.asarray(x, float))
-        if self.constant:
-            return np.zeros(len(x))
-        return np.full(len(x), self.data.scale * self.loo_rms)
-
-
 #: A Kriging response model is refitted from the last fit's length scales and
 #: nugget with one start; every this many refits, whenever the data grew by a
 #: quarter, and after a degenerate fit, with all ``kriging_restarts`` starts.
 FULL_REFIT_EVERY = 8
-
-
-def make_response_model(
-    kind: str,
-    duplicate_tolerance: float,
-    restarts: int,
-    seed: int,
-    warm_start: tuple[np.ndarray, float] | None = None,
-) -> Surrogate:
-    if kind == "kriging":
-        return KrigingSurrogate(
-            duplicate_tolerance,
-            restarts=1 if warm_start is not None else restarts,
-            seed=seed,
-            warm_start=warm_start,
-        )
-    if kind == "cubic_rbf":
-        return ResponseRBF(duplicate_tolerance)
-    raise ValueError(f"unknown response model {kind!r}")
 
 
 class ResponseModels:
@@ -147,13 +97,13 @@ class ResponseModels:
     def __init__(self, kind: str, duplicate_tolerance: float, restarts: int, seed: int):
         self.kind, self.duplicate_tolerance = kind, duplicate_tolerance
         self.restarts, self.seed = restarts, seed
-        self._fitted: dict[str, tuple[tuple, Surrogate]] = {}
+        self._fitted: dict[str, tuple[tuple, ResponseModel]] = {}
         #: per response: refits since the last full one, and the data size then
         self._since_full: dict[str, tuple[int, int]] = {}
 
     def fit(
         self, records: list[dict], keys: list[str], dimension: int
-    ) -> dict[str, Surrogate] | None:
+    ) -> dict[str, ResponseModel] | None:
         """The models of ``keys``, or None while some response has fewer than d + 2 points."""
         models = {}
         for key in keys:
@@ -165,9 +115,9 @@ class ResponseModels:
             if cached is None or cached[0] != signature:
                 refits, size = self._since_full.get(key, (0, 0))
                 due = cached is None or refits + 1 >= FULL_REFIT_EVERY or len(y) > 1.25 * size
-                start = None if due else getattr(cached[1], "warm_start", None)
-                model = make_response_model(
-                    self.kind, self.duplicate_tolerance, self.restarts, self.seed, warm_start=start
+                start = None if due else cached[1].warm_start
+                model = RESPONSE_MODELS.load(self.kind).create(
+                    self.duplicate_tolerance, self.restarts, self.seed, warm_start=start
                 )
                 self._fitted[key] = (signature, model.fit(x, y, variance))
                 self._since_full[key] = (0, len(y)) if start is None else (refits + 1, size)
@@ -179,7 +129,7 @@ class ResponseModels:
 class ResponsePredictor:
     """Response models with the objective on top: what the response strategies and best() use."""
 
-    models: dict[str, Surrogate]
+    models: dict[str, ResponseModel]
     objective: ResponseObjective
 
     def predict(self, x: np.ndarray) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:

@@ -13,14 +13,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-from .designs import DESIGNS
-from .registry import STRATEGIES
-from .surrogates import SURROGATE_MODELS
-
-SURROGATES = tuple(SURROGATE_MODELS)
-#: Models of each response for the response strategies and the best point (demcal.optimizer.responses)
-RESPONSE_MODELS = ("kriging", "cubic_rbf")
-INITIAL_DESIGNS = tuple(DESIGNS)
+from .registry import DESIGNS, RESPONSE_MODELS, STRATEGIES, SURROGATES
 
 
 @dataclass(frozen=True)
@@ -43,7 +36,8 @@ class OptimizerSettings:
     """Everything that tunes the optimizer; build it with :meth:`from_dict`.
 
     Step sizes and distances are in the unit box (each parameter scaled to
-    [0, 1]). ``strategy``: a name in :data:`.registry.STRATEGIES`.
+    [0, 1]). ``strategy``, ``surrogate``, ``response_model`` and
+    ``initial_design`` name entries of the registries in :mod:`.registry`.
     ``initial_size`` None means 2d+1 plus one point per worker
     (Samuelsson 2023, section 3.7: q + P). ``surrogate`` None means the
     strategy's own (registered with it): cubic_rbf for dycors, kriging for
@@ -131,15 +125,15 @@ class OptimizerSettings:
         """Raise ValueError naming the key, the value and what is allowed."""
         _choice("strategy", self.strategy, tuple(STRATEGIES))
         if self.surrogate is not None:
-            _choice("surrogate", self.surrogate, SURROGATES)
+            _choice("surrogate", self.surrogate, tuple(SURROGATES))
             usable = STRATEGIES[self.strategy].surrogates
             if usable is not None and self.surrogate not in usable:
                 raise ValueError(
                     f"optimizer.surrogate: {self.surrogate!r} cannot serve strategy {self.strategy}; "
                     f"it needs {' or '.join(usable)} (or leave surrogate unset)"
                 )
-        _choice("initial_design", self.initial_design, INITIAL_DESIGNS)
-        _choice("response_model", self.response_model, RESPONSE_MODELS)
+        _choice("initial_design", self.initial_design, tuple(DESIGNS))
+        _choice("response_model", self.response_model, tuple(RESPONSE_MODELS))
         if self.initial_size is not None:
             _integer("initial_size", self.initial_size, 2, None)
         _integer("design_tries", self.design_tries, 1, None)

@@ -21,7 +21,7 @@ import yaml
 from demcal.engines import make_engine
 from demcal.errors import ConfigError
 from demcal.optimizer import OptimizerSettings
-from demcal.optimizer.registry import RESPONSE_STRATEGIES
+from demcal.optimizer.registry import STRATEGIES
 from demcal.physics.timestep import RAYLEIGH_PARAMETERS, check_fraction
 from demcal.resources import SCHEMA_PATH
 from demcal.scenes import SCENES, Scene
@@ -117,7 +117,7 @@ def _scenes_of(config: dict) -> dict[str, Scene]:
                 f"scenes.{name}: settings given for a scene no target uses; "
                 f"targeted scenes: {', '.join(sorted(set(names)))}"
             )
-    return {name: SCENES[name] for name in dict.fromkeys(names)}
+    return {name: SCENES.load(name) for name in dict.fromkeys(names)}
 
 
 def _targets(config: dict, scenes: dict[str, Scene]) -> list[Target]:
@@ -308,7 +308,7 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
         )
     except ValueError as exc:
         raise ConfigError(str(exc)) from None
-    if cost_weight > 0.0 and optimizer.strategy in RESPONSE_STRATEGIES:
+    if cost_weight > 0.0 and STRATEGIES[optimizer.strategy].needs_targets:
         raise ConfigError(
             f"optimizer.strategy: {optimizer.strategy} does not model the Rayleigh "
             f"time-step cost yet; with rayleigh_cost_weight {cost_weight:g} use "

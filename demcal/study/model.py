@@ -218,7 +218,7 @@ def study_from_record(record: dict) -> Study:
     return Study(
         name=record["study"],
         engine=make_engine(engine.pop("name"), engine),
-        scenes={scene["name"]: SCENES[scene["name"]] for scene in record["scenes"]},
+        scenes={scene["name"]: SCENES.load(scene["name"]) for scene in record["scenes"]},
         settings={scene["name"]: scene["settings"] for scene in record["scenes"]},
         free=[
             FreeParameter(CATALOG[p["name"]], p["lower"], p["upper"]) for p in record["parameters"]

@@ -3,7 +3,9 @@ import pytest
 
 from demcal.optimizer import History, Optimizer, OptimizerSettings, Strategy, register_strategy
 from demcal.optimizer.registry import STRATEGIES, strategy_class
-from demcal.optimizer.search import CandidateSearch, Dycors, KrigingEI
+from demcal.optimizer.strategies.base import CandidateSearch
+from demcal.optimizer.strategies.dycors import Dycors
+from demcal.optimizer.strategies.kriging_ei import KrigingEI
 
 
 @pytest.fixture

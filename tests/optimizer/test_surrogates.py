@@ -2,13 +2,10 @@ import numpy as np
 import pytest
 from scipy.interpolate import RBFInterpolator
 
-from demcal.optimizer.surrogates import (
-    CubicRBF,
-    KrigingSurrogate,
-    SMTRadialBasis,
-    cap_at_median,
-    merge_duplicates,
-)
+from demcal.optimizer.surrogates.base import cap_at_median, merge_duplicates
+from demcal.optimizer.surrogates.cubic_rbf import CubicRBF
+from demcal.optimizer.surrogates.kriging import KrigingSurrogate
+from demcal.optimizer.surrogates.smt_rbf import SMTRadialBasis
 
 
 def smooth(x):

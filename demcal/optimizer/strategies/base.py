@@ -1,20 +1,13 @@
-"""Search strategies: the protocol, the data each one receives, and the built-in two.
+"""What strategies share: the :class:`Strategy` protocol, the :class:`History`, a candidate search.
 
 A strategy chooses the next adaptive point (after the initial design) from a
 :class:`History`, a frozen view of everything the optimizer knows, built
 afresh for each proposal. Strategies keep no state of their own: what must
-persist (random stream, weight cycle, step size) belongs to the optimizer
-and is saved in its JSON state. The math is in :mod:`.strategies`.
-
-* :class:`Dycors` — MSRS/DYCORS (Samuelsson 2023, Algorithm 4): perturbation
-  candidates scored by weighted surrogate value and distance.
-* :class:`KrigingEI` — perturbation and uniform candidates scored by expected
-  improvement, damped near running points (Samuelsson 2023, sec. 2.2.2.3).
-
-Both run the same candidate search (:class:`CandidateSearch`) and differ in
-the candidates they add and in how they pick one. Adding a strategy: subclass
-:class:`Strategy` (or :class:`CandidateSearch`), then register it by name in
-:mod:`.registry`.
+persist (random stream, weight cycle, step size, ``strategy_state``) belongs
+to the optimizer and is saved in its JSON state. :class:`CandidateSearch` is
+the candidate search of Samuelsson (2023), Algorithm 4, that
+:class:`~.dycors.Dycors` and :class:`~.kriging_ei.KrigingEI` complete with
+their choice of candidate; the maths is in :mod:`..candidates`.
 """
 
 from __future__ import annotations
@@ -25,10 +18,10 @@ import numpy as np
 
 from demcal.results.records import Status
 
-from . import candidates as st
-from .responses import ResponsePredictor
-from .settings import OptimizerSettings
-from .surrogates import Surrogate
+from .. import candidates as st
+from ..responses import ResponsePredictor
+from ..settings import OptimizerSettings
+from ..surrogates.base import Surrogate
 
 
 class WeightCycle:
@@ -60,7 +53,7 @@ class History:
     and :attr:`handed_out` place the proposal in the budget.
 
     ``responses``: the response models with the objective on top (a
-    :class:`~.responses.ResponsePredictor`) for the response strategies;
+    :class:`~demcal.optimizer.responses.ResponsePredictor`) for the response strategies;
     None for the others and while some response has too few observations.
     ``response_means``: per evaluation, its replicate-mean responses where it
     finished ok (else None). ``strategy_state``: the optimizer's mutable,
@@ -178,99 +171,3 @@ class CandidateSearch(Strategy):
     ) -> np.ndarray:
         """One of the admissible ``candidates``; the last is the surrogate minimum when ``polished``."""
         raise NotImplementedError
-
-
-class Dycors(CandidateSearch):
-    """MSRS/DYCORS: lowest weighted score of surrogate value and distance (Algorithm 4, steps c–e).
-
-    With ``polish_candidate``, the surrogate minimum is taken as it is at
-    the most exploitative weight and in the last ``final_exploitation``
-    share of the budget.
-    """
-
-    def choose(
-        self, history: History, candidates: np.ndarray, weight: float, polished: bool
-    ) -> np.ndarray:
-        s = history.settings
-        final = history.handed_out >= s.max_evaluations * (1.0 - s.final_exploitation)
-        if polished and (weight == max(s.weights) or final):
-            return candidates[-1]
-        scores = st.weighted_scores(
-            history.surrogate.predict(candidates),
-            st.nearest_distances(candidates, history.points),
-            weight,
-        )
-        return candidates[int(np.argmin(scores))]
-
-
-class KrigingEI(CandidateSearch):
-    """Highest expected improvement over the best prediction, damped within sigma of running points."""
-
-    def candidates(self, history: History, center: np.ndarray) -> np.ndarray:
-        perturbed = super().candidates(history, center)
-        uniform = st.uniform_candidates(history.settings.candidates, history.dimension, history.rng)
-        return np.vstack([perturbed, uniform])
-
-    def choose(
-        self, history: History, candidates: np.ndarray, weight: float, polished: bool
-    ) -> np.ndarray:
-        surrogate = history.surrogate
-        observed_best = float(np.min(surrogate.predict(history.select(Status.OK))))
-        improvement = st.expected_improvement(
-            surrogate.predict(candidates), surrogate.predict_std(candidates), observed_best
-        )
-        damping = st.pending_damping(candidates, history.select(Status.PENDING), history.sigma)
-        return candidates[int(np.argmax(improvement * damping))]
-
-
-class ResponseEI(Strategy):
-    """Expected improvement of the objective computed from one model per response.
-
-    Candidates as DYCORS makes them (perturbations of the best point, with
-    the DYCORS step size and coordinate probability) plus as many uniform
-    ones; each is scored by the expected improvement of the objective
-    applied to the responses' posteriors (Monte Carlo, see
-    :meth:`~.responses.ResponsePredictor.expected_improvement`), damped
-    within sigma of running points. The best point is the evaluated one
-    with the lowest predicted objective. Without response models yet, or
-    without an admissible candidate, the point is space filling.
-    """
-
-    def propose(self, history: History) -> np.ndarray:
-        predictor = history.responses
-        finished = history.select(Status.OK)
-        if predictor is None or len(finished) == 0:
-            return history.space_filling_point()
-        predicted = predictor.objective_mean(finished)
-        center = finished[int(np.argmin(predicted))]
-        s = history.settings
-        probability = st.perturbation_probability(
-            history.dimension, history.evaluated, history.initial_size, s.max_evaluations
-        )
-        candidates = np.vstack(
-            [
-                st.perturbation_candidates(
-                    center, history.sigma, s.candidates, probability, history.rng
-                ),
-                st.uniform_candidates(s.candidates, history.dimension, history.rng),
-            ]
-        )
-        keep = st.admissible(
-            candidates,
-            history.points,
-            s.min_distance,
-            history.select(Status.FAILED),
-            s.failed_exclusion_radius,
-        )
-        if not keep.any():
-            return history.space_filling_point()
-        candidates = candidates[keep]
-        improvement = predictor.expected_improvement(
-            candidates, float(np.min(predicted)), history.rng
-        )
-        score = improvement * st.pending_damping(
-            candidates, history.select(Status.PENDING), history.sigma
-        )
-        if not np.any(score > 0.0):  # no improvement expected anywhere: exploit the prediction
-            return candidates[int(np.argmin(predictor.objective_mean(candidates)))]
-        return candidates[int(np.argmax(score))]

@@ -35,8 +35,8 @@ from scipy.optimize import least_squares
 from demcal.results.records import Status
 from demcal.study.objective import weighted_residuals
 
-from .responses import ResponsePredictor
-from .search import History, Strategy
+from ..responses import ResponsePredictor
+from .base import History, Strategy
 
 #: Forward finite-difference step in the unit box: large enough that simulation noise does not
 #: swamp the difference (Octave's default of 0.1 % of the value would measure only noise).

@@ -1,0 +1,74 @@
+"""The best point: which evaluated point a calibration answers with, and how it was chosen.
+
+With response models (an objective and enough responses), the evaluated
+point whose objective, applied to the models' predicted responses, is
+lowest: noise-aware, since each model averages the scatter of nearby
+simulations. Otherwise each evaluated point is scored by the larger of its
+observed value and the objective surrogate's prediction there, and the
+lowest score wins: a lucky noisy sample (observed low, predicted high) is
+passed over, and so is a point where a smoothing surrogate blurs a sharp
+valley. A point chosen and then confirmed (:mod:`.confirmation`) stays the
+answer.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from demcal.results.records import Status
+
+from .bounds import Bounds, on_bounds
+from .confirmation import confirmed_id
+from .responses import ResponsePredictor
+from .surrogates.base import Surrogate
+
+
+def best_point(
+    records: list[dict],
+    bounds: Bounds,
+    predictor: Callable[[], ResponsePredictor | None],
+    surrogate: Callable[[], Surrogate | None],
+) -> dict | None:
+    """The best evaluated point (see the module docstring); None before any value.
+
+    ``predictor`` and ``surrogate`` give the fitted models when asked, each
+    only if needed. Returns x (real units), value (observed, mean of
+    replicates), predicted (the objective predicted there), chosen_by
+    ("response models" or "objective surrogate"), id, on_bounds (index and
+    "lower"/"upper" of each coordinate on a bound) and, with response
+    models, responses ({key: (predicted mean, sd)}).
+    """
+    finished = [r for r in records if r["status"] == Status.OK]
+    if not finished:
+        return None
+    observed = np.array([r["value"] for r in finished])
+    points = np.array([r["x"] for r in finished])
+    models = predictor()
+    if models is not None:
+        predicted = models.objective_mean(points)
+        index, chosen_by = int(np.argmin(predicted)), "response models"
+    else:
+        fitted = surrogate()
+        predicted = observed if fitted is None else fitted.predict(points)
+        index, chosen_by = (
+            int(np.argmin(np.maximum(observed, predicted))),
+            "objective surrogate",
+        )
+    confirmed = confirmed_id(records)
+    if confirmed is not None:  # the answer stays the point that was chosen and then confirmed
+        index = next((i for i, r in enumerate(finished) if r["id"] == confirmed), index)
+    record = finished[index]
+    best = {
+        "id": record["id"],
+        "x": bounds.from_unit(record["x"])[0].tolist(),
+        "value": record["value"],
+        "predicted": float(predicted[index]),
+        "chosen_by": chosen_by,
+        "on_bounds": on_bounds(record["x"]),
+    }
+    if models is not None:
+        means, stds = models.predict(points[index])
+        best["responses"] = {key: (float(means[key][0]), float(stds[key][0])) for key in means}
+    return best

@@ -1,0 +1,67 @@
+"""The surrogate of the objective: its training data and its fit.
+
+Its data are the finished values (with the variance of each, from
+replicates) and, given the targets, the objective of every stopped run that
+completed all targeted responses, so that a region stopped early is known
+to the surrogate and not proposed again. The optimizer refits it only when
+this data grew or changed.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from demcal.results.records import Status
+from demcal.study.objective import ResponseObjective
+
+from .registry import SURROGATES
+from .settings import OptimizerSettings
+from .surrogates.base import Surrogate
+
+
+def training_data(
+    records: list[dict], dimension: int, objective: ResponseObjective | None
+) -> list[tuple[list[float], float, float]] | None:
+    """(x, value, variance) of every point the surrogate learns from; None while fewer than
+    d + 2 evaluations finished ok."""
+    finished = [r for r in records if r["status"] == Status.OK]
+    if len(finished) < dimension + 2:
+        return None
+    return [(r["x"], r["value"], r["variance"] or 0.0) for r in finished] + stopped_values(
+        records, objective
+    )
+
+
+def stopped_values(
+    records: list[dict], objective: ResponseObjective | None
+) -> list[tuple[list[float], float, float]]:
+    """(x, objective, 0) of the stopped runs whose targeted responses were all final."""
+    if objective is None:
+        return []
+    keys = objective.keys
+    complete = [
+        r
+        for r in records
+        if r["status"] == Status.TERMINATED
+        and r.get("responses")
+        and all(key in r["responses"] and r["responses"][key]["final"] for key in keys)
+    ]
+    return [
+        (
+            r["x"],
+            float(objective({key: np.mean(r["responses"][key]["values"]) for key in keys})),
+            0.0,
+        )
+        for r in complete
+    ]
+
+
+def fit_surrogate(
+    settings: OptimizerSettings, seed: int, data: list[tuple[list[float], float, float]]
+) -> Surrogate:
+    """The surrogate named in ``settings`` fitted on ``data`` (see :func:`training_data`)."""
+    surrogate = SURROGATES.load(settings.surrogate_name).create(
+        settings.duplicate_tolerance, settings.kriging_restarts, seed
+    )
+    x, y, variance = (np.array(column) for column in zip(*data))
+    return surrogate.fit(x, y, variance)

@@ -1,0 +1,90 @@
+"""The optimizer's saved state (``optimizer.json``): what :meth:`~.optimizer.Optimizer.to_json`
+writes and :meth:`~.optimizer.Optimizer.from_json` reads back.
+
+One JSON object, format version 1: the bounds, settings, seed, workers,
+initial design (its size and the points not yet handed out), the records,
+the next id, the step size, the weight index, the best value and the
+evaluations without improvement, the random generator's state, and, when
+present, what the strategy remembers (``strategy_state``) and the objective.
+Resuming from it gives the same next proposal.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from demcal.study.objective import ResponseObjective
+
+from .bounds import Bounds
+from .candidates import StepSize
+from .settings import OptimizerSettings
+
+if TYPE_CHECKING:
+    from .optimizer import Optimizer
+
+STATE_VERSION = 1
+
+
+def encode(optimizer: Optimizer) -> str:
+    """The optimizer's state as JSON text."""
+    state = {
+        "version": STATE_VERSION,
+        "lower": list(optimizer.bounds.lower),
+        "upper": list(optimizer.bounds.upper),
+        "settings": optimizer.settings.to_dict(),
+        "seed": optimizer.seed,
+        "workers": optimizer.workers,
+        "initial_size": optimizer.initial_size,
+        "design_queue": optimizer.design_queue,
+        "records": optimizer.records,
+        "next_id": optimizer.next_id,
+        "step": {
+            "sigma": optimizer.step.sigma,
+            "successes": optimizer.step.successes,
+            "failures": optimizer.step.failures,
+            "collapsed": optimizer.step.collapsed,
+        },
+        "weight_index": optimizer.weight_index,
+        "best_observed": optimizer.best_observed,
+        "evaluations_without_improvement": optimizer.evaluations_without_improvement,
+        "rng": optimizer.rng.bit_generator.state,
+    }
+    if optimizer.strategy_state:
+        state["strategy_state"] = optimizer.strategy_state
+    if optimizer.objective is not None:
+        state["objective"] = optimizer.objective.to_dict()
+    return json.dumps(state)
+
+
+def decode(text: str) -> dict[str, Any]:
+    """The saved attributes of an optimizer by name, from :func:`encode`'s text.
+
+    Raises ValueError for another format version.
+    """
+    state = json.loads(text)
+    if state.get("version") != STATE_VERSION:
+        raise ValueError(f"optimizer state version {state.get('version')!r} is not {STATE_VERSION}")
+    rng = np.random.default_rng()
+    rng.bit_generator.state = state["rng"]
+    return {
+        "bounds": Bounds.of(state["lower"], state["upper"]),
+        "settings": OptimizerSettings.from_dict(state["settings"]),
+        "seed": state["seed"],
+        "workers": state["workers"],
+        "rng": rng,
+        "initial_size": state["initial_size"],
+        "design_queue": state["design_queue"],
+        "records": state["records"],
+        "next_id": state["next_id"],
+        "step": StepSize(**state["step"]),
+        "weight_index": state["weight_index"],
+        "best_observed": state["best_observed"],
+        "evaluations_without_improvement": state["evaluations_without_improvement"],
+        "strategy_state": state.get("strategy_state", {}),
+        "objective": (
+            ResponseObjective.from_dict(state["objective"]) if "objective" in state else None
+        ),
+    }

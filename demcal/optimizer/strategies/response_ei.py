@@ -1,0 +1,63 @@
+"""Expected improvement of the objective computed from one model per response (Monte Carlo)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from demcal.results.records import Status
+
+from .. import candidates as st
+from .base import History, Strategy
+
+
+class ResponseEI(Strategy):
+    """Expected improvement of the objective computed from one model per response.
+
+    Candidates as DYCORS makes them (perturbations of the best point, with
+    the DYCORS step size and coordinate probability) plus as many uniform
+    ones; each is scored by the expected improvement of the objective
+    applied to the responses' posteriors (Monte Carlo, see
+    :meth:`~demcal.optimizer.responses.ResponsePredictor.expected_improvement`), damped
+    within sigma of running points. The best point is the evaluated one
+    with the lowest predicted objective. Without response models yet, or
+    without an admissible candidate, the point is space filling.
+    """
+
+    def propose(self, history: History) -> np.ndarray:
+        predictor = history.responses
+        finished = history.select(Status.OK)
+        if predictor is None or len(finished) == 0:
+            return history.space_filling_point()
+        predicted = predictor.objective_mean(finished)
+        center = finished[int(np.argmin(predicted))]
+        s = history.settings
+        probability = st.perturbation_probability(
+            history.dimension, history.evaluated, history.initial_size, s.max_evaluations
+        )
+        candidates = np.vstack(
+            [
+                st.perturbation_candidates(
+                    center, history.sigma, s.candidates, probability, history.rng
+                ),
+                st.uniform_candidates(s.candidates, history.dimension, history.rng),
+            ]
+        )
+        keep = st.admissible(
+            candidates,
+            history.points,
+            s.min_distance,
+            history.select(Status.FAILED),
+            s.failed_exclusion_radius,
+        )
+        if not keep.any():
+            return history.space_filling_point()
+        candidates = candidates[keep]
+        improvement = predictor.expected_improvement(
+            candidates, float(np.min(predicted)), history.rng
+        )
+        score = improvement * st.pending_damping(
+            candidates, history.select(Status.PENDING), history.sigma
+        )
+        if not np.any(score > 0.0):  # no improvement expected anywhere: exploit the prediction
+            return candidates[int(np.argmin(predictor.objective_mean(candidates)))]
+        return candidates[int(np.argmax(score))]

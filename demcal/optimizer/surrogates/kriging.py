@@ -1,0 +1,116 @@
+"""Universal Kriging (Rackl & Hanley 2017): SMT's KRG, Matérn 5/2 kernel, linear drift, nugget.
+
+Both an objective surrogate and a response model: it predicts a standard
+deviation, and a refit can start from the previous fit's hyperparameters.
+It gets the values uncapped: its nugget estimate would absorb a capped
+plateau as noise.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from .base import ResponseModel, TrainingData
+
+#: A Kriging nugget (relative to the process variance) this large leaves only the trend.
+DEGENERATE_NUGGET = 1e6
+#: The nugget search starts at least here (a start at ~0 stays at an interpolating fit).
+NUGGET_START_MIN = 1e-6
+
+
+class KrigingSurrogate(ResponseModel):
+    """Universal Kriging (Rackl & Hanley 2017): SMT KRG, Matérn 5/2, linear drift, nugget.
+
+    The nugget (``eval_noise``) is estimated by maximum likelihood; the mean
+    replicate variance, when given, is its starting value. A ``warm_start``
+    (length scales, nugget) of a previous fit starts the search there instead.
+    """
+
+    caps_large_values = False  # capping plus a nugget made the fit mostly trend and noise
+
+    def __init__(
+        self,
+        duplicate_tolerance: float = 1e-7,
+        restarts: int = 5,
+        seed: int = 0,
+        warm_start: tuple[np.ndarray, float] | None = None,
+    ):
+        super().__init__(duplicate_tolerance)
+        self.restarts = restarts
+        self.seed = seed
+        #: start of the hyperparameter search, (length scales, nugget): a previous fit's optimum
+        self.start = warm_start
+
+    @classmethod
+    def create(
+        cls,
+        duplicate_tolerance: float,
+        restarts: int = 5,
+        seed: int = 0,
+        warm_start: tuple[np.ndarray, float] | None = None,
+    ) -> KrigingSurrogate:
+        """With a ``warm_start``, one start of the hyperparameter search, else ``restarts``."""
+        return cls(
+            duplicate_tolerance,
+            restarts=1 if warm_start is not None else restarts,
+            seed=seed,
+            warm_start=warm_start,
+        )
+
+    def _fit_standardised(self, data: TrainingData) -> None:
+        from smt.surrogate_models import KRG
+
+        n, d = data.x.shape
+        trend = "linear" if n > 2 * (d + 1) else "constant"
+        self.model = KRG(
+            corr="matern52",
+            poly=trend,
+            eval_noise=True,
+            noise0=[
+                max(
+                    float(np.mean(data.noise)) if self.start is None else self.start[1],
+                    NUGGET_START_MIN,
+                )
+            ],
+            hyper_opt="Cobyla",
+            n_start=self.restarts,
+            seed=self.seed,
+            print_global=False,
+            **(
+                {}
+                if self.start is None or len(self.start[0]) != d
+                else {"theta0": list(self.start[0])}
+            ),
+        )
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            self.model.set_training_values(data.x, data.z)
+            self.model.train()
+
+    def _predict_standardised(self, x: np.ndarray) -> np.ndarray:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return self.model.predict_values(x).ravel()
+
+    @property
+    def warm_start(self) -> tuple[np.ndarray, float] | None:
+        """(length scales, nugget) of this fit, to start the next fit from; None when there is
+        nothing to start from or the fit is degenerate (a nugget so large that only the trend
+        is left: a start there stays there)."""
+        if self.constant:
+            return None
+        nugget = float(np.ravel(self.model.optimal_noise)[0])
+        if nugget >= DEGENERATE_NUGGET:
+            return None
+        return np.asarray(self.model.optimal_theta, float), nugget
+
+    def predict_std(self, x) -> np.ndarray:
+        x = np.atleast_2d(np.asarray(x, float))
+        if self.constant:
+            return np.zeros(len(x))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            variance = self.model.predict_variances(x).ravel()
+        return self.data.scale * np.sqrt(np.maximum(variance, 0.0))

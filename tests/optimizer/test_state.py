@@ -1,0 +1,36 @@
+"""The saved state: optimizer.json files written before the optimizer was split into modules."""
+
+from pathlib import Path
+
+import pytest
+
+from demcal.optimizer import Optimizer
+
+DATA = Path(__file__).parent / "data"
+
+#: The next proposals (real units) of the code that wrote each file, before the split.
+NEXT = {
+    "dycors": [
+        [0.3375338014600896, 0.24787244151699875],
+        [0.32413929057408264, 0.21708551892153702],
+    ],
+    "response_ei_rbf": [
+        [0.4112225546491818, 0.08939486697870042],
+        [0.32038770808619266, 0.19070340117929233],
+    ],
+    "rackl_hanley": [[0.3922372662365762, 0.11954322746177108]],
+}
+
+
+@pytest.mark.parametrize("name", sorted(NEXT))
+def test_an_old_state_loads_saves_byte_for_byte_and_resumes_to_the_same_proposals(name):
+    text = (DATA / f"optimizer_v1_{name}.json").read_text()
+    optimizer = Optimizer.from_json(text)
+    assert optimizer.to_json() == text
+    assert [proposal.x for proposal in optimizer.ask(2)] == NEXT[name]
+
+
+def test_another_state_version_is_refused():
+    text = (DATA / "optimizer_v1_dycors.json").read_text().replace('"version": 1', '"version": 2')
+    with pytest.raises(ValueError, match="optimizer state version 2 is not 1"):
+        Optimizer.from_json(text)
