@@ -6,19 +6,6 @@
 # daemon watches this Snakemake's pid and ends when it is gone, so a killed
 # Snakemake leaves no orphan that holds the study.
 
-from demcal.resources import PROFILES_DIR
-
-
-def invocation_profile():
-    """The --profile this Snakemake was started with (or $SNAKEMAKE_PROFILE), else local."""
-    args = sys.argv
-    for i, arg in enumerate(args):
-        if arg == "--profile" and i + 1 < len(args):
-            return os.path.abspath(args[i + 1])
-        if arg.startswith("--profile="):
-            return os.path.abspath(arg.split("=", 1)[1])
-    return os.path.abspath(os.environ.get("SNAKEMAKE_PROFILE", PROFILES_DIR / "local"))
-
 
 rule calibrate:
     input:
