@@ -15,6 +15,6 @@ include: "workflow/Snakefile"
 # An included file's default target does not carry over; name it here.
 rule default:
     default_target: True
-    localrule: True
     input:
         rules.all.input,
+    localrule: True

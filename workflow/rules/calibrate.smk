@@ -6,8 +6,6 @@
 # daemon watches this Snakemake's pid and ends when it is gone, so a killed
 # Snakemake leaves no orphan that holds the study.
 
-from demcal.workflow import invocation_profile
-
 
 rule calibrate:
     input:

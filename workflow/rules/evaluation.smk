@@ -2,6 +2,8 @@
 # the slurm profile); extract and objective are cheap and run locally. Every
 # job reads the frozen study (params.study_file), never the YAML.
 
+from demcal.jobs.evaluation import response_paths
+
 EVAL = FILES.evaluation("{evaluation}")
 REPLICATE = EVAL.replicate("{scene}", "{replicate}")
 CENTRE = FILES.evaluation("centre")
@@ -30,15 +32,9 @@ rule centre_point:
         "../../scripts/centre_point.py"
 
 
-def replicate_responses(wildcards):
-    evaluation = FILES.evaluation(wildcards.evaluation)
-    return [str(evaluation.replicate(scene, r).responses)
-            for scene in STUDY.scenes for r in range(STUDY.replicates)]
-
-
 rule objective:
     input:
-        replicate_responses,
+        lambda w: [str(path) for path in response_paths(STUDY, w.evaluation)],
     output:
         str(EVAL.objective),
     log:
@@ -69,10 +65,10 @@ rule simulate:
         str(REPLICATE.simulation),
     log:
         str(EVAL.job_log("simulate", "{scene}", "{replicate}")),
-    params:
-        study_file=STUDY_FILE,
     threads: 1
     resources:
         mem_mb=500,
+    params:
+        study_file=STUDY_FILE,
     script:
         "../../scripts/simulate.py"
