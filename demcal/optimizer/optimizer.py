@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from demcal.results.records import Status
-from demcal.study.objective import ResponseObjective, replicate_objectives
+from demcal.study.objective import ResponseObjective
 
 from . import candidates as st
 from . import state
@@ -289,12 +289,14 @@ class Optimizer:
         self._update_progress(record)
 
     def _objective_of(self, responses: dict[str, list[float]]) -> tuple[float, list[float] | None]:
-        """The objective of replicate-mean responses, and per replicate when the counts agree."""
-        objective = self.objective
-        value = float(objective({key: float(np.mean(responses[key])) for key in objective.keys}))
-        return value, replicate_objectives(
-            objective.targets, responses, 0.0, objective.form
-        ) or None
+        """The objective of the replicates' responses, and per replicate when the counts agree
+        (the study's one computation, :class:`~demcal.study.objective.ResponseObjective`)."""
+        targeted = {key: responses[key] for key in self.objective.keys}
+        try:
+            value = self.objective.of_replicates(targeted)
+        except ValueError:  # not finite: recorded as failed
+            value = math.nan
+        return value, self.objective.per_replicate(targeted) or None
 
     def reopen(self, id: int) -> None:
         """Make a told evaluation pending again, to be rerun and told anew (rerun on request).
