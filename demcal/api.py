@@ -108,17 +108,16 @@ def open(where: str | Path) -> Results:
 class Results:
     """The results of one study on disk (``results/<study>/``), as a notebook reads them.
 
-    Every attribute but ``study`` is read from the files when it is asked for, so a
-    calibration still running shows its progress.
+    ``study`` is the frozen study (``study.json``) the calibration ran, with
+    ``study.files`` the paths of this folder. Every other attribute is read from the
+    files when it is asked for, so a calibration still running shows its progress.
     """
 
-    #: the frozen study (``study.json``) the calibration ran; ``study.files`` are the paths
-    #: of this folder
     study: Study
 
     @property
     def files(self) -> StudyFiles:
-        """The paths of the results files (:class:`demcal.results.layout.StudyFiles`)."""
+        """The paths of the results files ([`StudyFiles`][demcal.results.layout.StudyFiles])."""
         return self.study.files
 
     @property
@@ -161,7 +160,7 @@ class Results:
     @property
     def optimizer(self) -> Optimizer:
         """The optimizer as the calibration left it (``optimizer.json``); its ask/tell is
-        public (:mod:`demcal.optimizer`)."""
+        public ([`demcal.optimizer`][demcal.optimizer])."""
         from demcal.optimizer import Optimizer
 
         path = self.files.optimizer
@@ -172,12 +171,13 @@ class Results:
     @property
     def figures(self) -> dict[str, Path]:
         """The figures in ``plots/`` by name (``objective_vs_evaluation``, ...): those of the
-        report (``snakemake``), of ``demcal solutions`` and of :meth:`draw_figures`."""
+        report (``snakemake``), of ``demcal solutions`` and of
+        [`draw_figures`][demcal.api.Results.draw_figures]."""
         return {path.stem: path for path in sorted(self.files.plots.glob("*.png"))}
 
     def draw_figures(self) -> dict[str, Path]:
         """Draw the report's figures of the calibration into ``plots/`` (``demcal run``
-        alone makes none); returns :attr:`figures`."""
+        alone makes none); returns [`figures`][demcal.api.Results.figures]."""
         from demcal.reporting.figures import write_plots
 
         write_plots(self.study, self.files.plots)
@@ -193,8 +193,8 @@ class Results:
             seed: seed of the sampling.
 
         Returns:
-            The accepted parameter sets (``.points()``, ``.solutions``), the verdict per
-            parameter (``.verdicts``) and the Sobol indices (``.sensitivity``).
+            The accepted parameter sets (``.points()``, ``.solutions``), the verdict
+                per parameter (``.verdicts``) and the Sobol indices (``.sensitivity``).
         """
         from demcal.analysis.solution_report import analyse
 
@@ -215,7 +215,8 @@ def load(path: str | Path) -> StudyFile:
         path: the study's YAML file.
 
     Returns:
-        Its facts (name, free parameters, targets) and :meth:`StudyFile.run`.
+        Its facts (name, free parameters, targets) and
+            [`StudyFile.run`][demcal.api.StudyFile.run].
 
     Raises:
         ConfigError: the file is missing or invalid; the message names the field, its
@@ -226,11 +227,14 @@ def load(path: str | Path) -> StudyFile:
 
 @dataclass(frozen=True, repr=False)
 class StudyFile:
-    """A validated study file: what it calibrates, and :meth:`run` to calibrate it."""
+    """A validated study file: what it calibrates, and [`run`][demcal.api.StudyFile.run]
+    to calibrate it.
 
-    #: the YAML file
+    ``path`` is the YAML file, ``study`` the study as the file gives it, every default
+    filled in (frozen only when it runs).
+    """
+
     path: Path
-    #: the study as the file gives it, every default filled in (not yet frozen)
     study: Study
 
     @property
@@ -268,7 +272,8 @@ class StudyFile:
 
     @property
     def warnings(self) -> list[str]:
-        """What the validation warned about (said again on stderr by :meth:`run`)."""
+        """What the validation warned about (said again on stderr by
+        [`run`][demcal.api.StudyFile.run])."""
         return list(self.study.warnings)
 
     def run(self, workers: int | None = None, profile: str | Path | None = None) -> Results:
@@ -286,7 +291,7 @@ class StudyFile:
                 ``profiles/local``).
 
         Returns:
-            The calibration's results (:func:`open`).
+            The calibration's results ([`open`][demcal.api.open]).
         """
         import sys
 
