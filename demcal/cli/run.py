@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 import pandas as pd
@@ -20,6 +21,9 @@ from demcal.results.records import BestRecord, ObjectiveRecord
 from demcal.study.config import load_study_file
 from demcal.study.model import Study, freeze, load_frozen
 from demcal.workflow import child_cores, profile_settings
+
+#: Lines of the calibration's daemon.log.
+DAEMON_LOG_FORMAT = "%(asctime)s %(levelname)s %(message)s"
 
 #: Evaluations in flight when neither the study, the command line nor the profile says.
 DEFAULT_WORKERS = 2
@@ -48,22 +52,53 @@ def run(args) -> int:
 
 
 def _run(args, log) -> int:
-    # the workflow hands over the study it froze (and warned about); a YAML is frozen here
-    study = load_frozen(args.config) if args.frozen else load_study_file(args.config)
     profile = Path(args.profile) if args.profile else None
-    lock = lock_study(study, args.watch_pid)  # noqa: F841  (held until the process ends)
-    if not args.frozen:
-        for warning in study.warnings:
-            _say(f"demcal: warning: {warning}", log)
-        study = freeze(study)  # from here on: the study as the jobs read it
-    logging.basicConfig(
-        filename=study.files.daemon_log,
-        level=logging.INFO,
-        format="%(asctime)s %(levelname)s %(message)s",
-    )
-    workers = _workers(study, profile, args.workers)
+    with locked_study(args.config, args.frozen, args.watch_pid, log) as study:
+        logging.basicConfig(
+            filename=study.files.daemon_log,
+            level=logging.INFO,
+            format=DAEMON_LOG_FORMAT,
+        )
+        try:
+            reason = calibrate(study, profile, args.workers, args.watch_pid, log)
+        except KeyboardInterrupt:
+            return 130
+        print(f"demcal: calibration of {study.name!r} finished: {reason}")
+        print_best(study)
+    return 0
+
+
+@contextlib.contextmanager
+def locked_study(
+    config: str | Path, frozen: bool = False, watch_pid: int | None = None, log=None
+) -> Iterator[Study]:
+    """The study of ``config`` as its jobs will read it, with the study's daemon lock held
+    inside the block. A YAML is validated, its warnings said, and frozen under the lock; with
+    ``frozen`` (the workflow's calibrate rule), ``config`` is the study.json it froze."""
+    study = load_frozen(config) if frozen else load_study_file(config)
+    with contextlib.closing(lock_study(study, watch_pid)):
+        if not frozen:
+            for warning in study.warnings:
+                _say(f"demcal: warning: {warning}", log)
+            study = freeze(study)  # from here on: the study as the jobs read it
+        yield study
+
+
+def calibrate(
+    study: Study,
+    profile: Path | None,
+    workers: int | None = None,
+    watch_pid: int | None = None,
+    log=None,
+) -> str:
+    """Run the calibration of a frozen study whose lock is held (:func:`locked_study`) until it
+    ends, one child Snakemake per evaluation with ``profile``; return why it ended.
+
+    The progress goes to stderr (and ``log``). An interrupt (Ctrl-C) says what keeps running
+    and is raised again."""
+    workers = _workers(study, profile, workers)
     launcher = SnakemakeLauncher(study.files.study, profile, child_cores(profile, workers))
-    calibration = Calibration(study, launcher, workers, watch_pid=args.watch_pid)
+    calibration = Calibration(study, launcher, workers, watch_pid=watch_pid)
     display = ProgressDisplay(sys.stderr, log)
     try:
         reason = calibration.run(display)
@@ -74,11 +109,9 @@ def _run(args, log) -> int:
             f"and are collected by the next 'demcal run' ('demcal stop' stops them)",
             log,
         )
-        return 130
+        raise
     display.close()
-    print(f"demcal: calibration of {study.name!r} finished: {reason}")
-    print_best(study)
-    return 0
+    return reason
 
 
 @contextlib.contextmanager

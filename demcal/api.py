@@ -1,0 +1,332 @@
+"""demcal from Python, for notebooks: open a study's results, load and run a study file.
+
+```python
+import demcal
+
+results = demcal.open("results/quickstart")  # or demcal.open("quickstart")
+results.evaluations  # a pandas DataFrame, units in .attrs["units"]
+results.best  # the best point (BestRecord), None before any evaluation succeeded
+results.solutions()  # the parameter sets that meet the targets
+
+study = demcal.load("config/examples/analytic.yaml")  # validated as `demcal run` does
+study.parameters, study.targets  # the free parameters with bounds, the targets
+results = study.run(workers=2)  # calibrates as `demcal run` does, then opens its results
+```
+
+Errors are ``DemcalError``s whose message is meant for the user as it stands:
+a study file's are ``ConfigError``s that name the field, as on the command
+line. ``results/`` is relative to the working directory, as for the
+``demcal`` command: a notebook runs its studies in the folder it was started
+in, unless it changes folder.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import logging
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import pandas as pd  # type: ignore[import-untyped]  # (no pandas-stubs in the lock)
+
+from demcal.errors import ConfigError, DemcalError
+from demcal.results.layout import RESULTS, StudyFiles
+from demcal.results.records import BestRecord, FinishedRecord
+from demcal.results.tables import evaluation_columns
+from demcal.study.config import load_study_file
+from demcal.study.model import Study, load_frozen
+
+if TYPE_CHECKING:
+    from demcal.analysis.solution_report import SolutionAnalysis
+    from demcal.optimizer import Optimizer
+
+__all__ = ["Results", "StudyFile", "load", "open"]
+
+#: The columns of evaluations.csv that hold times (ISO 8601 in UTC).
+TIME_COLUMNS = ("started_at", "ended_at")
+
+
+@dataclass
+class _StudyIn(Study):
+    """A frozen study whose results folder is ``folder``, wherever it lies (``Study.files``
+    is ``results/<name>`` under the working directory)."""
+
+    folder: Path = RESULTS
+
+    @property
+    def files(self) -> StudyFiles:
+        return StudyFiles(self.folder)
+
+
+def _results_folder(where: str | Path) -> Path:
+    """The folder ``where`` names: itself, else ``results/<where>`` for a study's name."""
+    path = Path(where)
+    if path.is_dir():
+        return path
+    if path.exists():
+        raise DemcalError(
+            f"{path} is a file, not a results folder (a study's results are in "
+            f"results/<study>/; demcal.load() reads a study file)"
+        )
+    if len(path.parts) == 1:  # a study's name
+        named = StudyFiles.of(path.name).dir
+        if named.is_dir():
+            return named
+        raise DemcalError(f"no results folder {path} nor {named}: the study has not run here")
+    raise DemcalError(f"no results folder {path}: the study has not run here")
+
+
+def open(where: str | Path) -> Results:
+    """The results of a calibration: its folder, or a study's name under ``results/``.
+
+    Args:
+        where: ``results/<study>`` (any path to such a folder) or the study's name.
+
+    Returns:
+        The study's results, read from disk whenever an attribute is read.
+
+    Raises:
+        DemcalError: the folder does not exist, or it is not a demcal results folder
+            (it has no ``study.json``); the message names the path and what is missing.
+    """
+    folder = _results_folder(where).resolve()
+    frozen = StudyFiles(folder).study
+    if not frozen.is_file():
+        raise DemcalError(
+            f"{folder} is not the results folder of a demcal study: {frozen.name} is "
+            f"missing (a calibration writes it when it starts)"
+        )
+    study = load_frozen(frozen)
+    fields = {f.name: getattr(study, f.name) for f in dataclasses.fields(study)}
+    return Results(_StudyIn(**fields, folder=folder))
+
+
+@dataclass(frozen=True, repr=False)
+class Results:
+    """The results of one study on disk (``results/<study>/``), as a notebook reads them.
+
+    ``study`` is the frozen study (``study.json``) the calibration ran, with
+    ``study.files`` the paths of this folder. Every other attribute is read from the
+    files when it is asked for, so a calibration still running shows its progress.
+    """
+
+    study: Study
+
+    @property
+    def files(self) -> StudyFiles:
+        """The paths of the results files ([`StudyFiles`][demcal.results.layout.StudyFiles])."""
+        return self.study.files
+
+    @property
+    def evaluations(self) -> pd.DataFrame:
+        """``evaluations.csv``: one row per evaluation (parameters, responses per replicate,
+        objective, status, times, cost).
+
+        ``attrs["units"]`` maps each column to its unit (``evaluations.columns.csv``);
+        ``started_at`` and ``ended_at`` are datetimes in UTC (NaT while unknown).
+        """
+        files = self.files
+        if not files.evaluations_csv.is_file():
+            raise DemcalError(
+                f"{files.evaluations_csv} is missing: study {self.study.name!r} has no "
+                f"evaluations yet"
+            )
+        table = pd.read_csv(files.evaluations_csv)
+        for column in TIME_COLUMNS:
+            table[column] = pd.to_datetime(table[column], utc=True)
+        if files.evaluations_columns.is_file():
+            columns = pd.read_csv(files.evaluations_columns, dtype=str, keep_default_na=False)
+            units = dict(zip(columns["column"], columns["unit"]))
+        else:  # a folder written before the sidecar existed: the study's own columns
+            units = {column: unit for column, unit, _ in evaluation_columns(self.study)}
+        table.attrs["units"] = units
+        return table
+
+    @property
+    def best(self) -> BestRecord | None:
+        """The best point so far (``best.json``); None while no evaluation has succeeded."""
+        return BestRecord.read(self.files.best) if self.files.best.exists() else None
+
+    @property
+    def finished(self) -> FinishedRecord | None:
+        """Why the calibration ended (``finished.json``); None while it runs or was
+        interrupted."""
+        files = self.files
+        return FinishedRecord.read(files.finished) if files.finished.exists() else None
+
+    @property
+    def optimizer(self) -> Optimizer:
+        """The optimizer as the calibration left it (``optimizer.json``); its ask/tell is
+        public ([`demcal.optimizer`][demcal.optimizer])."""
+        from demcal.optimizer import Optimizer
+
+        path = self.files.optimizer
+        if not path.is_file():
+            raise DemcalError(f"{path} is missing: study {self.study.name!r} has not started")
+        return Optimizer.from_json(path.read_text())
+
+    @property
+    def figures(self) -> dict[str, Path]:
+        """The figures in ``plots/`` by name (``objective_vs_evaluation``, ...): those of the
+        report (``snakemake``), of ``demcal solutions`` and of
+        [`draw_figures`][demcal.api.Results.draw_figures]."""
+        return {path.stem: path for path in sorted(self.files.plots.glob("*.png"))}
+
+    def draw_figures(self) -> dict[str, Path]:
+        """Draw the report's figures of the calibration into ``plots/`` (``demcal run``
+        alone makes none); returns [`figures`][demcal.api.Results.figures]."""
+        from demcal.reporting.figures import write_plots
+
+        write_plots(self.study, self.files.plots)
+        return self.figures
+
+    def solutions(self, k: float = 2.0, samples: int = 2**16, seed: int = 0) -> SolutionAnalysis:
+        """The solution space, as ``demcal solutions`` finds it (without writing files).
+
+        Args:
+            k: tolerance in combined standard deviations (target spread, simulation
+                noise and model sd).
+            samples: Sobol points sampled over the parameter box (at least 64).
+            seed: seed of the sampling.
+
+        Returns:
+            The accepted parameter sets (``.points()``, ``.solutions``), the verdict
+                per parameter (``.verdicts``) and the Sobol indices (``.sensitivity``).
+        """
+        from demcal.analysis.solution_report import analyse
+
+        if not (k > 0 and samples >= 64):
+            raise ConfigError(f"solutions: k {k} must be > 0 and samples {samples} at least 64")
+        return analyse(self.study, k, samples, seed)
+
+    def __repr__(self) -> str:
+        finished = self.finished
+        state = "not finished" if finished is None else f"finished: {finished.reason}"
+        return f"<demcal results of {self.study.name!r} in {self.files.dir} ({state})>"
+
+
+def load(path: str | Path) -> StudyFile:
+    """A study file, validated as ``demcal run`` validates it.
+
+    Args:
+        path: the study's YAML file.
+
+    Returns:
+        Its facts (name, free parameters, targets) and
+            [`StudyFile.run`][demcal.api.StudyFile.run].
+
+    Raises:
+        ConfigError: the file is missing or invalid; the message names the field, its
+            value and what is allowed.
+    """
+    return StudyFile(Path(path), load_study_file(path))
+
+
+@dataclass(frozen=True, repr=False)
+class StudyFile:
+    """A validated study file: what it calibrates, and [`run`][demcal.api.StudyFile.run]
+    to calibrate it.
+
+    ``path`` is the YAML file, ``study`` the study as the file gives it, every default
+    filled in (frozen only when it runs).
+    """
+
+    path: Path
+    study: Study
+
+    @property
+    def name(self) -> str:
+        return self.study.name
+
+    @property
+    def parameters(self) -> pd.DataFrame:
+        """The free parameters: ``lower`` and ``upper`` bound and ``unit``, by name."""
+        return pd.DataFrame(
+            [(p.name, p.lower, p.upper, p.spec.unit) for p in self.study.free],
+            columns=["parameter", "lower", "upper", "unit"],
+        ).set_index("parameter")
+
+    @property
+    def targets(self) -> pd.DataFrame:
+        """The targets: scene, response, ``value``, ``unit``, ``weight`` and ``spread`` (the
+        measurement's sd, None if not given), by ``scene.response``."""
+        study = self.study
+        return pd.DataFrame(
+            [
+                (
+                    t.key,
+                    t.scene,
+                    t.response,
+                    t.value,
+                    study.scenes[t.scene].responses[t.response].unit,
+                    t.weight,
+                    t.spread,
+                )
+                for t in study.targets
+            ],
+            columns=["target", "scene", "response", "value", "unit", "weight", "spread"],
+        ).set_index("target")
+
+    @property
+    def warnings(self) -> list[str]:
+        """What the validation warned about (said again on stderr by
+        [`run`][demcal.api.StudyFile.run])."""
+        return list(self.study.warnings)
+
+    def run(self, workers: int | None = None, profile: str | Path | None = None) -> Results:
+        """Calibrate the study as ``demcal run`` does, or resume its calibration.
+
+        The file is read again, checked against an earlier calibration of the same study
+        (``results/<study>/study.json``), frozen, and calibrated under the study's lock, one
+        child Snakemake per evaluation. The progress goes to stderr. An interrupt stops
+        waiting; the running evaluations go on and the next run collects them.
+
+        Args:
+            workers: evaluations in flight (default: the study's ``calibration.workers``,
+                else the profile's ``jobs``, else 2).
+            profile: the Snakemake profile of the evaluations (default: demcal's
+                ``profiles/local``).
+
+        Returns:
+            The calibration's results ([`open`][demcal.api.open]).
+        """
+        import sys
+
+        from demcal.cli.run import calibrate, locked_study
+        from demcal.workflow import LOCAL_PROFILE
+
+        chosen = LOCAL_PROFILE if profile is None else Path(profile)
+        with locked_study(self.path) as study, _daemon_log(study):
+            reason = calibrate(study, chosen, workers)
+        print(f"demcal: calibration of {study.name!r} finished: {reason}", file=sys.stderr)
+        return open(study.files.dir)
+
+    def __repr__(self) -> str:
+        free, targets = len(self.study.free), len(self.study.targets)
+        return (
+            f"<demcal study {self.name!r} from {self.path}: {free} free parameters, "
+            f"{targets} targets>"
+        )
+
+
+@contextlib.contextmanager
+def _daemon_log(study: Study) -> Iterator[None]:
+    """The calibration's log messages in its ``daemon.log`` while the block runs (the
+    ``demcal`` command sets this up once per process; a notebook may run several studies)."""
+    from demcal.cli.run import DAEMON_LOG_FORMAT
+
+    logger = logging.getLogger("demcal")
+    handler = logging.FileHandler(study.files.daemon_log)
+    handler.setFormatter(logging.Formatter(DAEMON_LOG_FORMAT))
+    level = logger.level
+    logger.addHandler(handler)
+    logger.setLevel(logging.INFO)
+    try:
+        yield
+    finally:
+        logger.removeHandler(handler)
+        logger.setLevel(level)
+        handler.close()

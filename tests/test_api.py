@@ -1,0 +1,177 @@
+"""The Python API (demcal.open, demcal.load): results read back, errors named, a study run."""
+
+from __future__ import annotations
+
+import json
+import logging
+import subprocess
+import sys
+
+import pandas as pd
+import pytest
+import yaml
+from conftest import ANALYTIC_STUDY
+from test_calibration_loop import calibrate, config
+
+import demcal
+from demcal.errors import ConfigError, DemcalError
+from demcal.results.records import BestRecord
+
+
+@pytest.fixture
+def calibrated(tmp_path, monkeypatch):
+    """A finished calibration of 8 evaluations in tmp_path/results/unit (in-process)."""
+    monkeypatch.chdir(tmp_path)
+    study = config()
+    study["optimizer"]["response_model"] = "cubic_rbf"  # the fast model: no Kriging fits
+    _, _, reason = calibrate(study)
+    return tmp_path / "results" / "unit", reason
+
+
+def test_open_reads_every_result_of_a_calibration(calibrated):
+    folder, reason = calibrated
+    results = demcal.open("results/unit")
+    assert results.files.dir == folder and demcal.open("unit").files.dir == folder
+    assert results.study.name == "unit" and [p.name for p in results.study.free] == [
+        "sliding_friction_pp",
+        "rolling_friction_pp",
+    ]
+    table = results.evaluations
+    assert list(table["evaluation"]) == [f"e{i:04d}" for i in range(8)]
+    assert set(table["status"]) == {"ok"} and table["objective"].notna().all()
+    units = table.attrs["units"]
+    assert list(units) == list(table.columns)
+    assert units["rolling_friction_pp"] == "-" and units["cylinder_lift.angle_of_repose"] == "deg"
+    assert units["cylinder_lift.bulk_density.rep1"] == "kg/m^3" and units["wall_s"] == "s"
+    # times in UTC; the in-process launcher writes no launch.json, so no start time
+    assert str(table["started_at"].dt.tz) == str(table["ended_at"].dt.tz) == "UTC"
+    assert table["ended_at"].notna().all() and table["started_at"].isna().all()
+    assert results.best == BestRecord.read(folder / "best.json")
+    row = table.set_index("evaluation").loc[results.best.evaluation]
+    assert row["objective"] == pytest.approx(results.best.objective, rel=1e-6)  # 7 digits
+    assert results.finished.reason == reason == "evaluation budget reached (8 of 8)"
+    optimizer = results.optimizer
+    assert optimizer.completed_evaluations() == 8 and optimizer.ask() == []  # budget spent
+    assert "unit" in repr(results) and reason in repr(results)
+
+
+def test_figures_and_solutions_land_in_the_folder_wherever_it_is(calibrated, tmp_path, monkeypatch):
+    """Opened from another working directory: the figures go to the study's plots/, and the
+    solution space is read from its optimizer.json, not from ./results/."""
+    folder, _ = calibrated
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    results = demcal.open(folder)
+    assert results.figures == {}
+    figures = results.draw_figures()
+    assert "objective_vs_evaluation" in figures and figures == results.figures
+    assert all(path.parent == folder / "plots" and path.is_file() for path in figures.values())
+    assert not (elsewhere / "results").exists()
+    analysis = results.solutions(samples=256)
+    assert [verdict.name for verdict in analysis.verdicts] == analysis.names
+    assert analysis.points().shape[1] == 2
+    with pytest.raises(ConfigError, match="samples 8 at least 64"):
+        results.solutions(samples=8)
+
+
+def test_units_come_from_the_study_when_the_sidecar_is_missing(calibrated):
+    folder, _ = calibrated
+    units = demcal.open(folder).evaluations.attrs["units"]
+    (folder / "evaluations.columns.csv").unlink()
+    assert demcal.open(folder).evaluations.attrs["units"] == units
+
+
+def test_a_study_not_run_yet_has_no_best_and_says_what_is_missing(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    from demcal.study.config import load_study
+    from demcal.study.model import freeze
+
+    freeze(load_study(dict(ANALYTIC_STUDY)))
+    results = demcal.open("unit")
+    assert results.best is None and results.finished is None and results.figures == {}
+    with pytest.raises(DemcalError, match=r"evaluations.csv is missing: study 'unit' has no"):
+        _ = results.evaluations
+    with pytest.raises(DemcalError, match=r"optimizer.json is missing"):
+        _ = results.optimizer
+
+
+def test_open_names_the_path_and_what_is_missing(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(DemcalError, match=r"no results folder results/nothing: "):
+        demcal.open("results/nothing")
+    with pytest.raises(DemcalError, match=r"no results folder nothing nor results/nothing"):
+        demcal.open("nothing")
+    (tmp_path / "plain").mkdir()
+    with pytest.raises(DemcalError, match=rf"{tmp_path}/plain is not .* study.json is missing"):
+        demcal.open("plain")
+    (tmp_path / "study.yaml").write_text("study: x\n")
+    with pytest.raises(DemcalError, match=r"study.yaml is a file, not a results folder"):
+        demcal.open("study.yaml")
+
+
+def write_study(path, **changes):
+    study = {
+        **ANALYTIC_STUDY,
+        "study": "tiny",
+        "engine": {"name": "analytic", "noise": 0.0, "duration": 0.0},
+        "replicates": 1,
+        "optimizer": {"max_evaluations": 2, "response_model": "cubic_rbf"},
+        "calibration": {"poll_seconds": 0.2},
+        **changes,
+    }
+    path.write_text(yaml.safe_dump(study))
+    return path
+
+
+def test_load_gives_the_study_facts(tmp_path):
+    study = demcal.load(write_study(tmp_path / "tiny.yaml"))
+    assert study.name == "tiny" and study.warnings == []
+    assert study.parameters.to_dict("index") == {
+        "sliding_friction_pp": {"lower": 0.1, "upper": 0.9, "unit": "-"},
+        "rolling_friction_pp": {"lower": 0.02, "upper": 0.3, "unit": "-"},
+    }
+    targets = study.targets
+    assert list(targets.index) == ["cylinder_lift.angle_of_repose", "cylinder_lift.bulk_density"]
+    assert list(targets["unit"]) == ["deg", "kg/m^3"] and list(targets["value"]) == [25.0, 1450.0]
+    assert "2 free parameters, 2 targets" in repr(study)
+
+
+def test_load_names_the_bad_field_as_the_command_line_does(tmp_path):
+    bad = write_study(tmp_path / "bad.yaml", engine={"name": "analytic", "duration": -2})
+    with pytest.raises(ConfigError, match=r"engine.duration: -2 must be >= 0"):
+        demcal.load(bad)
+    with pytest.raises(ConfigError, match=r"configuration file not found: .*missing.yaml"):
+        demcal.load(tmp_path / "missing.yaml")
+
+
+def test_import_demcal_stays_light():
+    code = (
+        "import sys, demcal; heavy = {'pandas', 'scipy', 'demcal.api'} & set(sys.modules); "
+        "print(sorted(heavy)); print(demcal.open.__module__)"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout
+    assert out.split("\n")[:2] == ["[]", "demcal.api"]
+
+
+@pytest.mark.slow
+def test_load_run_calibrates_as_demcal_run_and_opens_the_results(tmp_path, monkeypatch):
+    """Two evaluations through child Snakemakes (each tens of seconds on a loaded machine)."""
+    monkeypatch.chdir(tmp_path)
+    study = demcal.load(write_study(tmp_path / "tiny.yaml"))
+    results = study.run(workers=2)
+    assert results.files.dir == tmp_path / "results" / "tiny"
+    assert results.finished.reason == "evaluation budget reached (2 of 2)"
+    table = results.evaluations
+    assert list(table["status"]) == ["ok", "ok"]
+    assert (table["ended_at"] > table["started_at"]).all()  # both known, as datetimes
+    assert results.best is not None and results.best.evaluation in ("e0000", "e0001")
+    assert json.loads((results.files.dir / "study.json").read_text())["study"] == "tiny"
+    assert "INFO launched e0001" in (results.files.dir / "daemon.log").read_text()
+    assert logging.getLogger("demcal").handlers == []  # the daemon.log handler is gone
+    # the lock is released: a second run in the same process resumes (nothing left to do)
+    again = study.run()
+    assert again.finished.reason == "evaluation budget reached (2 of 2)"
+    pd.testing.assert_frame_equal(again.evaluations, results.evaluations)
