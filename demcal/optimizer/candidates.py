@@ -47,7 +47,8 @@ def perturbation_probability(
 def perturbation_candidates(
     center: np.ndarray, sigma: float, count: int, probability: float, rng: np.random.Generator
 ) -> np.ndarray:
-    """Candidates y = x* + N(0, sigma^2) on randomly chosen coordinates (Samuelsson 2023, sec. 3.5.1.2).
+    """Candidates y = x* + N(0, sigma^2) on randomly chosen coordinates
+    (Samuelsson 2023, sec. 3.5.1.2).
 
     Each coordinate is perturbed with ``probability`` and at least one per
     candidate; points leaving the unit box are reflected back into it.
@@ -140,7 +141,8 @@ def space_filling_point(
     count: int,
     rng: np.random.Generator,
 ) -> np.ndarray:
-    """The farthest from the distance set of ``count`` uniform candidates, preferring those clear of failed points."""
+    """The farthest from the distance set of ``count`` uniform candidates, preferring those
+    clear of failed points."""
     candidates = uniform_candidates(count, distance_set.shape[1], rng)
     if len(failed):
         keep = nearest_distances(candidates, failed) > failed_radius
@@ -158,7 +160,8 @@ def expected_improvement(mean: np.ndarray, std: np.ndarray, best: float) -> np.n
 
 
 def pending_damping(candidates: np.ndarray, pending: np.ndarray, radius: float) -> np.ndarray:
-    """Factor in [0, 1] that grows linearly with distance to the nearest running point up to ``radius``.
+    """Factor in [0, 1] that grows linearly with distance to the nearest running point, up to
+    ``radius``.
 
     Running points are not in the Kriging data; damping EI near them keeps
     parallel workers apart.

@@ -187,7 +187,8 @@ class Optimizer:
         return Proposal(record["id"], self.bounds.from_unit(unit)[0].tolist(), in_design)
 
     def add_point(self, x: list[float]) -> Proposal:
-        """A point given by hand (a colleague's, a previous best): pending, evaluated like any other.
+        """A point given by hand (a colleague's, a previous best): pending, evaluated like any
+        other.
 
         Raises ValueError if it lies outside the bounds. It counts towards the
         budget and, once told, joins every model's data.
@@ -373,7 +374,8 @@ class Optimizer:
     def response_predictor(
         self, objective: ResponseObjective | None = None
     ) -> ResponsePredictor | None:
-        """The models of the targeted responses with ``objective`` (default: the optimizer's) on top.
+        """The models of the targeted responses with ``objective`` (default: the optimizer's) on
+        top.
 
         Inputs in the unit box. None without an objective or while some
         targeted response has fewer than d + 2 observations.

@@ -129,7 +129,8 @@ class OptimizerSettings:
             usable = STRATEGIES[self.strategy].surrogates
             if usable is not None and self.surrogate not in usable:
                 raise ValueError(
-                    f"optimizer.surrogate: {self.surrogate!r} cannot serve strategy {self.strategy}; "
+                    f"optimizer.surrogate: {self.surrogate!r} cannot serve strategy "
+                    f"{self.strategy}; "
                     f"it needs {' or '.join(usable)} (or leave surrogate unset)"
                 )
         _choice("initial_design", self.initial_design, tuple(DESIGNS))

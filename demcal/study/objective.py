@@ -29,7 +29,8 @@ from typing import TypeVar
 import numpy as np
 
 OBJECTIVE_FORMS = ("relative", "precision")
-#: The form a study gets when it names none and its targets have no spreads (``Study.objective_form``).
+#: The form a study gets when it names none and its targets have no spreads
+#: (``Study.objective_form``).
 DEFAULT_FORM = "relative"
 
 #: A response as a number, or as an array of them (model predictions, posterior samples).
@@ -167,7 +168,8 @@ class ResponseObjective:
         return replicate_objectives(list(self.targets), dict(replicates), cost, self.form)
 
     def estimate(self, estimates: Mapping[str, list[float]], cost: float = 0.0) -> float | None:
-        """The objective of a running evaluation from its early estimates (``estimated_objective``)."""
+        """The objective of a running evaluation from its early estimates
+        (``estimated_objective``)."""
         return estimated_objective(list(self.targets), dict(estimates), cost, self.form)
 
     def to_dict(self) -> dict:

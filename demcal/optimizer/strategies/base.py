@@ -169,5 +169,6 @@ class CandidateSearch(Strategy):
     def choose(
         self, history: History, candidates: np.ndarray, weight: float, polished: bool
     ) -> np.ndarray:
-        """One of the admissible ``candidates``; the last is the surrogate minimum when ``polished``."""
+        """One of the admissible ``candidates``; the last is the surrogate minimum when
+        ``polished``."""
         raise NotImplementedError

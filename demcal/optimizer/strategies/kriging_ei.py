@@ -12,7 +12,8 @@ from .base import CandidateSearch, History
 
 
 class KrigingEI(CandidateSearch):
-    """Highest expected improvement over the best prediction, damped within sigma of running points."""
+    """Highest expected improvement over the best prediction, damped within sigma of running
+    points."""
 
     def candidates(self, history: History, center: np.ndarray) -> np.ndarray:
         perturbed = super().candidates(history, center)

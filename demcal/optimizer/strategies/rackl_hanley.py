@@ -43,7 +43,8 @@ from .base import History, Strategy
 FD_STEP = 0.05
 #: Stop when an accepted step lowers the objective by less than this share (Rackl & Hanley 2017).
 IMPROVEMENT_TO_CONTINUE = 0.02
-#: Marquardt's damping: start, factor on rejection (and 1/factor on acceptance), largest before giving up.
+#: Marquardt's damping: start, factor on rejection (and 1/factor on acceptance), largest before
+#: giving up.
 DAMPING_START, DAMPING_FACTOR, DAMPING_MAX = 1e-2, 10.0, 1e6
 #: Steps shorter than this (unit box) cannot move the iterate any more.
 SMALLEST_STEP = 1e-6
