@@ -1,8 +1,8 @@
 """Packaging beyond pyproject.toml: the workflow files travel inside the package.
 
-The Snakefile, rules, report captions, schema, job scripts and profiles live
+The Snakefile, rules, job scripts, report captions, schema and profiles live
 at the top of the source tree (where Snakemake users expect them); a wheel
-carries them as ``demcal/project/{workflow,scripts,profiles}``, where
+carries them as ``demcal/project/{workflow,profiles}``, where
 ``demcal.resources`` finds them when there is no source tree.
 """
 
@@ -11,9 +11,8 @@ from setuptools import find_packages, setup
 PROJECT_FILES = {
     "demcal.project.workflow": (
         "workflow",
-        ["Snakefile", "rules/*.smk", "report/*.rst", "schemas/*.yaml"],
+        ["Snakefile", "rules/*.smk", "scripts/*.py", "report/*.rst", "schemas/*.yaml"],
     ),
-    "demcal.project.scripts": ("scripts", ["*.py"]),
     "demcal.project.profiles": ("profiles", ["*/config.yaml"]),
 }
 

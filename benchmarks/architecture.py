@@ -39,7 +39,10 @@ RESULT_FILES = (
 
 
 def python_sources(root: Path) -> list[Path]:
-    return sorted([*root.joinpath("demcal").rglob("*.py"), *root.joinpath("scripts").glob("*.py")])
+    scripts = root / "workflow" / "scripts"  # top-level scripts/ before the second step
+    if not scripts.is_dir():
+        scripts = root / "scripts"
+    return sorted([*root.joinpath("demcal").rglob("*.py"), *scripts.glob("*.py")])
 
 
 def literals(tree: ast.AST) -> list[str]:

@@ -1,7 +1,7 @@
 """Where demcal finds its workflow files: the Snakefile, rules, scripts, schema and profiles.
 
 In a source checkout (``pip install -e .``) they are the checkout's own
-``workflow/``, ``scripts/`` and ``profiles/``; an installed wheel carries the
+``workflow/`` (with its rules and job scripts) and ``profiles/``; an installed wheel carries the
 same files inside the package (``demcal/project/``, see pyproject.toml). One
 root serves both, found once here.
 """

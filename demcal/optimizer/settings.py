@@ -38,6 +38,10 @@ class OptimizerSettings:
     Step sizes and distances are in the unit box (each parameter scaled to
     [0, 1]). ``strategy``, ``surrogate``, ``response_model`` and
     ``initial_design`` name entries of the registries in :mod:`.registry`.
+    ``strategy`` defaults to dycors, which needs no targets: the default of
+    the optimizer on its own. A study's default is its schema's
+    (response_ei; dycors with a Rayleigh cost term), set by
+    :func:`demcal.study.config.load_study`.
     ``initial_size`` None means 2d+1 plus one point per worker
     (Samuelsson 2023, section 3.7: q + P). ``surrogate`` None means the
     strategy's own (registered with it): cubic_rbf for dycors, kriging for

@@ -54,18 +54,15 @@ class Status(enum.StrEnum):
       early termination or ``demcal stop``). The optimizer keeps the point in
       its distance set only; what the run completed or estimated enters the
       response models.
-    - ``PENDING``: the optimizer's word for an evaluation handed out and not
-      yet told.
-    - ``RUNNING``: the evaluations table's word (``StudyFiles.evaluations_csv``)
-      for an evaluation whose objective record is not there (or not readable)
-      yet: the same evaluations the optimizer calls pending.
+    - ``PENDING``: handed out and not yet told: launched (or about to be)
+      with no readable objective record yet. The optimizer, the evaluations
+      table and the figures all use this word.
     """
 
     OK = "ok"
     FAILED = "failed"
     TERMINATED = "terminated"
     PENDING = "pending"
-    RUNNING = "running"
 
 
 def status_of(value: Any, where: str) -> Status:

@@ -36,7 +36,7 @@ def evaluation_columns(study: Study) -> list[tuple[str, str, str]]:
     units = {t.key: study.scenes[t.scene].responses[t.response].unit for t in study.targets}
     return [
         ("evaluation", "", "evaluation id (results/<study>/evals/<id>/)"),
-        ("status", "", "ok, failed, terminated (stopped early) or running"),
+        ("status", "", "ok, failed, terminated (stopped early) or pending (no result yet)"),
         ("reason", "", "why it failed or was stopped"),
         (
             "objective",
@@ -77,7 +77,7 @@ def write_evaluations_csv(study: Study) -> None:
             record = ObjectiveRecord.read_latest(files)
             ended = files.objective.stat().st_mtime
         except (SimulationFailed, OSError):
-            record, ended = ObjectiveRecord(files.id, Status.RUNNING), None
+            record, ended = ObjectiveRecord(files.id, Status.PENDING), None
         launch = LaunchRecord.read_if_any(files.launch)
         started = None if launch is None else launch.started_at
         row = {

@@ -29,7 +29,7 @@ rule centre_point:
     params:
         study_file=STUDY_FILE,
     script:
-        "../../scripts/centre_point.py"
+        "../scripts/centre_point.py"
 
 
 rule objective:
@@ -42,7 +42,7 @@ rule objective:
     params:
         study_file=STUDY_FILE,
     script:
-        "../../scripts/objective.py"
+        "../scripts/objective.py"
 
 
 rule extract:
@@ -55,7 +55,7 @@ rule extract:
     params:
         study_file=STUDY_FILE,
     script:
-        "../../scripts/extract.py"
+        "../scripts/extract.py"
 
 
 rule simulate:
@@ -71,4 +71,4 @@ rule simulate:
     params:
         study_file=STUDY_FILE,
     script:
-        "../../scripts/simulate.py"
+        "../scripts/simulate.py"

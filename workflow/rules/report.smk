@@ -48,7 +48,7 @@ rule plots:
     params:
         study_file=STUDY_FILE,
     script:
-        "../../scripts/plots.py"
+        "../scripts/plots.py"
 
 
 rule solutions:
@@ -76,7 +76,7 @@ rule solutions:
     params:
         study_file=STUDY_FILE,
     script:
-        "../../scripts/solutions.py"
+        "../scripts/solutions.py"
 
 
 rule evaluation_dag:
@@ -95,4 +95,4 @@ rule evaluation_dag:
         study_file=STUDY_FILE,
         target=str(FILES.evaluation("e0000").objective),
     script:
-        "../../scripts/evaluation_dag.py"
+        "../scripts/evaluation_dag.py"
