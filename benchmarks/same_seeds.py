@@ -2,7 +2,7 @@
 
     python benchmarks/same_seeds.py run --root /work/base --out /work/baseline
     python benchmarks/same_seeds.py run --root /work/main --out /work/after
-    python benchmarks/same_seeds.py compare /work/baseline /work/after
+    python benchmarks/same_seeds.py compare /work/baseline /work/after [--across-format-1]
 
 ``run`` drives the checkout at ``--root`` only through its user interface,
 with the checkout's own venv (``ROOT/.venv/bin/demcal`` and
@@ -354,6 +354,35 @@ def _rows_by_evaluation(data):
     return data
 
 
+#: What format 1 of the records (issue 19, demcal/results/records.py) changed on purpose:
+#: every record names its format; objective.json names the objective it was scored with
+#: (scored_with) instead of copying the targets, weights and form; an absent optional field
+#: and an empty one (null, {}, [], "") are the same record.
+FORMAT_1_ADDED = frozenset({"format", "scored_with"})
+FORMAT_1_MOVED = {"objective.json": frozenset({"targets", "weights", "objective_form"})}
+
+
+def across_format_1(data, name: str):
+    """A collected file with format 1's intended changes taken out (``--across-format-1``)."""
+    if not isinstance(data, dict) or "rows" in data:
+        return data
+    moved = FORMAT_1_MOVED.get(Path(name).name, frozenset())
+
+    def empty(value) -> bool:
+        return value is None or value == {} or value == [] or value == ""
+
+    def clean(value, top: bool):
+        if isinstance(value, dict):
+            return {
+                k: clean(v, False)
+                for k, v in value.items()
+                if not (top and (k in FORMAT_1_ADDED or k in moved)) and not empty(v)
+            }
+        return value
+
+    return clean(data, True)
+
+
 def compare(args) -> int:
     before, after = Path(args.before), Path(args.after)
     files = sorted(
@@ -373,10 +402,10 @@ def compare(args) -> int:
             differ += 1
             print(f"{name}: only in {before if a.exists() else after}")
             continue
-        found = first_difference(
-            _rows_by_evaluation(json.loads(a.read_text())),
-            _rows_by_evaluation(json.loads(b.read_text())),
-        )
+        x, y = json.loads(a.read_text()), json.loads(b.read_text())
+        if args.across_format_1:
+            x, y = across_format_1(x, str(name)), across_format_1(y, str(name))
+        found = first_difference(_rows_by_evaluation(x), _rows_by_evaluation(y))
         if found is None:
             print(f"{name}: identical")
         else:
@@ -405,6 +434,12 @@ def main(argv: list[str] | None = None) -> int:
     c = commands.add_parser("compare", help="compare two collected result folders")
     c.add_argument("before")
     c.add_argument("after")
+    c.add_argument(
+        "--across-format-1",
+        action="store_true",
+        help="before is older than the records' format 1: leave out its intended changes "
+        "(FORMAT_1_ADDED, FORMAT_1_MOVED, absent = empty)",
+    )
     c.set_defaults(func=compare)
     args = parser.parse_args(argv)
     return args.func(args)
