@@ -155,7 +155,8 @@ class Calibration:
             self.optimizer.rescore(outcomes)
             self.save_state()
             log.info(
-                "targets changed: re-scored %d evaluations from their stored responses",
+                "re-scored %d evaluations from their stored responses (targets changed, "
+                "or scored before the records' format 1)",
                 len(outcomes),
             )
 
