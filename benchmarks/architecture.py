@@ -8,6 +8,9 @@ Counted on the package (``demcal/``), the workflow and its job scripts:
 - the places each result file's name is spelled as a string literal;
 - the places a Snakemake command line is put together (a literal "snakemake"
   next to "-s" or "--snakefile");
+- the places outside ``study/objective.py`` that compute the objective or the
+  Rayleigh cost themselves (calls of the objective's functions and of
+  ``timestep_cost``; calls of ``ResponseObjective``'s methods do not count);
 - the modules at the top of ``demcal/``, the largest module and the largest
   function (lines).
 The pairs of repeated code come from the library's ``duplicates`` tool.
@@ -63,6 +66,29 @@ def snakemake_commands(tree: ast.AST) -> int:
     return count
 
 
+#: The objective's functions (demcal/study/objective.py) and the Rayleigh cost term.
+OBJECTIVE_FUNCTIONS = frozenset(
+    {
+        "objective_value",
+        "objective_values",
+        "replicate_objectives",
+        "estimated_objective",
+        "timestep_cost",
+    }
+)
+
+
+def objective_computations(tree: ast.AST) -> int:
+    """Calls of the objective's functions (by name or attribute)."""
+    count = 0
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Call):
+            func = node.func
+            name = func.id if isinstance(func, ast.Name) else getattr(func, "attr", None)
+            count += name in OBJECTIVE_FUNCTIONS
+    return count
+
+
 def largest_function(tree: ast.AST) -> tuple[int, str]:
     return max(
         (
@@ -81,6 +107,7 @@ def main() -> None:
     status, files = collections.Counter(), collections.Counter()
     status_modules, file_modules = collections.defaultdict(set), collections.defaultdict(set)
     commands, sizes, functions = 0, [], []
+    objective_places: collections.Counter = collections.Counter()
     for path in python_sources(root):
         text = path.read_text()
         tree = ast.parse(text)
@@ -94,6 +121,8 @@ def main() -> None:
                     files[file] += 1
                     file_modules[file].add(name)
         commands += snakemake_commands(tree)
+        if not name.endswith(("study/objective.py", "demcal/objective.py")):
+            objective_places[name] += objective_computations(tree)
         sizes.append((len(text.splitlines()), name))
         length, function = largest_function(tree)
         functions.append((length, f"{name}:{function}"))
@@ -117,6 +146,13 @@ def main() -> None:
             f"workflow {workflow_text.count(file)}"
         )
     print(f"Snakemake command lines built by hand: {commands}")
+    computing = {name: n for name, n in objective_places.items() if n}
+    print(
+        f"objective or Rayleigh cost computed outside the objective module: "
+        f"{sum(computing.values())} calls in {len(computing)} modules"
+    )
+    for name, n in sorted(computing.items()):
+        print(f"  {name}: {n}")
     print(f"top-level modules of demcal/: {len(top)}")
     print(f"largest module: {max(sizes)[1]} ({max(sizes)[0]} lines)")
     print(f"largest function: {max(functions)[1]} ({max(functions)[0]} lines)")
