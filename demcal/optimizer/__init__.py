@@ -97,6 +97,7 @@ reference value), stopping, settings, bounds.
 from __future__ import annotations
 
 import importlib
+from typing import TYPE_CHECKING, Any
 
 # Names resolve on first use (PEP 562): the workflow's jobs validate the
 # config with OptimizerSettings alone and skip the SciPy/SMT imports that
@@ -116,8 +117,20 @@ _EXPORTS = {
 
 __all__ = sorted(_EXPORTS)
 
+if TYPE_CHECKING:  # the names as mypy sees them; at run time __getattr__ imports them
+    from .bounds import Bounds as Bounds
+    from .early_termination import EarlyTerminationDecision as EarlyTerminationDecision
+    from .early_termination import early_termination_decision as early_termination_decision
+    from .optimizer import Optimizer as Optimizer
+    from .optimizer import Proposal as Proposal
+    from .registry import register_strategy as register_strategy
+    from .settings import EarlyTerminationSettings as EarlyTerminationSettings
+    from .settings import OptimizerSettings as OptimizerSettings
+    from .strategies.base import History as History
+    from .strategies.base import Strategy as Strategy
 
-def __getattr__(name: str):
+
+def __getattr__(name: str) -> Any:
     if name in _EXPORTS:
         return getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

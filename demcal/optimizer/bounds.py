@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 
 @dataclass(frozen=True)
@@ -15,7 +17,7 @@ class Bounds:
     lower: tuple[float, ...]
     upper: tuple[float, ...]
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if len(self.lower) != len(self.upper) or not self.lower:
             raise ValueError(
                 f"bounds: lower has {len(self.lower)} values and upper {len(self.upper)}; "
@@ -28,14 +30,14 @@ class Bounds:
                 )
 
     @classmethod
-    def of(cls, lower, upper) -> Bounds:
+    def of(cls, lower: Iterable[float], upper: Iterable[float]) -> Bounds:
         return cls(tuple(float(v) for v in lower), tuple(float(v) for v in upper))
 
     @property
     def dimension(self) -> int:
         return len(self.lower)
 
-    def to_unit(self, x) -> np.ndarray:
+    def to_unit(self, x: ArrayLike) -> np.ndarray:
         """Scale points (rows) to the unit box; raise ValueError if outside the bounds."""
         x = np.atleast_2d(np.asarray(x, float))
         if x.shape[1] != self.dimension:
@@ -45,19 +47,21 @@ class Bounds:
             raise ValueError(
                 f"point {x.tolist()} is outside the bounds {list(self.lower)} .. {list(self.upper)}"
             )
-        return (x - low) / (high - low)
+        unit: np.ndarray = (x - low) / (high - low)
+        return unit
 
-    def from_unit(self, u) -> np.ndarray:
+    def from_unit(self, u: ArrayLike) -> np.ndarray:
         """Map unit-box points (rows) back to real units."""
         low, high = np.array(self.lower), np.array(self.upper)
-        return low + np.atleast_2d(np.asarray(u, float)) * (high - low)
+        points: np.ndarray = low + np.atleast_2d(np.asarray(u, float)) * (high - low)
+        return points
 
 
 #: Share of a parameter's range within which a point counts as lying on that bound.
 ON_BOUND_SHARE = 0.01
 
 
-def on_bounds(unit_point) -> list[tuple[int, str]]:
+def on_bounds(unit_point: Iterable[float]) -> list[tuple[int, str]]:
     """(index, "lower"/"upper") of each coordinate of a unit-box point that lies on a bound.
 
     A best point on a bound often means the bounds cut the solution off.

@@ -19,11 +19,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.optimize import minimize
 from scipy.spatial.distance import cdist
 from scipy.stats import norm
+
+if TYPE_CHECKING:
+    from .surrogates.base import Surrogate
 
 IMPROVEMENT_TOLERANCE = 1e-3  # relative improvement that counts as a success
 
@@ -68,7 +72,8 @@ def nearest_distances(candidates: np.ndarray, points: np.ndarray) -> np.ndarray:
     """Delta_n(x) = min_i ||x - x_i|| over the distance set (Algorithm 4, step b)."""
     if len(points) == 0:
         return np.full(len(candidates), np.inf)
-    return cdist(candidates, points).min(axis=1)
+    distances: np.ndarray = cdist(candidates, points).min(axis=1)
+    return distances
 
 
 def rescaled(values: np.ndarray) -> np.ndarray:
@@ -90,7 +95,7 @@ def weighted_scores(predicted: np.ndarray, distances: np.ndarray, weight: float)
     return weight * surrogate_score + (1.0 - weight) * distance_score
 
 
-def surrogate_minimum(surrogate, center: np.ndarray, radius: float) -> np.ndarray:
+def surrogate_minimum(surrogate: Surrogate, center: np.ndarray, radius: float) -> np.ndarray:
     """Local minimum of the surrogate in a box of half-width ``radius`` around ``center``.
 
     An addition to the thesis: at the most exploitative weight of the cycle,
@@ -107,7 +112,8 @@ def surrogate_minimum(surrogate, center: np.ndarray, radius: float) -> np.ndarra
         bounds=list(zip(low, high)),
         options={"maxiter": 50},
     )
-    return np.clip(result.x, 0.0, 1.0)
+    minimum: np.ndarray = np.clip(result.x, 0.0, 1.0)
+    return minimum
 
 
 def admissible(
@@ -131,7 +137,8 @@ def uniform_candidates(count: int, dimension: int, rng: np.random.Generator) -> 
 
 def most_distant(candidates: np.ndarray, distance_set: np.ndarray) -> np.ndarray:
     """The candidate farthest from the distance set (space filling)."""
-    return candidates[int(np.argmax(nearest_distances(candidates, distance_set)))]
+    farthest: np.ndarray = candidates[int(np.argmax(nearest_distances(candidates, distance_set)))]
+    return farthest
 
 
 def space_filling_point(
@@ -156,7 +163,8 @@ def expected_improvement(mean: np.ndarray, std: np.ndarray, best: float) -> np.n
     std = np.maximum(std, 1e-12)
     gap = best - mean
     u = gap / std
-    return gap * norm.cdf(u) + std * norm.pdf(u)
+    improvement: np.ndarray = gap * norm.cdf(u) + std * norm.pdf(u)
+    return improvement
 
 
 def pending_damping(candidates: np.ndarray, pending: np.ndarray, radius: float) -> np.ndarray:

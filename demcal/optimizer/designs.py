@@ -11,12 +11,16 @@ from a plain LHS. Sobol sequences come from scipy.stats.qmc.
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
 
 import numpy as np
 from scipy.spatial.distance import pdist
 from scipy.stats import qmc
 
 from .registry import DESIGNS
+
+#: An initial design: ``(size, dimension, rng) -> points`` in the unit box.
+Design = Callable[[int, int, np.random.Generator], np.ndarray]
 
 
 def default_initial_size(dimension: int, workers: int = 1) -> int:
@@ -59,7 +63,8 @@ def sobol_sequence(size: int, dimension: int, rng: np.random.Generator) -> np.nd
     sampler = qmc.Sobol(dimension, scramble=True, seed=rng)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)  # balance warning for sizes not 2**m
-        return sampler.random(size)
+        points: np.ndarray = sampler.random(size)
+    return points
 
 
 def minimum_pairwise_distance(points: np.ndarray) -> float:
@@ -70,15 +75,17 @@ def minimum_pairwise_distance(points: np.ndarray) -> float:
 
 
 def maximin_design(
-    generate, size: int, dimension: int, rng: np.random.Generator, tries: int
+    generate: Design, size: int, dimension: int, rng: np.random.Generator, tries: int
 ) -> np.ndarray:
     """Best of ``tries`` random designs by the maximin criterion."""
-    best, best_distance = None, -np.inf
+    best: np.ndarray | None = None
+    best_distance = -np.inf
     for _ in range(tries):
         design = generate(size, dimension, rng)
         distance = minimum_pairwise_distance(design)
         if distance > best_distance:
             best, best_distance = design, distance
+    assert best is not None, "tries >= 1 (the settings check design_tries), and any distance > -inf"
     return best
 
 
@@ -99,7 +106,7 @@ def initial_design(
     are chosen by maximin, Sobol sequences are used as drawn.
     """
     entry = DESIGNS[kind]
-    generate = entry.load()
+    generate: Design = entry.load()
     include = (
         np.empty((0, dimension)) if include is None else np.atleast_2d(np.asarray(include, float))
     )

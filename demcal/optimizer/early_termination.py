@@ -95,7 +95,7 @@ def reference(
     best: dict | None,
     best_observed: float | None,
     records: list[dict],
-    predictor: Callable[[], ResponsePredictor],
+    predictor: Callable[[], ResponsePredictor | None],
     objective: ResponseObjective | None,
 ) -> float | None:
     """The best objective f* a running evaluation is compared with (thesis eq. 3.4).
@@ -110,14 +110,17 @@ def reference(
     """
     if best is None or best["chosen_by"] != "response models":
         return best_observed
+    best_predicted: float = best["predicted"]
     finished = [r for r in records if r["status"] == Status.OK and r.get("responses")]
     if not finished:
-        return best["predicted"]
-    predicted, _ = predictor().predict(np.array([r["x"] for r in finished]))
+        return best_predicted
+    models = predictor()
+    assert models is not None and objective is not None, "best was chosen by the response models"
+    predicted, _ = models.predict(np.array([r["x"] for r in finished]))
     residuals = {
         key: np.array([np.mean(r["responses"][key]["values"]) for r in finished])
         - predicted[key]
         + target.value
         for key, target in zip(objective.keys, objective.targets)
     }
-    return best["predicted"] + float(np.mean(objective(residuals)))
+    return best_predicted + float(np.mean(objective(residuals)))

@@ -60,8 +60,7 @@ def fit_surrogate(
     settings: OptimizerSettings, seed: int, data: list[tuple[list[float], float, float]]
 ) -> Surrogate:
     """The surrogate named in ``settings`` fitted on ``data`` (see :func:`training_data`)."""
-    surrogate = SURROGATES.load(settings.surrogate_name).create(
-        settings.duplicate_tolerance, settings.kriging_restarts, seed
-    )
+    model: type[Surrogate] = SURROGATES.load(settings.surrogate_name)
+    surrogate = model.create(settings.duplicate_tolerance, settings.kriging_restarts, seed)
     x, y, variance = (np.array(column) for column in zip(*data))
     return surrogate.fit(x, y, variance)

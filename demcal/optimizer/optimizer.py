@@ -29,6 +29,7 @@ from __future__ import annotations
 import math
 from collections import Counter
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -161,6 +162,7 @@ class Optimizer:
         room = self.settings.max_evaluations - self.completed_evaluations() - len(self.pending())
         proposals = []
         for _ in range(max(min(n, room), 0)):
+            unit: np.ndarray | None
             if self.design_queue:
                 unit = np.array(self.design_queue.pop(0))
                 in_design = True
@@ -173,7 +175,7 @@ class Optimizer:
         return proposals
 
     def _issue(self, unit: np.ndarray, in_design: bool) -> Proposal:
-        record = {
+        record: dict[str, Any] = {
             "id": self.next_id,
             "x": [float(v) for v in unit],
             "status": Status.PENDING,
@@ -292,12 +294,14 @@ class Optimizer:
     def _objective_of(self, responses: dict[str, list[float]]) -> tuple[float, list[float] | None]:
         """The objective of the replicates' responses, and per replicate when the counts agree
         (the study's one computation, :class:`~demcal.study.objective.ResponseObjective`)."""
-        targeted = {key: responses[key] for key in self.objective.keys}
+        objective = self.objective
+        assert objective is not None, "tell scores responses only with an objective"
+        targeted = {key: responses[key] for key in objective.keys}
         try:
-            value = self.objective.of_replicates(targeted)
+            value = objective.of_replicates(targeted)
         except ValueError:  # not finite: recorded as failed
             value = math.nan
-        return value, self.objective.per_replicate(targeted) or None
+        return value, objective.per_replicate(targeted) or None
 
     def reopen(self, id: int) -> None:
         """Make a told evaluation pending again, to be rerun and told anew (rerun on request).
@@ -389,8 +393,9 @@ class Optimizer:
     def stop_reason(self, elapsed_seconds: float) -> str | None:
         """Why the run should stop (budget, wall clock, target, stagnation, collapse) or None."""
         s = self.settings
-        if self.strategy_state.get("stop_reason"):
-            return self.strategy_state["stop_reason"]
+        strategy_reason: str | None = self.strategy_state.get("stop_reason")
+        if strategy_reason:
+            return strategy_reason
         best = self.best()
         return stop_reason(
             self.completed_evaluations(),

@@ -19,9 +19,12 @@ and a plug-in's module is imported only when the optimizer first uses it.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from demcal.plugins import Entry, Registry
+
+if TYPE_CHECKING:
+    from .strategies.base import Strategy
 
 
 @dataclass(frozen=True)
@@ -113,6 +116,7 @@ def register_strategy(name: str, strategy: type | str, **metadata: Any) -> None:
     STRATEGIES.register(name, StrategyEntry(strategy, **metadata))
 
 
-def strategy_class(name: str) -> type:
+def strategy_class(name: str) -> type[Strategy]:
     """The class registered as ``name``, imported on first use."""
-    return STRATEGIES.load(name)
+    strategy: type[Strategy] = STRATEGIES.load(name)
+    return strategy

@@ -115,8 +115,9 @@ class ResponseModels:
             if cached is None or cached[0] != signature:
                 refits, size = self._since_full.get(key, (0, 0))
                 due = cached is None or refits + 1 >= FULL_REFIT_EVERY or len(y) > 1.25 * size
-                start = None if due else cached[1].warm_start
-                model = RESPONSE_MODELS.load(self.kind).create(
+                start = None if due or cached is None else cached[1].warm_start
+                kind: type[ResponseModel] = RESPONSE_MODELS.load(self.kind)
+                model = kind.create(
                     self.duplicate_tolerance, self.restarts, self.seed, warm_start=start
                 )
                 self._fitted[key] = (signature, model.fit(x, y, variance))
@@ -159,4 +160,7 @@ class ResponsePredictor:
             key: means[key][None, :] + stds[key][None, :] * draws[:, [i]]
             for i, key in enumerate(self.models)
         }
-        return np.maximum(best - np.asarray(self.objective(sampled), float), 0.0).mean(axis=0)
+        improvement: np.ndarray = np.maximum(
+            best - np.asarray(self.objective(sampled), float), 0.0
+        ).mean(axis=0)
+        return improvement

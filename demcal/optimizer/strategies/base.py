@@ -80,7 +80,8 @@ class History:
 
     @property
     def dimension(self) -> int:
-        return self.points.shape[1]
+        dimension: int = self.points.shape[1]
+        return dimension
 
     @property
     def evaluated(self) -> int:
@@ -94,7 +95,10 @@ class History:
 
     def select(self, *statuses: str) -> np.ndarray:
         """The points with one of ``statuses``."""
-        return self.points[np.array([status in statuses for status in self.statuses], dtype=bool)]
+        selected: np.ndarray = self.points[
+            np.array([status in statuses for status in self.statuses], dtype=bool)
+        ]
+        return selected
 
     def space_filling_point(self) -> np.ndarray:
         """The point farthest from all others, clear of failed points (no surrogate needed)."""

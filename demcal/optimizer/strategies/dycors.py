@@ -20,13 +20,16 @@ class Dycors(CandidateSearch):
     def choose(
         self, history: History, candidates: np.ndarray, weight: float, polished: bool
     ) -> np.ndarray:
-        s = history.settings
+        s, surrogate = history.settings, history.surrogate
+        assert surrogate is not None, "a candidate search chooses only with a surrogate"
         final = history.handed_out >= s.max_evaluations * (1.0 - s.final_exploitation)
         if polished and (weight == max(s.weights) or final):
-            return candidates[-1]
+            polish: np.ndarray = candidates[-1]
+            return polish
         scores = st.weighted_scores(
-            history.surrogate.predict(candidates),
+            surrogate.predict(candidates),
             st.nearest_distances(candidates, history.points),
             weight,
         )
-        return candidates[int(np.argmin(scores))]
+        chosen: np.ndarray = candidates[int(np.argmin(scores))]
+        return chosen

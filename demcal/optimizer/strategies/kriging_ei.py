@@ -24,9 +24,11 @@ class KrigingEI(CandidateSearch):
         self, history: History, candidates: np.ndarray, weight: float, polished: bool
     ) -> np.ndarray:
         surrogate = history.surrogate
+        assert surrogate is not None, "a candidate search chooses only with a surrogate"
         observed_best = float(np.min(surrogate.predict(history.select(Status.OK))))
         improvement = st.expected_improvement(
             surrogate.predict(candidates), surrogate.predict_std(candidates), observed_best
         )
         damping = st.pending_damping(candidates, history.select(Status.PENDING), history.sigma)
-        return candidates[int(np.argmax(improvement * damping))]
+        chosen: np.ndarray = candidates[int(np.argmax(improvement * damping))]
+        return chosen

@@ -30,10 +30,11 @@ iteration and the run counts of each phase.
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.optimize import least_squares
 
 from demcal.results.records import Status
-from demcal.study.objective import weighted_residuals
+from demcal.study.objective import ResponseObjective, weighted_residuals
 
 from ..responses import ResponsePredictor
 from .base import History, Strategy
@@ -64,7 +65,9 @@ def metamodel_minimum(predictor: ResponsePredictor, dimension: int) -> np.ndarra
             objective.targets, {key: value[0] for key, value in means.items()}, objective.form
         )
 
-    return least_squares(residuals, np.full(dimension, 0.5), bounds=(0.0, 1.0), method="trf").x
+    fit = least_squares(residuals, np.full(dimension, 0.5), bounds=(0.0, 1.0), method="trf")
+    minimum: np.ndarray = fit.x
+    return minimum
 
 
 def stencil(point: np.ndarray) -> list[np.ndarray]:
@@ -99,10 +102,11 @@ def lm_step(point: np.ndarray, residual: np.ndarray, jac: np.ndarray, damping: f
     normal = jac.T @ jac
     scale = np.diag(normal) + 1e-9 * max(float(np.max(np.diag(normal))), 1e-12)
     delta = np.linalg.solve(normal + damping * np.diag(scale), -jac.T @ residual)
-    return np.clip(point + delta, 0.0, 1.0)
+    step: np.ndarray = np.clip(point + delta, 0.0, 1.0)
+    return step
 
 
-def _find(history: History, point) -> int | None:
+def _find(history: History, point: ArrayLike) -> int | None:
     """Index in the history of the evaluation at ``point`` (proposed by this strategy), or None."""
     hits = np.flatnonzero(np.all(np.abs(history.points - np.asarray(point)) <= 1e-12, axis=1))
     return int(hits[-1]) if len(hits) else None
@@ -143,18 +147,19 @@ class RacklHanley(Strategy):
         return self._hand_out(state)
 
     def _next_iteration(self, history: History, state: dict) -> np.ndarray | None:
-        indices = [_find(history, p) for p in state["iteration"]]
-        if any(i is None or history.statuses[i] == Status.PENDING for i in indices):
+        found = [_find(history, p) for p in state["iteration"]]
+        indices = [i for i in found if i is not None]
+        if len(indices) < len(found) or any(history.statuses[i] == Status.PENDING for i in indices):
             return None  # the iteration's simulations are still running
         trial, *steps = (np.array(p) for p in state["iteration"])
         objective = history.responses.objective if history.responses else None
         residual = self._residual(history, indices[0], objective)
         accepted = state.get("accepted")
         if residual is not None and (accepted is None or residual @ residual < accepted["value"]):
-            step_residuals = [self._residual(history, i, objective) for i in indices[1:]]
+            measured = [self._residual(history, i, objective) for i in indices[1:]]
             step_residuals = [
                 r if r is not None else self._predicted_residual(history, s)
-                for r, s in zip(step_residuals, steps)
+                for r, s in zip(measured, steps)
             ]
             value = float(residual @ residual)
             previous = None if accepted is None else accepted["value"]
@@ -186,7 +191,9 @@ class RacklHanley(Strategy):
         return self._start_iteration(state, trial)
 
     @staticmethod
-    def _residual(history: History, index: int, objective) -> np.ndarray | None:
+    def _residual(
+        history: History, index: int, objective: ResponseObjective | None
+    ) -> np.ndarray | None:
         means = history.response_means[index]
         if objective is None or not means or any(key not in means for key in objective.keys):
             return None
@@ -196,6 +203,7 @@ class RacklHanley(Strategy):
     def _predicted_residual(history: History, point: np.ndarray) -> np.ndarray:
         """A failed finite-difference point's residuals, as the response models predict them."""
         predictor = history.responses
+        assert predictor is not None, "residuals were measured, so the response models exist"
         means, _ = predictor.predict(point[None, :])
         return weighted_residuals(
             predictor.objective.targets,

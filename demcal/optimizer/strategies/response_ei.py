@@ -59,5 +59,7 @@ class ResponseEI(Strategy):
             candidates, history.select(Status.PENDING), history.sigma
         )
         if not np.any(score > 0.0):  # no improvement expected anywhere: exploit the prediction
-            return candidates[int(np.argmin(predictor.objective_mean(candidates)))]
-        return candidates[int(np.argmax(score))]
+            exploited: np.ndarray = candidates[int(np.argmin(predictor.objective_mean(candidates)))]
+            return exploited
+        chosen: np.ndarray = candidates[int(np.argmax(score))]
+        return chosen

@@ -15,8 +15,10 @@ oscillate.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Self
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 
 @dataclass
@@ -62,13 +64,14 @@ def cap_at_median(y: np.ndarray) -> np.ndarray:
     Keeps the surrogate's attention on the low (interesting) region and
     bounds the influence of penalised values.
     """
-    return np.minimum(y, np.median(y))
+    capped: np.ndarray = np.minimum(y, np.median(y))
+    return capped
 
 
 def prepare_training_data(
-    x: np.ndarray,
-    y: np.ndarray,
-    variance: np.ndarray | None,
+    x: ArrayLike,
+    y: ArrayLike,
+    variance: ArrayLike | None,
     duplicate_tolerance: float,
     cap_values: bool = True,
 ) -> TrainingData:
@@ -110,12 +113,12 @@ class Surrogate:
         restarts: int = 5,
         seed: int = 0,
         warm_start: tuple[np.ndarray, float] | None = None,
-    ) -> Surrogate:
+    ) -> Self:
         """The model as the optimizer makes it; ``restarts``, ``seed`` and ``warm_start`` are for
         models that search hyperparameters (Kriging), the others ignore them."""
         return cls(duplicate_tolerance)
 
-    def fit(self, x, y, variance=None) -> Surrogate:
+    def fit(self, x: ArrayLike, y: ArrayLike, variance: ArrayLike | None = None) -> Self:
         self.data = prepare_training_data(
             x, y, variance, self.duplicate_tolerance, self.caps_large_values
         )
@@ -124,14 +127,15 @@ class Surrogate:
             self._fit_standardised(self.data)
         return self
 
-    def predict(self, x) -> np.ndarray:
+    def predict(self, x: ArrayLike) -> np.ndarray:
         """Predicted objective values at the rows of ``x``."""
         x = np.atleast_2d(np.asarray(x, float))
+        assert self.data is not None, "a surrogate predicts once fitted"
         if self.constant:
             return np.full(len(x), self.data.offset)
         return self.data.offset + self.data.scale * self._predict_standardised(x)
 
-    def predict_std(self, x) -> np.ndarray:
+    def predict_std(self, x: ArrayLike) -> np.ndarray:
         """Predicted standard deviation (Kriging only)."""
         raise NotImplementedError(f"{type(self).__name__} does not predict a standard deviation")
 

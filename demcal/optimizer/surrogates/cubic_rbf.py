@@ -11,6 +11,7 @@ leave-one-out error as its standard deviation.
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.spatial.distance import cdist
 
 from .base import ResponseModel, Surrogate, TrainingData
@@ -41,7 +42,8 @@ def leave_one_out_errors(system: np.ndarray, z: np.ndarray) -> np.ndarray:
     n = len(z)
     inverse = np.linalg.pinv(system, hermitian=True)
     coefficients = inverse[:, :n] @ z
-    return coefficients[:n] / np.diag(inverse)[:n]
+    errors: np.ndarray = coefficients[:n] / np.diag(inverse)[:n]
+    return errors
 
 
 def choose_smoothing(x: np.ndarray, z: np.ndarray, noise: np.ndarray) -> float:
@@ -95,8 +97,10 @@ class CubicRBF(Surrogate):
         self.tail = solution[n:]
 
     def _predict_standardised(self, x: np.ndarray) -> np.ndarray:
-        kernel = cdist(x, self.data.x) ** 3
-        return kernel @ self.weights + x @ self.tail[:-1] + self.tail[-1]
+        assert self.data is not None, "a surrogate predicts once fitted"
+        kernel: np.ndarray = cdist(x, self.data.x) ** 3
+        values: np.ndarray = kernel @ self.weights + x @ self.tail[:-1] + self.tail[-1]
+        return values
 
 
 class ResponseRBF(CubicRBF, ResponseModel):
@@ -116,8 +120,9 @@ class ResponseRBF(CubicRBF, ResponseModel):
         else:
             self.loo_rms = 1.0  # too few points to judge: one standard deviation of the data
 
-    def predict_std(self, x) -> np.ndarray:
+    def predict_std(self, x: ArrayLike) -> np.ndarray:
         x = np.atleast_2d(np.asarray(x, float))
         if self.constant:
             return np.zeros(len(x))
+        assert self.data is not None, "a surrogate predicts once fitted"
         return np.full(len(x), self.data.scale * self.loo_rms)

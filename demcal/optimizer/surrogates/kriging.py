@@ -9,8 +9,10 @@ plateau as noise.
 from __future__ import annotations
 
 import warnings
+from typing import Self
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .base import ResponseModel, TrainingData
 
@@ -50,7 +52,7 @@ class KrigingSurrogate(ResponseModel):
         restarts: int = 5,
         seed: int = 0,
         warm_start: tuple[np.ndarray, float] | None = None,
-    ) -> KrigingSurrogate:
+    ) -> Self:
         """With a ``warm_start``, one start of the hyperparameter search, else ``restarts``."""
         return cls(
             duplicate_tolerance,
@@ -106,11 +108,13 @@ class KrigingSurrogate(ResponseModel):
             return None
         return np.asarray(self.model.optimal_theta, float), nugget
 
-    def predict_std(self, x) -> np.ndarray:
+    def predict_std(self, x: ArrayLike) -> np.ndarray:
         x = np.atleast_2d(np.asarray(x, float))
         if self.constant:
             return np.zeros(len(x))
+        assert self.data is not None, "a surrogate predicts once fitted"
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             variance = self.model.predict_variances(x).ravel()
-        return self.data.scale * np.sqrt(np.maximum(variance, 0.0))
+        std: np.ndarray = self.data.scale * np.sqrt(np.maximum(variance, 0.0))
+        return std

@@ -15,7 +15,7 @@ class SMTRadialBasis(Surrogate):
         self.width = width
 
     def _fit_standardised(self, data: TrainingData) -> None:
-        from smt.surrogate_models import RBF
+        from smt.surrogate_models.rbf import RBF
 
         self.model = RBF(d0=self.width, poly_degree=1, reg=1e-10, print_global=False)
         self.model.set_training_values(data.x, data.z)
