@@ -25,6 +25,7 @@ import logging
 import os
 import sys
 import traceback
+from collections.abc import Callable
 
 from demcal.cli import analysis, inspect, manage, run
 from demcal.errors import DemcalError
@@ -32,115 +33,138 @@ from demcal.resources import DEFAULT_CONFIG
 from demcal.workflow import LOCAL_PROFILE
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="demcal", description="Calibrate DEM simulations.")
-    commands = parser.add_subparsers(dest="command", required=True)
-    for name, func, text in (
-        ("run", run.run, "run (or resume) a calibration"),
-        ("status", inspect.status, "show the state of a calibration"),
-        ("studies", inspect.studies, "list the studies in results/ with their state"),
-        ("stop", manage.stop, "stop a running calibration cleanly"),
-        (
-            "watch",
-            inspect.watch,
-            "a live view of a running calibration (results/<study>/live.html)",
-        ),
-        (
-            "add-point",
-            manage.add_point_command,
-            "add a point by hand (NAME=VALUE for every free parameter)",
-        ),
-        (
-            "rerun-failed",
-            manage.rerun_failed,
-            "rerun the failed evaluations (new seeds) on the next run",
-        ),
-        (
-            "solutions",
-            analysis.solutions,
-            "the parameter sets that meet the targets, and which parameters the targets pin",
-        ),
-        (
-            "convergence",
-            analysis.convergence,
-            "error against run time: one point at several time steps and sizes",
-        ),
-    ):
+def run_arguments(sub: argparse.ArgumentParser) -> None:
+    sub.add_argument(
+        "--profile",
+        default=str(LOCAL_PROFILE),
+        help="Snakemake profile directory for the evaluations (default: demcal's profiles/local)",
+    )
+    sub.add_argument("--workers", type=int, help="evaluations in flight")
+    # set by the workflow's calibrate rule: the daemon ends with its Snakemake
+    sub.add_argument("--watch-pid", type=int, help=argparse.SUPPRESS)
+    # set by the calibrate rule too: the config is the study.json it froze
+    sub.add_argument("--frozen", action="store_true", help=argparse.SUPPRESS)
+    sub.add_argument(
+        "--log", help="also append the messages and a progress line every 30 s to this file"
+    )
+
+
+def watch_arguments(sub: argparse.ArgumentParser) -> None:
+    sub.add_argument(
+        "--every", type=float, default=10.0, help="seconds between updates of the page (default 10)"
+    )
+
+
+def add_point_arguments(sub: argparse.ArgumentParser) -> None:
+    sub.add_argument("values", nargs="+", metavar="NAME=VALUE")
+
+
+def solutions_arguments(sub: argparse.ArgumentParser) -> None:
+    sub.add_argument(
+        "--k",
+        type=float,
+        default=2.0,
+        help="tolerance in combined standard deviations (default 2)",
+    )
+    sub.add_argument(
+        "--samples",
+        type=int,
+        default=2**16,
+        help="Sobol points sampled over the box (default 65536)",
+    )
+
+
+def convergence_arguments(sub: argparse.ArgumentParser) -> None:
+    sub.add_argument("--scene", help="default: the study's first scene")
+    sub.add_argument(
+        "--fractions",
+        type=float,
+        nargs="+",
+        help="time steps as fractions of the Rayleigh time (default 0.5 0.35 0.25 0.125)",
+    )
+    sub.add_argument(
+        "--sizes",
+        type=float,
+        nargs="+",
+        help="values of the scene's size setting (particle count or box "
+        "scale; default 0.5, 1 and 2 times the configured one)",
+    )
+    sub.add_argument("--seeds", type=int, default=2, help="seeds per variant")
+    sub.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="simulations at a time")
+    sub.add_argument(
+        "--point",
+        nargs="*",
+        default=[],
+        metavar="NAME=VALUE",
+        help="free parameter values (default: centre of the bounds)",
+    )
+
+
+Command = Callable[[argparse.Namespace], int]
+Arguments = Callable[[argparse.ArgumentParser], None] | None
+
+#: Every command: its name, what it does, the function that runs it and its own options.
+COMMANDS: tuple[tuple[str, str, Command, Arguments], ...] = (
+    ("run", "run (or resume) a calibration", run.run, run_arguments),
+    ("status", "show the state of a calibration", inspect.status, None),
+    ("studies", "list the studies in results/ with their state", inspect.studies, None),
+    ("stop", "stop a running calibration cleanly", manage.stop, None),
+    (
+        "watch",
+        "a live view of a running calibration (results/<study>/live.html)",
+        inspect.watch,
+        watch_arguments,
+    ),
+    (
+        "add-point",
+        "add a point by hand (NAME=VALUE for every free parameter)",
+        manage.add_point_command,
+        add_point_arguments,
+    ),
+    (
+        "rerun-failed",
+        "rerun the failed evaluations (new seeds) on the next run",
+        manage.rerun_failed,
+        None,
+    ),
+    (
+        "solutions",
+        "the parameter sets that meet the targets, and which parameters the targets pin",
+        analysis.solutions,
+        solutions_arguments,
+    ),
+    (
+        "convergence",
+        "error against run time: one point at several time steps and sizes",
+        analysis.convergence,
+        convergence_arguments,
+    ),
+)
+
+
+def parser() -> argparse.ArgumentParser:
+    """The demcal command line: one subcommand per entry of :data:`COMMANDS`."""
+    top = argparse.ArgumentParser(prog="demcal", description="Calibrate DEM simulations.")
+    commands = top.add_subparsers(dest="command", required=True)
+    for name, text, func, arguments in COMMANDS:
         sub = commands.add_parser(name, help=text)
         sub.set_defaults(func=func)
-        if name == "studies":
-            continue
-        sub.add_argument(
-            "config",
-            nargs="?",
-            default=DEFAULT_CONFIG,
-            help="the study's YAML file"
-            + ("" if name in ("run", "convergence") else ", or its name once it has run"),
-        )
-        if name == "run":
+        if name != "studies":
             sub.add_argument(
-                "--profile",
-                default=str(LOCAL_PROFILE),
-                help="Snakemake profile directory for the evaluations "
-                "(default: demcal's profiles/local)",
+                "config",
+                nargs="?",
+                default=DEFAULT_CONFIG,
+                help="the study's YAML file"
+                + ("" if name in ("run", "convergence") else ", or its name once it has run"),
             )
-            sub.add_argument("--workers", type=int, help="evaluations in flight")
-            # set by the workflow's calibrate rule: the daemon ends with its Snakemake
-            sub.add_argument("--watch-pid", type=int, help=argparse.SUPPRESS)
-            # set by the calibrate rule too: the config is the study.json it froze
-            sub.add_argument("--frozen", action="store_true", help=argparse.SUPPRESS)
-            sub.add_argument(
-                "--log", help="also append the messages and a progress line every 30 s to this file"
-            )
-        if name == "watch":
-            sub.add_argument(
-                "--every",
-                type=float,
-                default=10.0,
-                help="seconds between updates of the page (default 10)",
-            )
-        if name == "add-point":
-            sub.add_argument("values", nargs="+", metavar="NAME=VALUE")
-        if name == "solutions":
-            sub.add_argument(
-                "--k",
-                type=float,
-                default=2.0,
-                help="tolerance in combined standard deviations (default 2)",
-            )
-            sub.add_argument(
-                "--samples",
-                type=int,
-                default=2**16,
-                help="Sobol points sampled over the box (default 65536)",
-            )
-        if name == "convergence":
-            sub.add_argument("--scene", help="default: the study's first scene")
-            sub.add_argument(
-                "--fractions",
-                type=float,
-                nargs="+",
-                help="time steps as fractions of the Rayleigh time (default 0.5 0.35 0.25 0.125)",
-            )
-            sub.add_argument(
-                "--sizes",
-                type=float,
-                nargs="+",
-                help="values of the scene's size setting (particle count or box "
-                "scale; default 0.5, 1 and 2 times the configured one)",
-            )
-            sub.add_argument("--seeds", type=int, default=2, help="seeds per variant")
-            sub.add_argument(
-                "--jobs", type=int, default=os.cpu_count() or 1, help="simulations at a time"
-            )
-            sub.add_argument(
-                "--point",
-                nargs="*",
-                default=[],
-                metavar="NAME=VALUE",
-                help="free parameter values (default: centre of the bounds)",
-            )
-    args = parser.parse_args(argv)
+        if arguments is not None:
+            arguments(sub)
+    return top
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run one demcal command; a user's mistake or a disk error is one line, never a traceback."""
+    args = parser().parse_args(argv)
     try:
         return args.func(args)
     except DemcalError as exc:
@@ -153,22 +177,27 @@ def main(argv: list[str] | None = None) -> int:
         )
         return 2
     except Exception as exc:  # a bug: say where the details are, keep the terminal clean
-        logs = [
-            h.baseFilename
-            for h in logging.getLogger().handlers
-            if isinstance(h, logging.FileHandler) and h.baseFilename != os.devnull
-        ]
-        if logs:
-            logging.getLogger("demcal").exception("internal error")
-            where = f"traceback in {logs[0]}"
-        else:  # before the study's log exists: the traceback is all there is to report
-            traceback.print_exc()
-            where = "traceback above"
-        print(
-            f"demcal: internal error: {type(exc).__name__}: {exc} ({where}; please report it)",
-            file=sys.stderr,
-        )
-        return 3
+        return internal_error(exc)
+
+
+def internal_error(exc: Exception) -> int:
+    """Report a bug: the traceback goes to the study's log if one is open, else to stderr."""
+    logs = [
+        h.baseFilename
+        for h in logging.getLogger().handlers
+        if isinstance(h, logging.FileHandler) and h.baseFilename != os.devnull
+    ]
+    if logs:
+        logging.getLogger("demcal").exception("internal error")
+        where = f"traceback in {logs[0]}"
+    else:  # before the study's log exists: the traceback is all there is to report
+        traceback.print_exc()
+        where = "traceback above"
+    print(
+        f"demcal: internal error: {type(exc).__name__}: {exc} ({where}; please report it)",
+        file=sys.stderr,
+    )
+    return 3
 
 
 if __name__ == "__main__":
