@@ -55,49 +55,60 @@ def report_headline(study: Study) -> str:
     files = study.files
     lines = ["The answer", "==========", ""]
     finished = FinishedRecord.read_if_any(files.finished)
-    best = BestRecord.read_if_any(files.best)
     if finished is None:
         return "\n".join(
             [*lines, "The calibration has not finished (no finished.json): run it first.", ""]
         )
-    counts = finished.evaluations
-    spent = ""
-    if files.evaluations_csv.exists():
-        cpu = pd.to_numeric(pd.read_csv(files.evaluations_csv)["cpu_s"], errors="coerce").sum()
-        spent = f"; simulation CPU time {duration(cpu)}"
-    lines += [
-        f"**Ended:** {finished.reason}. **Evaluations:** {sum(counts.values())} "
-        f"({finished.count(Status.OK)} ok, {finished.count(Status.FAILED)} failed, "
-        f"{finished.count(Status.TERMINATED)} stopped early){spent}.",
-        "",
-    ]
+    lines += _ended(study, finished)
+    best = BestRecord.read_if_any(files.best)
     if best is None:
         return "\n".join(
             [*lines, "No evaluation succeeded: the reasons are in ``evaluations.csv``.", ""]
         )
-    lines += [
-        f"**Best parameters** (evaluation ``{best.evaluation}``, "
-        f"the evaluated point with the {CHOSEN_BY.get(best.chosen_by, 'lowest objective')}):",
+    lines += _best_parameters(study, best) + _best_responses(study, best)
+    lines += _confirmation(study, best) + _identified(files.solutions_summary)
+    lines += _image(files.plots / "solution_space.png") + _image(files.plots / "sensitivity.png")
+    return "\n".join(lines)
+
+
+def _ended(study: Study, finished: FinishedRecord) -> list[str]:
+    """Why and when the calibration ended, and what it spent."""
+    spent = ""
+    if study.files.evaluations_csv.exists():
+        cpu = pd.to_numeric(pd.read_csv(study.files.evaluations_csv)["cpu_s"], errors="coerce")
+        spent = f"; simulation CPU time {duration(cpu.sum())}"
+    return [
+        f"**Ended:** {finished.reason}. **Evaluations:** {sum(finished.evaluations.values())} "
+        f"({finished.count(Status.OK)} ok, {finished.count(Status.FAILED)} failed, "
+        f"{finished.count(Status.TERMINATED)} stopped early){spent}.",
         "",
     ]
-    on_bounds = best.on_bounds
+
+
+def _best_parameters(study: Study, best: BestRecord) -> list[str]:
+    """The best parameters with their bounds, flagging one on a bound."""
     rows = []
     for p in study.free:
         unit = "" if p.spec.unit == "-" else f" {p.spec.unit}"
-        note = f" **on its {on_bounds[p.name]} bound**" if p.name in on_bounds else ""
-        rows.append(
-            [
-                p.name,
-                f"{best.parameters[p.name]:.4g}{unit}",
-                f"{p.lower:g} – {p.upper:g}{unit}{note}",
-            ]
-        )
-    lines += _table(["parameter", "value", "bounds"], rows)
-    predicted = best.predicted_responses
+        side = best.on_bounds.get(p.name)
+        note = f" **on its {side} bound**" if side else ""
+        value = f"{best.parameters[p.name]:.4g}{unit}"
+        rows.append([p.name, value, f"{p.lower:g} – {p.upper:g}{unit}{note}"])
+    chosen_by = CHOSEN_BY.get(best.chosen_by or "", "lowest objective")
+    return [
+        f"**Best parameters** (evaluation ``{best.evaluation}``, "
+        f"the evaluated point with the {chosen_by}):",
+        "",
+        *_table(["parameter", "value", "bounds"], rows),
+    ]
+
+
+def _best_responses(study: Study, best: BestRecord) -> list[str]:
+    """Each response at the best point: simulated, predicted ± sd, target ± spread, error."""
     rows = []
     for t in study.targets:
         unit = study.scenes[t.scene].responses[t.response].unit
-        model = predicted.get(t.key, {})
+        model = best.predicted_responses.get(t.key, {})
         rows.append(
             [
                 f"{t.key} [{unit}]",
@@ -107,39 +118,42 @@ def report_headline(study: Study) -> str:
                 f"{100 * best.relative_errors.get(t.key, float('nan')):+.1f} %",
             ]
         )
-    lines += [
+    return [
         "**Responses against the targets** (simulated at the best point; predicted there by the "
         "response models ± their sd; target ± its measurement spread):",
         "",
+        *_table(["response", "simulated", "predicted", "target", "error"], rows),
     ]
-    lines += _table(["response", "simulated", "predicted", "target", "error"], rows)
+
+
+def _confirmation(study: Study, best: BestRecord) -> list[str]:
+    """The re-simulations of the best point, when there are any."""
     confirmation = best.confirmation
-    if confirmation and confirmation["responses"]:
-        rows = []
-        for t in study.targets:
-            entry = confirmation["responses"].get(t.key)
-            if entry:
-                rows.append(
-                    [
-                        t.key,
-                        with_sd(entry["mean"], entry["sd"]),
-                        str(entry["count"]),
-                        with_sd(t.value, t.spread),
-                    ]
-                )
-        lines += [
-            f"**Confirmed** by {len(confirmation['evaluations'])} more simulations of the best "
-            "point (new seeds; mean ± sd of their responses):",
-            "",
-        ]
-        lines += _table(["response", "mean", "simulations", "target"], rows)
-    solutions = _read(files.solutions_summary)
-    if solutions:
-        lines += [
-            f"**What the targets identify** ({solutions['accepted']} of {solutions['sampled']} "
-            f"sampled parameter sets meet every target within {solutions['k']:g} sd):",
-            "",
-        ]
-        lines += [f"- {verdict['sentence']}" for verdict in solutions["verdicts"]] + [""]
-    lines += _image(files.plots / "solution_space.png") + _image(files.plots / "sensitivity.png")
-    return "\n".join(lines)
+    if not confirmation or not confirmation["responses"]:
+        return []
+    rows = []
+    for t in study.targets:
+        entry = confirmation["responses"].get(t.key)
+        if entry:
+            mean = with_sd(entry["mean"], entry["sd"])
+            rows.append([t.key, mean, str(entry["count"]), with_sd(t.value, t.spread)])
+    return [
+        f"**Confirmed** by {len(confirmation['evaluations'])} more simulations of the best "
+        "point (new seeds; mean ± sd of their responses):",
+        "",
+        *_table(["response", "mean", "simulations", "target"], rows),
+    ]
+
+
+def _identified(solutions_summary: Path) -> list[str]:
+    """What the targets identify (solutions.json), when the analysis has run."""
+    solutions = _read(solutions_summary)
+    if not solutions:
+        return []
+    return [
+        f"**What the targets identify** ({solutions['accepted']} of {solutions['sampled']} "
+        f"sampled parameter sets meet every target within {solutions['k']:g} sd):",
+        "",
+        *[f"- {verdict['sentence']}" for verdict in solutions["verdicts"]],
+        "",
+    ]
