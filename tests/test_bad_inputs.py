@@ -65,6 +65,7 @@ def test_a_bad_hand_written_point_is_a_failed_evaluation_with_its_reason(tmp_pat
     assert re.search(point.reason, reason), reason
 
 
+@pytest.mark.slow
 def test_an_alias_bomb_is_refused_in_well_under_a_second_and_little_memory(tmp_path):
     bomb = next(c for c in CASES if c.name == "alias_bomb_mapping")
     path = bomb.write(tmp_path)
