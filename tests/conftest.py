@@ -33,8 +33,7 @@ ANALYTIC_STUDY = {
 
 
 def run_and_extract(engine, job):
-    """Run one simulation on ``engine``; its responses as the workflow's extract
-    job computes them."""
+    """Run one simulation on ``engine``; its responses as the extract job computes them."""
     from demcal.engines.base import RunMonitor
     from demcal.jobs.evaluation import scene_responses
     from demcal.results.records import Status
@@ -166,3 +165,86 @@ def finish(proc, timeout=240):
 
 def evaluations(tmp_path, name):
     return pd.read_csv(tmp_path / "results" / name / "evaluations.csv")
+
+
+# -- a calibration of the analytic example run in-process (no Snakemake) --
+
+ANALYTIC_EXAMPLE = ROOT / "config" / "examples" / "analytic.yaml"
+
+
+def analytic_example(**overrides) -> dict:
+    """config/examples/analytic.yaml without its fake run time, with ``overrides`` merged in."""
+    config = yaml.safe_load(ANALYTIC_EXAMPLE.read_text())
+    config["engine"]["duration"] = 0.0
+    for key, value in overrides.items():
+        config[key] = {**config.get(key, {}), **value} if isinstance(value, dict) else value
+    return config
+
+
+def new_optimizer(study):
+    """The optimizer a calibration of ``study`` starts with (as the daemon makes it)."""
+    from demcal.optimizer import Optimizer
+    from demcal.study.objective import ResponseObjective
+
+    return Optimizer(
+        [p.lower for p in study.free],
+        [p.upper for p in study.free],
+        study.optimizer,
+        seed=study.seed,
+        objective=ResponseObjective(tuple(study.targets), study.objective_form),
+    )
+
+
+def evaluate(study, optimizer, proposal) -> dict:
+    """Write a proposal's params.json, run its simulate, extract and objective jobs in this
+    process, tell the optimizer, save its state; the objective record."""
+    from demcal.jobs.evaluation import extract, objective, response_paths, simulate
+    from demcal.results.layout import PointRecord, evaluation_id, write_point
+    from demcal.results.records import Status
+    from demcal.results.storage import atomic_write_text
+
+    evaluation = evaluation_id(proposal.id)
+    files = study.files.evaluation(evaluation)
+    names = [p.name for p in study.free]
+    write_point(
+        files,
+        PointRecord(dict(zip(names, proposal.x)), in_initial_design=proposal.in_initial_design),
+    )
+    for scene in study.scenes:
+        for replicate in range(study.replicates):
+            simulate(study, evaluation, scene, replicate)
+            extract(study, files.replicate(scene, replicate).simulation)
+    record = objective(study, evaluation, response_paths(study, evaluation))
+    if record["status"] == Status.OK:
+        optimizer.tell(proposal.id, responses=record["replicates"])
+    else:
+        optimizer.tell(proposal.id, status=record["status"])
+    atomic_write_text(study.files.optimizer, optimizer.to_json())
+    return record
+
+
+def run_in_process(study, evaluations: int, extra_points=(), reason="evaluation budget spent"):
+    """A finished calibration of ``study`` without Snakemake: the first ``evaluations`` points
+    the optimizer asks for and then ``extra_points`` (given by hand), each evaluated in
+    process, then the tables and finished.json as the daemon writes them; the optimizer."""
+    import time
+
+    from demcal.results.storage import write_json
+    from demcal.results.tables import write_best, write_evaluations_csv
+
+    write_json(study.files.calibration, {"started_at": time.time(), "study": study.name})
+    optimizer = new_optimizer(study)
+    for _ in range(evaluations):
+        (proposal,) = optimizer.ask(1)
+        evaluate(study, optimizer, proposal)
+    for point in extra_points:
+        evaluate(study, optimizer, optimizer.add_point(point))
+    write_evaluations_csv(study)
+    best = optimizer.best()
+    if best is not None:
+        write_best(study, best, optimizer.confirmation(), reason)
+    write_json(
+        study.files.finished,
+        {"reason": reason, "ended_at": time.time(), "evaluations": optimizer.status_counts()},
+    )
+    return optimizer

@@ -27,6 +27,7 @@ def test_the_corpus_is_large_and_its_messages_distinct():
 
 
 @pytest.mark.parametrize("case", CASES, ids=lambda c: c.name)
+@pytest.mark.slow
 def test_every_route_refuses_a_bad_study_in_one_line(tmp_path, case):
     with ThreadPoolExecutor(len(ROUTES)) as pool:
         outcomes = dict(
@@ -46,6 +47,7 @@ def test_every_route_refuses_a_bad_study_in_one_line(tmp_path, case):
 
 
 @pytest.mark.parametrize("point", POINTS, ids=lambda p: p.name)
+@pytest.mark.slow
 def test_a_bad_hand_written_point_is_a_failed_evaluation_with_its_reason(tmp_path, point):
     """The README's "evaluate your own point": recorded as failed, summarised, exit 0."""
     study, target = write_point(tmp_path, point)
@@ -63,6 +65,7 @@ def test_a_bad_hand_written_point_is_a_failed_evaluation_with_its_reason(tmp_pat
     assert re.search(point.reason, reason), reason
 
 
+@pytest.mark.slow
 def test_an_alias_bomb_is_refused_in_well_under_a_second_and_little_memory(tmp_path):
     bomb = next(c for c in CASES if c.name == "alias_bomb_mapping")
     path = bomb.write(tmp_path)

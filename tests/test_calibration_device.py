@@ -175,6 +175,7 @@ def run_lammps(job):
 
 
 @pytest.mark.lammps
+@pytest.mark.slow
 def test_tiny_device_gives_plausible_responses_and_an_early_estimate(tmp_path):
     job = tiny_job(tmp_path, ("mass_flow", "slide_time", "angle_of_repose"))
     result = run_lammps(job)
@@ -191,6 +192,7 @@ def test_tiny_device_gives_plausible_responses_and_an_early_estimate(tmp_path):
 
 
 @pytest.mark.lammps
+@pytest.mark.slow
 def test_mass_flow_alone_ends_when_the_hopper_is_empty(tmp_path):
     full = tiny_job(tmp_path / "full", ("mass_flow", "slide_time", "angle_of_repose"))
     short = tiny_job(tmp_path / "short", ("mass_flow",))
@@ -217,6 +219,7 @@ CORNERS = PARAMETER_CORNERS
 
 @pytest.mark.lammps
 @pytest.mark.parametrize("corner", CORNERS)
+@pytest.mark.slow
 def test_tiny_device_extreme_corners_are_stable(tmp_path, corner):
     """Corners of the parameter box: no blow-up, responses finite and in physical ranges.
 

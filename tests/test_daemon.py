@@ -19,6 +19,7 @@ from conftest import ROOT, TRUTH, demcal, evaluations, finish, study
 from demcal.study.model import load_frozen
 
 
+@pytest.mark.slow
 def test_local_calibration_reaches_the_known_optimum(tmp_path):
     """20 evaluations get the responses within about 3 % of the targets (objective 0 at TRUTH).
 
@@ -88,6 +89,7 @@ def test_local_calibration_reaches_the_known_optimum(tmp_path):
         assert (tmp_path / "results/conv/plots" / figure).stat().st_size > 0
 
 
+@pytest.mark.slow
 def test_kill_9_then_resume_loses_and_repeats_nothing(tmp_path):
     config = study(tmp_path, "crash")
     evals = tmp_path / "results" / "crash" / "evals"
@@ -120,6 +122,7 @@ def test_kill_9_then_resume_loses_and_repeats_nothing(tmp_path):
     assert all(r["status"] in ("ok", "terminated") for r in state["records"])
 
 
+@pytest.mark.slow
 def test_failures_are_retried_up_to_the_cap_with_reasons(tmp_path):
     failures = [
         {
@@ -149,6 +152,7 @@ def test_failures_are_retried_up_to_the_cap_with_reasons(tmp_path):
         assert params["previous_failures"] == ["cylinder_lift rep0: node lost"]
 
 
+@pytest.mark.slow
 def test_early_termination_stops_hopeless_runs_and_saves_time(tmp_path):
     duration = 4.0
     config = study(
@@ -212,6 +216,7 @@ def test_early_termination_stops_hopeless_runs_and_saves_time(tmp_path):
     assert 'http-equiv="refresh"' in page and page.count("data:image/png;base64,") == 2
 
 
+@pytest.mark.slow
 def test_second_daemon_on_the_same_study_is_refused(tmp_path):
     config = study(tmp_path, "twice", engine={"duration": 3.0})
     first = demcal(tmp_path, "run", config)
@@ -225,6 +230,7 @@ def test_second_daemon_on_the_same_study_is_refused(tmp_path):
     assert "stopped on request" in out
 
 
+@pytest.mark.slow
 def test_bad_config_is_one_message(tmp_path):
     config = study(tmp_path, "bad", optimizer={"strategy": "guess"})
     proc = demcal(tmp_path, "run", config)
@@ -249,6 +255,7 @@ def test_bad_config_is_one_message(tmp_path):
         )
 
 
+@pytest.mark.slow
 def test_resume_with_a_changed_study_is_refused_but_budget_may_grow(tmp_path):
     config = study(tmp_path, "grow", optimizer={"max_evaluations": 4})
     finish(demcal(tmp_path, "run", config))
@@ -265,6 +272,7 @@ def test_resume_with_a_changed_study_is_refused_but_budget_may_grow(tmp_path):
     assert "holds a calibration of a different study (engine.noise: 0.0 -> 0.01)" in err
 
 
+@pytest.mark.slow
 def test_new_target_values_rescore_stored_simulations_without_simulating(tmp_path):
     """Corrected targets on resume: every objective is recomputed from the stored responses."""
     config = study(tmp_path, "rescore", optimizer={"max_evaluations": 5})
@@ -308,6 +316,7 @@ def test_new_target_values_rescore_stored_simulations_without_simulating(tmp_pat
     assert proc.returncode == 2 and "holds a calibration of a different study (targets: [" in err
 
 
+@pytest.mark.slow
 def test_rerun_failed_reruns_them_with_new_seeds(tmp_path):
     failures = [
         {"when": {"sliding_friction_pp": [0.1, 0.3]}, "mode": "once", "reason": "node lost"}
@@ -359,6 +368,7 @@ def wait_for_objectives(evals, count, proc=None, timeout=120):
         time.sleep(0.2)
 
 
+@pytest.mark.slow
 def test_killed_snakemake_leaves_no_orphan_and_no_lock_the_same_command_finishes(tmp_path):
     """kill -9 of the top Snakemake: its daemon ends, no lock is left, a rerun
     resumes to the end."""
@@ -383,6 +393,7 @@ def test_killed_snakemake_leaves_no_orphan_and_no_lock_the_same_command_finishes
     assert (results / "report.html").exists()
 
 
+@pytest.mark.slow
 def test_a_daemon_that_dies_on_a_disk_error_leaves_the_calibration_unfinished(
     tmp_path, monkeypatch
 ):
@@ -414,6 +425,7 @@ def test_a_daemon_that_dies_on_a_disk_error_leaves_the_calibration_unfinished(
     assert (tmp_path / "results/rofs/finished.json").exists()
 
 
+@pytest.mark.slow
 def test_editing_the_study_file_during_a_run_does_not_reach_the_running_calibration(tmp_path):
     """Jobs read the frozen results/<study>/study.json, never the YAML."""
     config = study(
@@ -467,6 +479,7 @@ def test_a_failure_after_demcal_stop_is_recorded_not_retried(tmp_path, monkeypat
     assert [r["status"] for r in calibration.optimizer.records] == ["pending", "failed"]
 
 
+@pytest.mark.slow
 def test_status_and_stop_say_what_runs_and_what_stop_means(tmp_path):
     config = study(tmp_path, "halting", engine={"duration": 3.0})
     daemon = demcal(tmp_path, "run", config)
@@ -494,6 +507,7 @@ def test_status_and_stop_say_what_runs_and_what_stop_means(tmp_path):
     assert listing.startswith("halting: ended: stopped on request (demcal stop)\n  ")
 
 
+@pytest.mark.slow
 def test_a_point_added_by_hand_is_evaluated_by_the_next_run_and_joins_the_data(tmp_path):
     config = study(tmp_path, "byhand", optimizer={"max_evaluations": 6})
     finish(demcal(tmp_path, "run", config))

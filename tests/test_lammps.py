@@ -62,6 +62,7 @@ CORNERS = {
 
 
 @pytest.mark.parametrize("corner", CORNERS)
+@pytest.mark.slow
 def test_extreme_corners_are_stable_and_plausible(tmp_path, corner):
     job = tiny_job(tmp_path, **CORNERS[corner])
     result, responses = simulate(job)
@@ -72,6 +73,7 @@ def test_extreme_corners_are_stable_and_plausible(tmp_path, corner):
     assert math.isfinite(result.cost["steps"]) and result.cost["steps"] > 0
 
 
+@pytest.mark.slow
 def test_friction_raises_the_heap(tmp_path):
     _, smooth = simulate(tiny_job(tmp_path / "a", **CORNERS["frictionless"]))
     _, rough = simulate(tiny_job(tmp_path / "b", sliding_friction_pp=0.8, rolling_friction_pp=0.3))

@@ -7,7 +7,11 @@ import sys
 import sysconfig
 from pathlib import Path
 
+import pytest
 import yaml
+
+#: builds a wheel, installs it in a new venv and calibrates with it
+pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parents[1]
 SOURCE_ONLY = shutil.ignore_patterns(

@@ -279,6 +279,7 @@ CORNERS = PARAMETER_CORNERS
 
 @pytest.mark.lammps
 @pytest.mark.parametrize("corner", CORNERS)
+@pytest.mark.slow
 def test_extreme_corners_are_stable_and_plausible(tmp_path, corner):
     job = tiny_job(tmp_path, **CORNERS[corner])
     result, responses = simulate(job)

@@ -17,6 +17,7 @@ from conftest import ROOT, demcal, evaluations, study
 
 pytestmark = [
     pytest.mark.slurm,
+    pytest.mark.slow,  # a whole calibration through SLURM (up to TIME_LIMIT_S)
     pytest.mark.skipif(
         not os.environ.get("DEMCAL_SLURM"),
         reason="needs a SLURM: set DEMCAL_SLURM=1 after .ci/slurm/start.sh",

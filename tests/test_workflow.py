@@ -45,6 +45,7 @@ def write_point(workdir, study, evaluation, **point):
     return path.parent
 
 
+@pytest.mark.slow
 def test_objective_matches_eq_3_3_of_the_closed_form(tmp_path, analytic_config):
     point = {"sliding_friction_pp": 0.4, "rolling_friction_pp": 0.1}
     evaldir = write_point(tmp_path, "unit", "e1", **point)
@@ -73,6 +74,7 @@ def test_objective_matches_eq_3_3_of_the_closed_form(tmp_path, analytic_config):
         assert (evaldir / "cylinder_lift" / f"rep{rep}" / "partial.csv").exists()
 
 
+@pytest.mark.slow
 def test_evaluate_centre_runs_the_middle_of_the_bounds(tmp_path, analytic_config):
     proc = run_snakemake(tmp_path, analytic_config, "evaluate_centre")
     assert proc.returncode == 0, proc.stderr[-3000:]
@@ -81,6 +83,7 @@ def test_evaluate_centre_runs_the_middle_of_the_bounds(tmp_path, analytic_config
     assert record["status"] == "ok"
 
 
+@pytest.mark.slow
 def test_failed_simulation_is_recorded_not_raised(tmp_path, analytic_config):
     analytic_config["engine"]["failures"] = [
         {"when": {"sliding_friction_pp": [0.8, 0.9]}, "reason": "particles escaped"}
@@ -96,6 +99,7 @@ def test_failed_simulation_is_recorded_not_raised(tmp_path, analytic_config):
     assert "cylinder_lift rep1: particles escaped" in record["reason"]
 
 
+@pytest.mark.slow
 def test_out_of_range_point_is_a_failure_with_reason(tmp_path, analytic_config):
     evaldir = write_point(tmp_path, "unit", "odd", sliding_friction_pp=7.0, rolling_friction_pp=0.1)
     proc = run_snakemake(tmp_path, analytic_config, "results/unit/evals/odd/objective.json")
@@ -105,6 +109,7 @@ def test_out_of_range_point_is_a_failure_with_reason(tmp_path, analytic_config):
     assert "sliding_friction_pp = 7 is outside the allowed range [0, 2]" in record["reason"]
 
 
+@pytest.mark.slow
 def test_stop_file_ends_the_evaluation_as_terminated(tmp_path, analytic_config):
     analytic_config["engine"]["duration"] = 30.0
     evaldir = write_point(tmp_path, "unit", "st", sliding_friction_pp=0.3, rolling_friction_pp=0.1)
@@ -114,6 +119,7 @@ def test_stop_file_ends_the_evaluation_as_terminated(tmp_path, analytic_config):
     assert json.loads((evaldir / "objective.json").read_text())["status"] == "terminated"
 
 
+@pytest.mark.slow
 def test_dag_of_one_evaluation_renders(tmp_path, analytic_config):
     write_point(tmp_path, "unit", "e1", sliding_friction_pp=0.4, rolling_friction_pp=0.1)
     proc = run_snakemake(
@@ -130,6 +136,7 @@ def test_dag_of_one_evaluation_renders(tmp_path, analytic_config):
 
 
 @pytest.mark.lammps
+@pytest.mark.slow
 def test_real_lammps_evaluation_through_the_dag(tmp_path, analytic_config):
     """One tiny cylinder lift on the embedded LAMMPS engine, through Snakemake."""
     analytic_config["engine"] = {"name": "lammps"}
@@ -191,6 +198,7 @@ def reported(tmp_path_factory):
     return workdir, run_snakemake(workdir, config, "--profile", str(ROOT / "profiles" / "local"))
 
 
+@pytest.mark.slow
 def test_default_target_calibrates_and_reports(reported):
     tmp_path, proc = reported
     assert proc.returncode == 0, proc.stderr[-3000:]
@@ -228,6 +236,7 @@ CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 
 
 @pytest.mark.skipif(CHROMIUM is None, reason="needs Chromium (.ci/run installs it)")
+@pytest.mark.slow
 def test_the_report_opens_with_the_answer_in_a_browser(reported):
     """The report rendered by headless Chromium (its JavaScript builds the page): what
     a user sees first."""
@@ -272,6 +281,7 @@ def test_dag_drawing_without_graphviz_says_how_to_get_it(monkeypatch):
     assert "simulate -&gt; &quot;extract&quot;" in svg
 
 
+@pytest.mark.slow
 def test_joint_study_runs_every_scene_replicate_in_parallel(tmp_path, analytic_config):
     """Two scenes x 2 replicates in one evaluation: four simulate/extract pairs, two at a time."""
     config = {
@@ -321,6 +331,7 @@ def test_joint_study_runs_every_scene_replicate_in_parallel(tmp_path, analytic_c
     assert max(at_once) == 2, spans
 
 
+@pytest.mark.slow
 def test_rayleigh_cost_is_added_to_the_objective(tmp_path, analytic_config):
     """Rackl & Hanley eq. 10 at the stiffest E of the bounds: the cost is W^2 on top of eq. 3.3."""
     config = {
@@ -347,6 +358,7 @@ def test_rayleigh_cost_is_added_to_the_objective(tmp_path, analytic_config):
     assert record["objective"] == pytest.approx(errors + 0.25)
 
 
+@pytest.mark.slow
 def test_the_readme_analytic_command_prints_a_short_terminal_story(tmp_path):
     """The README's analytic command (the example shortened to 8 quick evaluations): besides
     the progress lines, at most 30 lines, ending with the answer and where the report is."""
@@ -382,6 +394,7 @@ def test_the_readme_analytic_command_prints_a_short_terminal_story(tmp_path):
     assert "report: results/analytic-demo/report.html" in text
 
 
+@pytest.mark.slow
 def test_when_every_evaluation_fails_the_run_ends_with_the_commonest_reason(tmp_path):
     """No Snakemake 'missing output / filesystem latency' story: the calibration ends, says that
     nothing succeeded and why, and still makes its report."""

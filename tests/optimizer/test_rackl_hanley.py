@@ -81,6 +81,7 @@ def test_the_phases_run_in_order_and_each_iteration_runs_its_steps_in_parallel()
     assert len(resumed.ask(10)) == 3
 
 
+@pytest.mark.slow
 def test_with_noise_it_stops_on_its_own_at_the_noise_level_and_counts_the_runs_of_each_phase():
     """0.5 % simulation noise: once the objective is down at the noise, no step improves it by 2 %.
 

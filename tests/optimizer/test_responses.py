@@ -88,6 +88,7 @@ def test_models_are_refitted_only_on_new_data():
     assert all(first[k] is again[k] for k in first)
 
 
+@pytest.mark.slow
 def test_a_refit_starts_from_the_last_length_scales_and_nugget_unless_that_fit_was_degenerate():
     """A warm start of the length scales alone restarted the nugget near 0 and the single start
     stayed there, or ran off to a nugget of 1e10 (only the trend left, the early-termination
@@ -131,6 +132,7 @@ def test_best_is_the_evaluated_point_with_the_lowest_predicted_objective():
     assert best["responses"] == {key: pytest.approx((means[key][0], stds[key][0])) for key in means}
 
 
+@pytest.mark.slow
 def test_a_best_point_on_a_bound_is_flagged_in_best_and_in_the_summary():
     """Targets beyond the box's upper friction end: the answer sits on the
     sliding-friction bound."""
@@ -153,6 +155,7 @@ def test_a_best_point_on_a_bound_is_flagged_in_best_and_in_the_summary():
 
 
 @pytest.mark.parametrize("strategy", ["response_ei", "dycors"])
+@pytest.mark.slow
 def test_early_termination_does_not_stall_in_one_region(strategy):
     """A stopped run's responses enter the models: no long run of stops in one neighbourhood.
 
@@ -190,6 +193,7 @@ def test_early_termination_does_not_stall_in_one_region(strategy):
     assert objective_values(TARGETS, lift(opt.best()["x"])) < noise_level
 
 
+@pytest.mark.slow
 def test_state_with_objective_and_responses_resumes_to_the_same_proposal():
     opt = optimizer()
     for proposal in opt.ask(8):
@@ -204,6 +208,7 @@ def test_response_strategies_need_the_targets():
         Optimizer([0.1, 0.02], [0.9, 0.3], {"strategy": "response_ei"})
 
 
+@pytest.mark.slow
 def test_confirmation_resimulates_the_best_point_once_and_keeps_it_the_answer():
     rng = np.random.default_rng(1)
     opt = optimizer(max_evaluations=12, confirm_replicates=3)
