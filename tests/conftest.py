@@ -197,24 +197,22 @@ def new_optimizer(study):
 
 def evaluate(study, optimizer, proposal) -> dict:
     """Write a proposal's params.json, run its simulate, extract and objective jobs in this
-    process, tell the optimizer, save its state; the objective record."""
+    process, tell the optimizer, save its state; the objective record (as a dict)."""
     from demcal.jobs.evaluation import extract, objective, response_paths, simulate
-    from demcal.results.layout import PointRecord, evaluation_id, write_point
-    from demcal.results.records import Status
+    from demcal.results.layout import evaluation_id
+    from demcal.results.records import PointRecord, Status
     from demcal.results.storage import atomic_write_text
 
     evaluation = evaluation_id(proposal.id)
     files = study.files.evaluation(evaluation)
     names = [p.name for p in study.free]
-    write_point(
-        files,
-        PointRecord(dict(zip(names, proposal.x)), in_initial_design=proposal.in_initial_design),
-    )
+    point = PointRecord(dict(zip(names, proposal.x)), in_initial_design=proposal.in_initial_design)
+    point.write(files.params)
     for scene in study.scenes:
         for replicate in range(study.replicates):
             simulate(study, evaluation, scene, replicate)
             extract(study, files.replicate(scene, replicate).simulation)
-    record = objective(study, evaluation, response_paths(study, evaluation))
+    record = objective(study, evaluation, response_paths(study, evaluation)).to_dict()
     if record["status"] == Status.OK:
         optimizer.tell(proposal.id, responses=record["replicates"])
     else:
@@ -248,3 +246,10 @@ def run_in_process(study, evaluations: int, extra_points=(), reason="evaluation 
         {"reason": reason, "ended_at": time.time(), "evaluations": optimizer.status_counts()},
     )
     return optimizer
+
+
+def read_objective(files) -> dict:
+    """An evaluation's objective record as it stands (a re-score, else its job's), as a dict."""
+    from demcal.results.records import ObjectiveRecord
+
+    return ObjectiveRecord.read_latest(files).to_dict()

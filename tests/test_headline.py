@@ -9,10 +9,9 @@ import docutils.core
 import docutils.nodes
 import docutils.utils
 import pytest
-from conftest import analytic_example, run_in_process
+from conftest import analytic_example, read_objective, run_in_process
 
 from demcal.reporting.headline import report_headline
-from demcal.results.layout import read_objective
 from demcal.results.storage import write_json
 from demcal.study.config import load_study
 from demcal.study.model import freeze
@@ -107,6 +106,7 @@ def test_headline_from_files_written_by_hand(study):
         files.best,
         {
             "evaluation": "e0006",
+            "objective": 0.0006,
             "chosen_by": "objective surrogate",
             "parameters": {"sliding_friction_pp": 0.4, "rolling_friction_pp": 0.3},
             "on_bounds": {"rolling_friction_pp": "upper"},

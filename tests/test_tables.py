@@ -9,10 +9,10 @@ import os
 from datetime import UTC, datetime
 
 import pytest
-from conftest import analytic_example, evaluate, new_optimizer
+from conftest import analytic_example, evaluate, new_optimizer, read_objective
 
-from demcal.results.layout import PointRecord, evaluation_id, read_objective, write_point
-from demcal.results.records import Status
+from demcal.results.layout import evaluation_id
+from demcal.results.records import PointRecord, Status
 from demcal.results.storage import write_json
 from demcal.results.tables import evaluation_columns, write_best, write_evaluations_csv
 from demcal.study.config import load_study
@@ -42,9 +42,8 @@ def test_evaluations_csv_has_a_row_per_evaluation_with_what_its_records_say(stud
     done = [evaluate(study, optimizer, proposal) for proposal in optimizer.ask(3)]
     failed = evaluate(study, optimizer, optimizer.add_point([0.15, 0.1]))
     (pending,) = optimizer.ask(1)  # handed out, not finished: no objective.json yet
-    write_point(
-        study.files.evaluation(evaluation_id(pending.id)),
-        PointRecord(dict(zip(["sliding_friction_pp", "rolling_friction_pp"], pending.x))),
+    PointRecord(dict(zip(["sliding_friction_pp", "rolling_friction_pp"], pending.x))).write(
+        study.files.evaluation(evaluation_id(pending.id)).params
     )
     launched = study.files.evaluation("e0001")
     started = os.stat(launched.objective).st_mtime - 42.0
@@ -59,7 +58,7 @@ def test_evaluations_csv_has_a_row_per_evaluation_with_what_its_records_say(stud
         Status.OK,
         Status.OK,
         Status.FAILED,
-        Status.RUNNING,
+        Status.PENDING,
     ]
     for row, record in zip(table, done):
         assert float(row["objective"]) == pytest.approx(record["objective"], rel=1e-6)

@@ -323,7 +323,7 @@ class FinishedRecord(Record):
     FILE: ClassVar[str] = "finished.json"
 
     reason: str
-    ended_at: float
+    ended_at: float | None = None
     evaluations: dict[str, int] = field(default_factory=dict)
 
     def count(self, status: Status) -> int:
