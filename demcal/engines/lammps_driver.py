@@ -28,6 +28,18 @@ def num(value: float) -> str:
     return f"{value:.10g}"
 
 
+def setup_commands(boundary: str = "f f f") -> list[str]:
+    """The first commands of every scene: SI units, spheres, the box's ``boundary`` and ghost
+    atoms that carry velocities (the GRANULAR pair styles need them)."""
+    return [
+        "units si",
+        "atom_style sphere",
+        f"boundary {boundary}",
+        "newton off",
+        "comm_modify vel yes",
+    ]
+
+
 def contact_model(p: dict, settings: dict, wall: bool) -> str:
     """pair/wall granular coefficients: Hertz, restitution damping, Mindlin, SDS rolling."""
     suffix = "pw" if wall else "pp"

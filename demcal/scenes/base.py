@@ -63,6 +63,40 @@ class SettingSpec:
         return int(value) if self.integer else float(value)
 
 
+#: The material parameters every scene reads (names in demcal.study.catalogue): contact
+#: friction and rolling resistance between particles (pp) and with walls (pw), restitution,
+#: stiffness and particle density.
+MATERIAL_PARAMETERS = (
+    "sliding_friction_pp",
+    "sliding_friction_pw",
+    "rolling_friction_pp",
+    "rolling_friction_pw",
+    "restitution",
+    "youngs_modulus",
+    "poisson_ratio",
+    "particle_density",
+)
+
+
+def settling_settings(max_settle_time: float, meaning: str) -> dict[str, SettingSpec]:
+    """The settings every scene shares: when material counts as at rest (rms speed), how long
+    a settling stage may take (simulated s, ``meaning`` says which stages), and particle dumps
+    for viewing."""
+    return {
+        "rest_speed": SettingSpec(
+            5.0e-3, "m/s", "rms particle speed below which material is at rest", 1.0e-6, 1.0
+        ),
+        "max_settle_time": SettingSpec(max_settle_time, "s", meaning, 0.01, 100.0),
+        "dump_interval": SettingSpec(
+            0.0,
+            "s",
+            "simulated time between particle dumps (dump.lammpstrj, for viewing); 0 = no dumps",
+            0.0,
+            100.0,
+        ),
+    }
+
+
 @dataclass(frozen=True)
 class ResponseSpec:
     """A bulk response a scene can produce, in ``unit``, physically between

@@ -100,6 +100,19 @@ class History:
         ]
         return selected
 
+    def admissible(self, candidates: np.ndarray) -> np.ndarray:
+        """Which ``candidates`` keep the settings' distance from every point handed out and
+        from failed points (boolean mask)."""
+        s = self.settings
+        keep: np.ndarray = st.admissible(
+            candidates,
+            self.points,
+            s.min_distance,
+            self.select(Status.FAILED),
+            s.failed_exclusion_radius,
+        )
+        return keep
+
     def space_filling_point(self) -> np.ndarray:
         """The point farthest from all others, clear of failed points (no surrogate needed)."""
         s = self.settings
@@ -144,13 +157,7 @@ class CandidateSearch(Strategy):
             candidates = np.vstack(
                 [candidates, st.surrogate_minimum(surrogate, center, 2 * history.sigma)]
             )
-        keep = st.admissible(
-            candidates,
-            history.points,
-            s.min_distance,
-            history.select(Status.FAILED),
-            s.failed_exclusion_radius,
-        )
+        keep = history.admissible(candidates)
         if not keep.any():
             return history.space_filling_point()
         weight = (

@@ -42,13 +42,7 @@ class ResponseEI(Strategy):
                 st.uniform_candidates(s.candidates, history.dimension, history.rng),
             ]
         )
-        keep = st.admissible(
-            candidates,
-            history.points,
-            s.min_distance,
-            history.select(Status.FAILED),
-            s.failed_exclusion_radius,
-        )
+        keep = history.admissible(candidates)
         if not keep.any():
             return history.space_filling_point()
         candidates = candidates[keep]

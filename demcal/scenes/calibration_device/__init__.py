@@ -35,7 +35,14 @@ import numpy as np
 from demcal.errors import ConfigError, SimulationFailed
 from demcal.physics import measure
 from demcal.physics.psd import diameter_range
-from demcal.scenes.base import MAX_ANGLE, ResponseSpec, Scene, SettingSpec
+from demcal.scenes.base import (
+    MATERIAL_PARAMETERS,
+    MAX_ANGLE,
+    ResponseSpec,
+    Scene,
+    SettingSpec,
+    settling_settings,
+)
 from demcal.scenes.calibration_device.analytic import analytic_model
 
 #: Discharged fractions between which the hopper's mass is fitted for the mass flow.
@@ -139,16 +146,7 @@ SCENE = Scene(
     name="calibration_device",
     description="hopper discharging onto a slide: mass flow, slide time, angle of repose "
     "of the pile (Samuelsson 2023)",
-    parameters=(
-        "sliding_friction_pp",
-        "sliding_friction_pw",
-        "rolling_friction_pp",
-        "rolling_friction_pw",
-        "restitution",
-        "youngs_modulus",
-        "poisson_ratio",
-        "particle_density",
-    ),
+    parameters=MATERIAL_PARAMETERS,
     responses={
         "mass_flow": ResponseSpec(
             "kg/s", "slope of the hopper's mass against time over 20-80 % discharged"
@@ -216,19 +214,7 @@ SCENE = Scene(
             0.0,
             0.5,
         ),
-        "rest_speed": SettingSpec(
-            5.0e-3, "m/s", "rms particle speed below which material is at rest", 1.0e-6, 1.0
-        ),
-        "max_settle_time": SettingSpec(
-            2.0, "s", "simulated time limit of each settling stage", 0.01, 100.0
-        ),
-        "dump_interval": SettingSpec(
-            0.0,
-            "s",
-            "simulated time between particle dumps (dump.lammpstrj, for viewing); 0 = no dumps",
-            0.0,
-            100.0,
-        ),
+        **settling_settings(2.0, "simulated time limit of each settling stage"),
     },
     analytic_model=analytic_model,
     extractors={"angle_of_repose": _angle_of_repose},

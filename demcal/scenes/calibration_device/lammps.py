@@ -16,7 +16,7 @@ import math
 import numpy as np
 
 from demcal.engines.base import RunMonitor, RunResult, SimulationJob
-from demcal.engines.lammps_driver import LammpsDriver, num
+from demcal.engines.lammps_driver import LammpsDriver, num, setup_commands
 from demcal.physics import measure
 from demcal.physics.contact import GRAVITY
 from demcal.physics.particles import INSERTION_SOLID_FRACTION
@@ -43,11 +43,7 @@ class CalibrationDevice(LammpsDriver):
         wall_height = g.hopper_top - g.hopper_bottom
         self.lmp.commands_list(
             [
-                "units si",
-                "atom_style sphere",
-                "boundary f p f",
-                "newton off",
-                "comm_modify vel yes",
+                *setup_commands("f p f"),
                 f"region box block 0 {num(g.box_right)} 0 {num(depth)} {num(-0.5 * dm)} "
                 f"{num(g.hopper_top + 5.0 * dm)} units box",
                 "create_box 1 box",

@@ -20,7 +20,15 @@ from __future__ import annotations
 from demcal.errors import ConfigError
 from demcal.physics import measure
 from demcal.physics.psd import diameter_range
-from demcal.scenes.base import MAX_ANGLE, MAX_BULK_DENSITY, ResponseSpec, Scene, SettingSpec
+from demcal.scenes.base import (
+    MATERIAL_PARAMETERS,
+    MAX_ANGLE,
+    MAX_BULK_DENSITY,
+    ResponseSpec,
+    Scene,
+    SettingSpec,
+    settling_settings,
+)
 from demcal.scenes.cylinder_lift.analytic import analytic_model
 
 
@@ -71,16 +79,7 @@ def check_geometry(settings: dict, field_prefix: str) -> None:
 SCENE = Scene(
     name="cylinder_lift",
     description="cylinder lift test: poured bulk density and angle of repose of the heap",
-    parameters=(
-        "sliding_friction_pp",
-        "sliding_friction_pw",
-        "rolling_friction_pp",
-        "rolling_friction_pw",
-        "restitution",
-        "youngs_modulus",
-        "poisson_ratio",
-        "particle_density",
-    ),
+    parameters=MATERIAL_PARAMETERS,
     responses={
         "bulk_density": ResponseSpec(
             "kg/m^3", "mass of the settled fill / (pi R^2 fill height)", upper=MAX_BULK_DENSITY
@@ -106,19 +105,7 @@ SCENE = Scene(
             100.0e-3, "m", "width of the square plate: material beyond it leaves", 1.0e-4, 20.0
         ),
         "lift_speed": SettingSpec(0.01, "m/s", "cylinder lift speed", 1.0e-4, 1.0),
-        "rest_speed": SettingSpec(
-            5.0e-3, "m/s", "rms particle speed below which material is at rest", 1.0e-6, 1.0
-        ),
-        "max_settle_time": SettingSpec(
-            2.0, "s", "simulated time limit of each settling stage", 0.01, 100.0
-        ),
-        "dump_interval": SettingSpec(
-            0.0,
-            "s",
-            "simulated time between particle dumps (dump.lammpstrj, for viewing); 0 = no dumps",
-            0.0,
-            100.0,
-        ),
+        **settling_settings(2.0, "simulated time limit of each settling stage"),
         "aor_method": SettingSpec(
             "flank_fit", "", "angle of repose measure", choices=("flank_fit", "height_radius")
         ),

@@ -16,7 +16,7 @@ import math
 import numpy as np
 
 from demcal.engines.base import RunMonitor, RunResult, SimulationJob
-from demcal.engines.lammps_driver import LammpsDriver, num
+from demcal.engines.lammps_driver import LammpsDriver, num, setup_commands
 from demcal.physics import measure
 from demcal.physics.contact import GRAVITY
 from demcal.physics.particles import INSERTION_SOLID_FRACTION
@@ -42,11 +42,7 @@ class CylinderLift(LammpsDriver):
         ring, pw = s["ring_height"], self.wall_model()
         self.lmp.commands_list(
             [
-                "units si",
-                "atom_style sphere",
-                "boundary f f f",
-                "newton off",
-                "comm_modify vel yes",
+                *setup_commands(),
                 f"region box block {num(-half)} {num(half)} {num(-half)} {num(half)} "
                 f"{num(-0.5 * self.d_max)} {num(self.cylinder_top + 5 * self.d_max)} units box",
                 "create_box 1 box",

@@ -36,7 +36,15 @@ import math
 from demcal.errors import ConfigError
 from demcal.physics import measure
 from demcal.physics.psd import diameter_range
-from demcal.scenes.base import MAX_ANGLE, MAX_BULK_DENSITY, ResponseSpec, Scene, SettingSpec
+from demcal.scenes.base import (
+    MATERIAL_PARAMETERS,
+    MAX_ANGLE,
+    MAX_BULK_DENSITY,
+    ResponseSpec,
+    Scene,
+    SettingSpec,
+    settling_settings,
+)
 from demcal.scenes.shear_box.analytic import analytic_model
 
 #: Spheres generated fill the box at the densest random packing, so the
@@ -127,16 +135,7 @@ SCENE = Scene(
     name="shear_box",
     description="shear box test (Richter & Will 2021): bulk density of the filled box and "
     "shear angle of the material left after the flap opens",
-    parameters=(
-        "sliding_friction_pp",
-        "sliding_friction_pw",
-        "rolling_friction_pp",
-        "rolling_friction_pw",
-        "restitution",
-        "youngs_modulus",
-        "poisson_ratio",
-        "particle_density",
-    ),
+    parameters=MATERIAL_PARAMETERS,
     responses={
         "bulk_density": ResponseSpec(
             "kg/m^3",
@@ -173,19 +172,7 @@ SCENE = Scene(
         ),
         "base_width": SettingSpec(0.10, "m", "unscaled box width (100 mm)", 1.0e-3, 10.0),
         "base_height": SettingSpec(0.15, "m", "unscaled box height (150 mm)", 1.0e-3, 10.0),
-        "rest_speed": SettingSpec(
-            5.0e-3, "m/s", "rms particle speed below which material is at rest", 1.0e-6, 1.0
-        ),
-        "max_settle_time": SettingSpec(
-            5.0, "s", "simulated time limit of the fill and of the outflow", 0.01, 100.0
-        ),
-        "dump_interval": SettingSpec(
-            0.0,
-            "s",
-            "simulated time between particle dumps (dump.lammpstrj, for viewing); 0 = no dumps",
-            0.0,
-            100.0,
-        ),
+        **settling_settings(5.0, "simulated time limit of the fill and of the outflow"),
         "angle_band_lower": SettingSpec(
             0.2, "-", "slope fit: lowest surface height, fraction of the highest", 0.0, 0.9
         ),

@@ -18,7 +18,7 @@ import math
 import numpy as np
 
 from demcal.engines.base import RunMonitor, RunResult, SimulationJob
-from demcal.engines.lammps_driver import LammpsDriver, num
+from demcal.engines.lammps_driver import LammpsDriver, num, setup_commands
 from demcal.errors import SimulationFailed
 from demcal.physics import measure
 from demcal.physics.contact import GRAVITY
@@ -92,11 +92,7 @@ class ShearBox(LammpsDriver):
         pw = self.wall_model()
         self.lmp.commands_list(
             [
-                "units si",
-                "atom_style sphere",
-                "boundary f f f",
-                "newton off",
-                "comm_modify vel yes",
+                *setup_commands(),
                 # spheres past the lip or below the floor leave the domain and are deleted
                 f"region domain block {num(-d)} {num(length + d)} {num(-d)} {num(width + d)} "
                 f"{num(-0.5 * d)} {num(self.wall_top + 2 * d)} units box",
