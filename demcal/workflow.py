@@ -77,6 +77,25 @@ def profile_settings(profile: Path | None) -> dict:
         raise DemcalError(f"profile {profile}: cannot read {path}: {exc}") from None
 
 
+#: What demcal's crash safety needs of a profile, whatever else it sets: no directory lock
+#: (the calibration holds its own), incomplete outputs rerun after a kill, and reruns
+#: triggered by modification times only.
+REQUIRED_PROFILE_SETTINGS = {"nolock": True, "rerun-incomplete": True, "rerun-triggers": "mtime"}
+
+
+def check_profile(profile: Path | None) -> None:
+    """Refuse a profile that lacks a setting of :data:`REQUIRED_PROFILE_SETTINGS`, naming it."""
+    settings = profile_settings(profile or LOCAL_PROFILE)
+    for name, wanted in REQUIRED_PROFILE_SETTINGS.items():
+        given = settings.get(name)
+        if given != wanted and given != [wanted]:
+            raise DemcalError(
+                f"profile {profile or LOCAL_PROFILE}: {name} is {given!r}; demcal's evaluations "
+                f"need {name}: {str(wanted).lower() if isinstance(wanted, bool) else wanted} "
+                f"(see profiles/local/config.yaml)"
+            )
+
+
 def child_cores(profile: Path | None, workers: int) -> int | None:
     """Cores each child Snakemake may use: none set on a cluster executor, else a fair share."""
     if profile_settings(profile).get("executor", "local") != "local":

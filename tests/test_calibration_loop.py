@@ -30,6 +30,7 @@ class Ended:
 
     evaluation: str
     started: float
+    pid: int = -1
 
     def finished(self) -> bool:
         return True

@@ -20,7 +20,7 @@ from demcal.results.layout import StudyFiles
 from demcal.results.records import BestRecord, ObjectiveRecord
 from demcal.study.config import load_study_file
 from demcal.study.model import Study, freeze, load_frozen
-from demcal.workflow import child_cores, profile_settings
+from demcal.workflow import check_profile, child_cores, profile_settings
 
 #: Lines of the calibration's daemon.log.
 DAEMON_LOG_FORMAT = "%(asctime)s %(levelname)s %(message)s"
@@ -96,6 +96,7 @@ def calibrate(
 
     The progress goes to stderr (and ``log``). An interrupt (Ctrl-C) says what keeps running
     and is raised again."""
+    check_profile(profile)
     workers = _workers(study, profile, workers)
     launcher = SnakemakeLauncher(study.files.study, profile, child_cores(profile, workers))
     calibration = Calibration(study, launcher, workers, watch_pid=watch_pid)

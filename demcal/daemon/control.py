@@ -35,7 +35,7 @@ def reopen_failed(study: Study) -> list[str]:
     reopened = []
     for evaluation in files.evaluations():
         try:
-            status = ObjectiveRecord.read(evaluation.objective).status
+            status = ObjectiveRecord.read_latest(evaluation).status
         except SimulationFailed:
             continue
         if status != Status.FAILED:

@@ -24,9 +24,11 @@ from demcal.workflow import child_command
 
 
 class Running(Protocol):
-    """An evaluation being run: when it started (Unix s) and whether it has ended."""
+    """An evaluation being run: its process (pid, or -1 when none), when it started (Unix s)
+    and whether it has ended."""
 
     evaluation: str
+    pid: int
     started: float
 
     def finished(self) -> bool: ...

@@ -139,11 +139,15 @@ class Calibration:
             if record["status"] == Status.PENDING:
                 continue
             evaluation = evaluation_id(record["id"])
+            files = self.files.evaluation(evaluation)
             try:
-                scored = ObjectiveRecord.read_latest(self.files.evaluation(evaluation))
+                job, latest = (
+                    ObjectiveRecord.read(files.objective),
+                    ObjectiveRecord.read_latest(files),
+                )
             except SimulationFailed:
                 continue
-            if not scored.ok or scored.scored_with == version:
+            if not job.ok or latest.scored_with == version:
                 continue  # never scored (a failed simulation), or scored as now
             result = rescore(self.study, evaluation)
             outcomes[record["id"]] = (
@@ -169,8 +173,9 @@ class Calibration:
     # -- launching ---------------------------------------------------------------
     def launch(self, evaluation: str) -> None:
         """Hand an evaluation to the launcher."""
-        self.children[evaluation] = self.launcher.launch(self.files.evaluation(evaluation))
-        log.info("launched %s", evaluation)
+        running = self.launcher.launch(self.files.evaluation(evaluation))
+        self.children[evaluation] = running
+        log.info("launched %s%s", evaluation, f" (pid {running.pid})" if running.pid > 0 else "")
 
     def propose(self) -> None:
         """Fill free worker slots with new points from the optimizer."""
@@ -219,7 +224,7 @@ class Calibration:
             running = self.launcher.reattach(files)
             if running is not None:
                 self.children[evaluation] = running
-                log.info("re-attached %s", evaluation)
+                log.info("re-attached %s (pid %d)", evaluation, running.pid)
                 continue
             if files.objective.exists():
                 self.children[evaluation] = Child(evaluation, -1, None, time.time())

@@ -4,7 +4,8 @@ Files of evaluation ``<id>`` under ``results/<study>/evals/<id>/``
 (``demcal.results.layout``): ``params.json`` (written by whoever proposes the point),
 per scene and replicate ``<scene>/rep<r>/simulation.json`` (+ ``state.npz``
 when responses are computed from particle positions), ``partial.csv`` while
-running, ``responses.json``, and ``objective.json``. Every record carries
+running, ``responses.json``, and ``objective.json`` (and ``rescored.json``, the same
+record against corrected targets: :func:`rescore`). Every record carries
 ``status`` (ok | terminated | failed) and, unless ok, a ``reason``. A job
 never fails the DAG for a simulation's fault: it records the failure and
 exits 0. Jobs work from the frozen study (``demcal.study.model.load_frozen``).

@@ -29,6 +29,8 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+import types
+import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar, Self
@@ -98,7 +100,9 @@ class Record:
         if not isinstance(data, dict):
             raise SimulationFailed(f"{where}: not a JSON object")
         version = data.get("format", FORMAT)
-        if not isinstance(version, int) or version > FORMAT:
+        if not isinstance(version, int) or isinstance(version, bool):
+            raise SimulationFailed(f"{where}: format {version!r} is not a version number")
+        if version > FORMAT:
             raise SimulationFailed(
                 f"{where}: format {version!r} was written by a newer demcal (this one reads "
                 f"format {FORMAT} and older)"
@@ -110,8 +114,13 @@ class Record:
 
     @classmethod
     def _from_dict(cls, data: dict, where: str) -> Self:
-        names = {f.name for f in dataclasses.fields(cls)}
-        return cls(**{key: value for key, value in data.items() if key in names})
+        """The record of the fields it knows, each checked against its annotation."""
+        hints = typing.get_type_hints(cls)
+        values = {f.name: data[f.name] for f in dataclasses.fields(cls) if f.name in data}
+        for name, value in values.items():
+            if not _is_a(value, hints[name]):
+                raise SimulationFailed(f"{where}: {name} is {value!r}, not {_shown(hints[name])}")
+        return cls(**values)
 
     @classmethod
     def read(cls, path: Path) -> Self:
@@ -129,6 +138,31 @@ class Record:
     def write(self, path: Path) -> None:
         """Write the record atomically (non-finite numbers become null)."""
         write_json(path, self.to_dict())
+
+
+def _is_a(value: Any, hint: Any) -> bool:
+    """Whether a JSON value fits a field's annotation: its container, number, text or
+    true/false kind, or None where the field is optional (elements are not checked)."""
+    if isinstance(hint, types.UnionType):
+        return any(_is_a(value, arm) for arm in typing.get_args(hint))
+    kind = typing.get_origin(hint) or hint
+    if kind is type(None):
+        return value is None
+    if kind is float:
+        return isinstance(value, int | float) and not isinstance(value, bool)
+    if kind is int:
+        return isinstance(value, int) and not isinstance(value, bool)
+    if kind is Status:  # a word, checked against the words by status_of
+        return isinstance(value, str)
+    return isinstance(value, kind)
+
+
+def _shown(hint: Any) -> str:
+    """A field's annotation in words for a message."""
+    words = {dict: "an object", list: "a list", str: "text", float: "a number", int: "an integer"}
+    words |= {bool: "true or false", type(None): "null", Status: "a status word"}
+    arms = typing.get_args(hint) if isinstance(hint, types.UnionType) else (hint,)
+    return " or ".join(words.get(typing.get_origin(arm) or arm, str(arm)) for arm in arms)
 
 
 def _optional(default: Any = None) -> Any:
@@ -159,12 +193,18 @@ class PointRecord(Record):
         attempt = data.get("attempt", 0)
         if not isinstance(attempt, int) or isinstance(attempt, bool) or attempt < 0:
             raise SimulationFailed(f"{where}: attempt {attempt!r} is not a count")
+        failures = data.get("previous_failures", [])
+        if not isinstance(failures, list) or not all(isinstance(f, str) for f in failures):
+            raise SimulationFailed(f"{where}: previous_failures {failures!r} is not a list of text")
+        proposed_by = data.get("proposed_by")
+        if proposed_by is not None and not isinstance(proposed_by, str):
+            raise SimulationFailed(f"{where}: proposed_by {proposed_by!r} is not text")
         return cls(
             data["parameters"],
             attempt,
-            list(data.get("previous_failures", [])),
+            list(failures),
             bool(data.get("in_initial_design", False)),
-            data.get("proposed_by"),
+            proposed_by,
         )
 
     def retried(self, reason: str | None) -> PointRecord:
@@ -275,7 +315,10 @@ class ObjectiveRecord(Record):
     @classmethod
     def _from_dict(cls, data: dict, where: str) -> Self:
         record = super()._from_dict(data, where)
-        return dataclasses.replace(record, status=status_of(record.status, where))
+        record = dataclasses.replace(record, status=status_of(record.status, where))
+        if record.ok and record.objective is None:
+            raise SimulationFailed(f"{where}: status ok without an objective")
+        return record
 
     @property
     def ok(self) -> bool:
