@@ -358,6 +358,25 @@ def test_rayleigh_cost_is_added_to_the_objective(tmp_path, analytic_config):
     assert record["objective"] == pytest.approx(errors + 0.25)
 
 
+def readme_run(folder, configfile: str) -> subprocess.CompletedProcess:
+    """The README's command (snakemake --profile profiles/local) on a study file in ``folder``."""
+    return subprocess.run(
+        [
+            *SNAKEMAKE,
+            "-s",
+            str(ROOT / "Snakefile"),
+            "--profile",
+            str(ROOT / "profiles/local"),
+            f"--configfile={configfile}",
+        ],
+        cwd=folder,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        stdin=subprocess.DEVNULL,
+    )
+
+
 @pytest.mark.slow
 def test_the_readme_analytic_command_prints_a_short_terminal_story(tmp_path):
     """The README's analytic command (the example shortened to 8 quick evaluations): besides
@@ -366,21 +385,7 @@ def test_the_readme_analytic_command_prints_a_short_terminal_story(tmp_path):
     example["engine"]["duration"] = 0.3
     example["optimizer"]["max_evaluations"] = 8
     (tmp_path / "analytic.yaml").write_text(yaml.safe_dump(example))
-    proc = subprocess.run(
-        [
-            *SNAKEMAKE,
-            "-s",
-            str(ROOT / "Snakefile"),
-            "--profile",
-            str(ROOT / "profiles/local"),
-            "--configfile=analytic.yaml",
-        ],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=600,
-        stdin=subprocess.DEVNULL,
-    )
+    proc = readme_run(tmp_path, "analytic.yaml")
     assert proc.returncode == 0, proc.stderr[-3000:]
     lines = [
         line for line in (proc.stdout + proc.stderr).splitlines() if not line.startswith("[demcal ")
@@ -406,21 +411,7 @@ def test_when_every_evaluation_fails_the_run_ends_with_the_commonest_reason(tmp_
     example["optimizer"]["max_evaluations"] = 3
     example["calibration"] = {"retries": 0, "poll_seconds": 0.3}
     (tmp_path / "failing.yaml").write_text(yaml.safe_dump(example))
-    proc = subprocess.run(
-        [
-            *SNAKEMAKE,
-            "-s",
-            str(ROOT / "Snakefile"),
-            "--profile",
-            str(ROOT / "profiles/local"),
-            "--configfile=failing.yaml",
-        ],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=600,
-        stdin=subprocess.DEVNULL,
-    )
+    proc = readme_run(tmp_path, "failing.yaml")
     assert proc.returncode == 0, proc.stderr[-3000:]
     text = proc.stdout + proc.stderr
     assert re.search(
