@@ -265,11 +265,11 @@ def score(
     except DemcalError as exc:
         return replace(record, status=Status.FAILED, reason=f"Rayleigh time-step cost: {exc}")
     objective = study.objective
+    means = {key: replicate_mean(v) for key, v in replicates.items()}  # Samuelsson 2023, 2.5
     try:
-        value = objective.of_replicates(replicates, timestep_cost)
+        value = objective.of_means(means, timestep_cost)
     except ValueError as exc:
         return replace(record, status=Status.FAILED, reason=str(exc))
-    means = {key: replicate_mean(v) for key, v in replicates.items()}
     return replace(
         record,
         status=Status.OK,
