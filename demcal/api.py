@@ -161,12 +161,9 @@ class Results:
     def optimizer(self) -> Optimizer:
         """The optimizer as the calibration left it (``optimizer.json``); its ask/tell is
         public ([`demcal.optimizer`][demcal.optimizer])."""
-        from demcal.optimizer import Optimizer
+        from demcal.daemon.control import saved_optimizer
 
-        path = self.files.optimizer
-        if not path.is_file():
-            raise DemcalError(f"{path} is missing: study {self.study.name!r} has not started")
-        return Optimizer.from_json(path.read_text())
+        return saved_optimizer(self.study)
 
     @property
     def figures(self) -> dict[str, Path]:

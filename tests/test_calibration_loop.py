@@ -96,7 +96,7 @@ def test_the_loop_runs_the_budget_and_writes_every_record(tmp_path, monkeypatch)
     assert finished.reason == reason and finished.count(Status.OK) == 8
     table = evaluations_table("unit")
     assert list(table["status"]) == ["ok"] * 8
-    told = {r["id"]: r["value"] for r in calibration.optimizer.records}
+    told = {r.id: r.value for r in calibration.optimizer.records}
     for files in calibration.files.evaluations():
         record = ObjectiveRecord.read(files.objective)
         assert record.scored_with == calibration.study.objective.version

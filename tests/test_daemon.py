@@ -476,7 +476,7 @@ def test_a_failure_after_demcal_stop_is_recorded_not_retried(tmp_path, monkeypat
     calibration.files.stop_calibration.touch()  # demcal stop
     calibration.finish("e0001", failed)
     assert launched == ["e0000"]
-    assert [r["status"] for r in calibration.optimizer.records] == ["pending", "failed"]
+    assert [r.status for r in calibration.optimizer.records] == ["pending", "failed"]
 
 
 @pytest.mark.slow

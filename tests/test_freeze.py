@@ -153,4 +153,4 @@ def test_a_target_correction_is_accepted_and_rescores_the_stored_evaluations(wor
         expected = 2.0 * ((angle - 30.0) / 30.0) ** 2 + ((density - 1450.0) / 1450.0) ** 2
         assert new["objective"] == pytest.approx(expected, rel=1e-12)
         assert new["objective"] != pytest.approx(old["objective"], rel=1e-3)
-        assert told["value"] == pytest.approx(expected, rel=1e-12)
+        assert told.value == pytest.approx(expected, rel=1e-12)

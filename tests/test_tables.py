@@ -6,6 +6,7 @@ import csv
 import json
 import math
 import os
+from dataclasses import replace
 from datetime import UTC, datetime
 
 import pytest
@@ -102,16 +103,16 @@ def test_best_json_is_the_optimizers_best_point_with_its_records(study):
     write_best(study, best, optimizer.confirmation(), "evaluation budget spent")
 
     written = json.loads(study.files.best.read_text())
-    record = read_objective(study.files.evaluation(evaluation_id(best["id"])))
-    assert written["evaluation"] == evaluation_id(best["id"])
+    record = read_objective(study.files.evaluation(evaluation_id(best.id)))
+    assert written["evaluation"] == evaluation_id(best.id)
     assert written["stop_reason"] == "evaluation budget spent"
     assert written["parameters"] == record["parameters"]
     assert written["parameters"] == dict(
-        zip(["sliding_friction_pp", "rolling_friction_pp"], best["x"])
+        zip(["sliding_friction_pp", "rolling_friction_pp"], best.x)
     )
-    assert written["objective"] == best["value"] == pytest.approx(record["objective"], rel=1e-12)
-    assert written["predicted_objective"] == best["predicted"]
-    assert written["chosen_by"] == best["chosen_by"]
+    assert written["objective"] == best.value == pytest.approx(record["objective"], rel=1e-12)
+    assert written["predicted_objective"] == best.predicted
+    assert written["chosen_by"] == best.chosen_by
     assert written["responses"] == record["responses"]
     assert written["targets"] == {
         "cylinder_lift.angle_of_repose": 25.0,
@@ -135,7 +136,7 @@ def test_best_json_names_the_parameters_on_a_bound(study):
     optimizer = new_optimizer(study)
     (proposal,) = optimizer.ask(1)
     evaluate(study, optimizer, proposal)
-    best = {**optimizer.best(), "on_bounds": [(1, "upper"), (0, "lower")]}
+    best = replace(optimizer.best(), on_bounds=[(1, "upper"), (0, "lower")])
     write_best(study, best)
     written = json.loads(study.files.best.read_text())
     assert written["on_bounds"] == {"rolling_friction_pp": "upper", "sliding_friction_pp": "lower"}
@@ -152,7 +153,7 @@ def test_best_json_carries_the_confirmation_runs(study):
     best = optimizer.best()
     write_best(study, best, optimizer.confirmation(), None)
     halfway = json.loads(study.files.best.read_text())["confirmation"]
-    assert halfway["of"] == evaluation_id(best["id"])
+    assert halfway["of"] == evaluation_id(best.id)
     assert halfway["evaluations"] == ["e0003", "e0004"]
     assert halfway["pending"] == 1
     assert halfway["failed"] == 0

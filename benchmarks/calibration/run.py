@@ -176,12 +176,10 @@ def run_demcal(
                 opt, proposal.id, responses, value, replicate_objectives(targets, responses)
             )
         best = opt.best()
-        running.append(None if best is None else best["x"])
+        running.append(None if best is None else best.x)
     best = opt.best()
-    extra = {"predicted": best.get("predicted")}
-    if "chosen_by" in best:
-        extra["chosen_by"] = best["chosen_by"]
-    return {"answer": best["x"], "running": running, "extra": extra}
+    extra = {"predicted": best.predicted, "chosen_by": best.chosen_by}
+    return {"answer": best.x, "running": running, "extra": extra}
 
 
 def run_optuna_gp(problem: Problem, evaluator: Evaluator, seed: int, budget: int) -> dict:

@@ -162,7 +162,7 @@ def run_demcal(problem: Problem, objective: Objective, seed: int, settings: dict
         if not proposals:
             break
         optimizer.tell(proposals[0].id, objective(proposals[0].x))
-    return optimizer.best()["x"]
+    return optimizer.best().x
 
 
 def run_pysot(problem: Problem, objective: Objective, seed: int, strategy_name: str):
@@ -302,7 +302,7 @@ def simulate_workers(
     while running:
         now, ident, x = heapq.heappop(running)
         optimizer.tell(ident, objective(x))
-        curve.append((now, problem.function(np.asarray(optimizer.best()["x"])) - problem.optimum))
+        curve.append((now, problem.function(np.asarray(optimizer.best().x)) - problem.optimum))
         for proposal in optimizer.ask(1):
             heapq.heappush(running, (now + durations.uniform(0.5, 1.5), proposal.id, proposal.x))
     return curve

@@ -39,12 +39,11 @@ from demcal.analysis.solutions import (  # noqa: E402
     sensitivity_indices,
     simulation_noise_sd,
 )
+from demcal.daemon.control import saved_optimizer  # noqa: E402
 from demcal.errors import DemcalError  # noqa: E402
-from demcal.optimizer import Optimizer  # noqa: E402
 from demcal.optimizer.responses import ResponsePredictor, final_means  # noqa: E402
 from demcal.results.storage import read_json  # noqa: E402
 from demcal.study.model import Study, load_frozen  # noqa: E402
-from demcal.study.objective import ResponseObjective  # noqa: E402
 
 #: Most points drawn in the corner plot (a thinned, seeded subset of the set).
 CORNER_POINTS = 3000
@@ -72,10 +71,8 @@ def analyse(study: Study, k: float = 2.0, samples: int = 2**16, seed: int = 0) -
             f"study {study.name!r} has no evaluations yet ({study.files.optimizer} missing); "
             f"run the calibration first"
         )
-    optimizer = Optimizer.from_json(study.files.optimizer.read_text())
-    predictor = optimizer.response_predictor(
-        ResponseObjective(tuple(study.targets), study.objective_form)
-    )
+    optimizer = saved_optimizer(study)
+    predictor = optimizer.response_predictor(study.objective)
     dimension = optimizer.bounds.dimension
     if predictor is None:
         raise DemcalError(

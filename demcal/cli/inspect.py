@@ -6,9 +6,8 @@ import time
 from pathlib import Path
 
 from demcal.cli.run import print_best
-from demcal.daemon.control import running_daemon
+from demcal.daemon.control import running_daemon, saved_optimizer
 from demcal.errors import ConfigError, DemcalError
-from demcal.optimizer import Optimizer
 from demcal.results.layout import RESULTS, StudyFiles
 from demcal.results.records import BestRecord, FinishedRecord, Status
 from demcal.study.config import load_study_file
@@ -35,7 +34,7 @@ STATUS_WORDS = {
 
 def study_state(study: Study) -> tuple[str, str]:
     """Whether the study runs, ended (and why) or was interrupted; and its evaluation counts."""
-    optimizer = Optimizer.from_json(study.files.optimizer.read_text())
+    optimizer = saved_optimizer(study)
     counts = optimizer.status_counts()
     daemon = running_daemon(study)
     finished = FinishedRecord.read_if_any(study.files.finished)
@@ -51,7 +50,7 @@ def study_state(study: Study) -> tuple[str, str]:
         line += f", {pending} " + (
             "running" if daemon is not None else "pending (resumed by the next run)"
         )
-    confirmations = sum("confirms" in r for r in optimizer.records)
+    confirmations = sum(r.confirms is not None for r in optimizer.records)
     extra = f", plus {confirmations} confirmation runs" if confirmations else ""
     return (
         state,

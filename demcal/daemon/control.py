@@ -20,6 +20,24 @@ from demcal.results.tables import write_evaluations_csv
 from demcal.study.model import Study
 
 
+def saved_optimizer(study: Study) -> Optimizer:
+    """The optimizer as the calibration saved it (``optimizer.json``), with the study's objective.
+
+    A DemcalError names the file when the study has not started or the state
+    cannot be read.
+    """
+    path = study.files.optimizer
+    if not path.is_file():
+        raise DemcalError(f"{path} is missing: study {study.name!r} has not started")
+    try:
+        return Optimizer.from_json(path.read_text(), study.response_objective)
+    except (ValueError, KeyError, TypeError) as exc:
+        raise DemcalError(
+            f"{path}: optimizer state unreadable ({exc}); "
+            "move it away to start the calibration afresh"
+        ) from None
+
+
 def reopen_failed(study: Study) -> list[str]:
     """Mark every failed evaluation for a rerun with new seeds by the next daemon run.
 
@@ -29,9 +47,7 @@ def reopen_failed(study: Study) -> list[str]:
     target runs the daemon again.
     """
     files = study.files
-    if not files.optimizer.exists():
-        raise DemcalError(f"study {study.name!r} has not started ({files.optimizer} missing)")
-    optimizer = Optimizer.from_json(files.optimizer.read_text())
+    optimizer = saved_optimizer(study)
     reopened = []
     for evaluation in files.evaluations():
         try:
@@ -86,7 +102,7 @@ def add_point(study: Study, values: dict[str, float]) -> str:
             raise ConfigError(
                 f"{p.name}={values[p.name]:g} is outside its bounds [{p.lower:g}, {p.upper:g}]"
             )
-    optimizer = Optimizer.from_json(files.optimizer.read_text())
+    optimizer = saved_optimizer(study)
     proposal = optimizer.add_point([values[name] for name in names])
     evaluation = evaluation_id(proposal.id)
     PointRecord(dict(zip(names, proposal.x)), proposed_by="by hand").write(

@@ -23,6 +23,7 @@ import shutil
 import time
 from collections.abc import Callable
 
+from demcal.daemon.control import saved_optimizer
 from demcal.daemon.launcher import Child, Launcher, Running, SnakemakeLauncher, alive
 from demcal.daemon.progress import Progress
 from demcal.daemon.termination import (
@@ -44,7 +45,6 @@ from demcal.results.records import (
 from demcal.results.storage import atomic_write_text, log_tail, read_json, write_json
 from demcal.results.tables import write_best, write_evaluations_csv
 from demcal.study.model import RESUMABLE_OPTIMIZER_SETTINGS, Study
-from demcal.study.objective import ResponseObjective
 
 log = logging.getLogger("demcal.daemon")
 
@@ -85,13 +85,7 @@ class Calibration:
         """The saved optimizer (with the study's current budget and stopping
         rules), or a new one."""
         if self.files.optimizer.exists():
-            try:
-                optimizer = Optimizer.from_json(self.files.optimizer.read_text())
-            except (ValueError, KeyError) as exc:
-                raise DemcalError(
-                    f"{self.files.optimizer}: optimizer state unreadable ({exc}); "
-                    f"move it away to start the calibration afresh"
-                ) from None
+            optimizer = saved_optimizer(self.study)
             optimizer.settings = dataclasses.replace(
                 optimizer.settings,
                 **{
@@ -99,7 +93,6 @@ class Calibration:
                     for name in RESUMABLE_OPTIMIZER_SETTINGS
                 },
             )
-            optimizer.objective = self.response_objective()  # the targets may have changed
             return optimizer
         return Optimizer(
             [p.lower for p in self.study.free],
@@ -107,15 +100,8 @@ class Calibration:
             self.study.optimizer,
             seed=self.study.seed,
             workers=self.workers,
-            objective=self.response_objective(),
+            objective=self.study.response_objective,
         )
-
-    def response_objective(self) -> ResponseObjective | None:
-        """The objective the optimizer applies to responses; None with the Rayleigh cost term,
-        which the response models do not model yet (the optimizer then works on values only)."""
-        if self.study.rayleigh_cost_weight:
-            return None
-        return self.study.objective
 
     def _load_start_time(self) -> float:
         """Start of the calibration (calibration.json), written on the first run."""
@@ -136,9 +122,9 @@ class Calibration:
         version = self.study.objective.version
         outcomes = {}
         for record in self.optimizer.records:
-            if record["status"] == Status.PENDING:
+            if record.status == Status.PENDING:
                 continue
-            evaluation = evaluation_id(record["id"])
+            evaluation = evaluation_id(record.id)
             files = self.files.evaluation(evaluation)
             try:
                 job, latest = (
@@ -150,7 +136,7 @@ class Calibration:
             if not job.ok or latest.scored_with == version:
                 continue  # never scored (a failed simulation), or scored as now
             result = rescore(self.study, evaluation)
-            outcomes[record["id"]] = (
+            outcomes[record.id] = (
                 result.status,
                 result.objective,
                 self._replicate_values(result),
@@ -199,7 +185,9 @@ class Calibration:
         proposals = self.optimizer.confirm()
         if not proposals:
             return False
-        of = evaluation_id(self.optimizer.confirmation()["confirms"])
+        confirms = proposals[0].confirms
+        assert confirms is not None, "confirm() marks what its proposals confirm"
+        of = evaluation_id(confirms)
         for proposal in proposals:
             PointRecord(
                 dict(zip(self.names, proposal.x)), proposed_by=f"confirmation of {of}"
@@ -379,8 +367,8 @@ class Calibration:
             "no result yet"
             if best is None
             else (
-                f"best {best['value']:.4g} at "
-                + ", ".join(f"{n}={v:.3g}" for n, v in zip(self.names, best["x"]))
+                f"best {best.value:.4g} at "
+                + ", ".join(f"{n}={v:.3g}" for n, v in zip(self.names, best.x))
             )
         )
         elapsed = self.elapsed()

@@ -39,13 +39,14 @@ is for adding a strategy, see below)::
     opt.rescore({id: (status, value, replicates)})  # replace told outcomes
     opt.pending() -> list[int];  opt.completed_evaluations() -> int
     opt.status_counts() -> {status: count}
-    opt.records  # list of dicts: id, x (unit box), status, value, variance,
-                 # replicates, in_initial_design; when present: responses,
-                 # by_hand (add_point), confirms (the id a confirmation repeats)
+    opt.records  # list of Evaluation (.evaluation): id, x (unit box), status,
+                 # value, variance, replicates, in_initial_design, responses
+                 # ({key: ObservedResponse}), by_hand (add_point), confirms
+                 # (the id a confirmation repeats)
     opt.settings;  opt.objective;  opt.bounds (Bounds)
     opt.best_observed  # lowest ok value so far, or None
-    opt.best() -> {"id", "x", "value", "predicted", "chosen_by", "on_bounds",
-                   "responses" (with response models)} | None
+    opt.best() -> BestPoint | None  # id, x, value, predicted, chosen_by,
+                                    # on_bounds, responses (response models)
         # with response models: the evaluated point of lowest predicted
         # objective; else the one whose larger of observed and predicted
         # value is lowest; a confirmed point stays the answer
@@ -54,7 +55,7 @@ is for adding a strategy, see below)::
     opt.early_termination(id, partial_estimate) -> EarlyTerminationDecision
     opt.stop_reason(elapsed_seconds) -> str | None
     opt.confirm() -> list[Proposal]      # after the stop: the best point again
-    opt.confirmation() -> dict | None    # what the confirmation runs found
+    opt.confirmation() -> Confirmation | None  # what the confirmation runs found
     opt.to_json() -> str;  Optimizer.from_json(s) -> Optimizer
         # same state, same next proposal
 

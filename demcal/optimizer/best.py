@@ -17,34 +17,29 @@ from collections.abc import Callable
 
 import numpy as np
 
-from demcal.results.records import Status
-
 from .bounds import Bounds, on_bounds
 from .confirmation import confirmed_id
+from .evaluation import BestPoint, Evaluation
 from .responses import ResponsePredictor
 from .surrogates.base import Surrogate
 
 
 def best_point(
-    records: list[dict],
+    records: list[Evaluation],
     bounds: Bounds,
     predictor: Callable[[], ResponsePredictor | None],
     surrogate: Callable[[], Surrogate | None],
-) -> dict | None:
+) -> BestPoint | None:
     """The best evaluated point (see the module docstring); None before any value.
 
     ``predictor`` and ``surrogate`` give the fitted models when asked, each
-    only if needed. Returns x (real units), value (observed, mean of
-    replicates), predicted (the objective predicted there), chosen_by
-    ("response models" or "objective surrogate"), id, on_bounds (index and
-    "lower"/"upper" of each coordinate on a bound) and, with response
-    models, responses ({key: (predicted mean, sd)}).
+    only if needed.
     """
-    finished = [r for r in records if r["status"] == Status.OK]
+    finished = [r for r in records if r.finished]
     if not finished:
         return None
-    observed = np.array([r["value"] for r in finished])
-    points = np.array([r["x"] for r in finished])
+    observed = np.array([r.value for r in finished], float)
+    points = np.array([r.x for r in finished], float)
     models = predictor()
     if models is not None:
         predicted = models.objective_mean(points)
@@ -58,17 +53,18 @@ def best_point(
         )
     confirmed = confirmed_id(records)
     if confirmed is not None:  # the answer stays the point that was chosen and then confirmed
-        index = next((i for i, r in enumerate(finished) if r["id"] == confirmed), index)
+        index = next((i for i, r in enumerate(finished) if r.id == confirmed), index)
     record = finished[index]
-    best = {
-        "id": record["id"],
-        "x": bounds.from_unit(record["x"])[0].tolist(),
-        "value": record["value"],
-        "predicted": float(predicted[index]),
-        "chosen_by": chosen_by,
-        "on_bounds": on_bounds(record["x"]),
-    }
+    responses = {}
     if models is not None:
         means, stds = models.predict(points[index])
-        best["responses"] = {key: (float(means[key][0]), float(stds[key][0])) for key in means}
-    return best
+        responses = {key: (float(means[key][0]), float(stds[key][0])) for key in means}
+    return BestPoint(
+        id=record.id,
+        x=bounds.from_unit(record.x)[0].tolist(),
+        value=float(observed[index]),
+        predicted=float(predicted[index]),
+        chosen_by=chosen_by,
+        on_bounds=on_bounds(record.x),
+        responses=responses,
+    )

@@ -19,11 +19,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from demcal.results.records import Status
-
 if TYPE_CHECKING:
     from demcal.study.objective import ResponseObjective
 
+    from .evaluation import BestPoint, Evaluation
     from .responses import ResponsePredictor
 
 
@@ -92,9 +91,9 @@ def early_termination_decision(
 
 
 def reference(
-    best: dict | None,
+    best: BestPoint | None,
     best_observed: float | None,
-    records: list[dict],
+    records: list[Evaluation],
     predictor: Callable[[], ResponsePredictor | None],
     objective: ResponseObjective | None,
 ) -> float | None:
@@ -108,19 +107,17 @@ def reference(
     not stopped for being as noisy as every run is. Else ``best_observed``,
     the best observed value.
     """
-    if best is None or best["chosen_by"] != "response models":
+    if best is None or best.chosen_by != "response models":
         return best_observed
-    best_predicted: float = best["predicted"]
-    finished = [r for r in records if r["status"] == Status.OK and r.get("responses")]
+    best_predicted = best.predicted
+    finished = [r for r in records if r.finished and r.responses]
     if not finished:
         return best_predicted
     models = predictor()
     assert models is not None and objective is not None, "best was chosen by the response models"
-    predicted, _ = models.predict(np.array([r["x"] for r in finished]))
+    predicted, _ = models.predict(np.array([r.x for r in finished]))
     residuals = {
-        key: np.array([np.mean(r["responses"][key]["values"]) for r in finished])
-        - predicted[key]
-        + target.value
+        key: np.array([r.responses[key].mean for r in finished]) - predicted[key] + target.value
         for key, target in zip(objective.keys, objective.targets)
     }
     return best_predicted + float(np.mean(objective(residuals)))

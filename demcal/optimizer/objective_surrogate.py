@@ -14,27 +14,26 @@ import numpy as np
 from demcal.results.records import Status
 from demcal.study.objective import ResponseObjective
 
+from .evaluation import Evaluation
 from .registry import SURROGATES
 from .settings import OptimizerSettings
 from .surrogates.base import Surrogate
 
 
 def training_data(
-    records: list[dict], dimension: int, objective: ResponseObjective | None
-) -> list[tuple[list[float], float, float]] | None:
+    records: list[Evaluation], dimension: int, objective: ResponseObjective | None
+) -> list[tuple[tuple[float, ...], float, float]] | None:
     """(x, value, variance) of every point the surrogate learns from; None while fewer than
     d + 2 evaluations finished ok."""
-    finished = [r for r in records if r["status"] == Status.OK]
+    finished = [(r.x, r.value, r.variance or 0.0) for r in records if r.value is not None]
     if len(finished) < dimension + 2:
         return None
-    return [(r["x"], r["value"], r["variance"] or 0.0) for r in finished] + stopped_values(
-        records, objective
-    )
+    return finished + stopped_values(records, objective)
 
 
 def stopped_values(
-    records: list[dict], objective: ResponseObjective | None
-) -> list[tuple[list[float], float, float]]:
+    records: list[Evaluation], objective: ResponseObjective | None
+) -> list[tuple[tuple[float, ...], float, float]]:
     """(x, objective, 0) of the stopped runs whose targeted responses were all final."""
     if objective is None:
         return []
@@ -42,22 +41,16 @@ def stopped_values(
     complete = [
         r
         for r in records
-        if r["status"] == Status.TERMINATED
-        and r.get("responses")
-        and all(key in r["responses"] and r["responses"][key]["final"] for key in keys)
+        if r.status == Status.TERMINATED
+        and all(key in r.responses and r.responses[key].final for key in keys)
     ]
     return [
-        (
-            r["x"],
-            float(objective({key: np.mean(r["responses"][key]["values"]) for key in keys})),
-            0.0,
-        )
-        for r in complete
+        (r.x, float(objective({key: r.responses[key].mean for key in keys})), 0.0) for r in complete
     ]
 
 
 def fit_surrogate(
-    settings: OptimizerSettings, seed: int, data: list[tuple[list[float], float, float]]
+    settings: OptimizerSettings, seed: int, data: list[tuple[tuple[float, ...], float, float]]
 ) -> Surrogate:
     """The surrogate named in ``settings`` fitted on ``data`` (see :func:`training_data`)."""
     model: type[Surrogate] = SURROGATES.load(settings.surrogate_name)

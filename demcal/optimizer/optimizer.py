@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 from collections import Counter
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -43,6 +43,7 @@ from .bounds import Bounds
 from .confirmation import confirmation_summary, confirmed_id
 from .designs import default_initial_size, initial_design
 from .early_termination import EarlyTerminationDecision, early_termination_decision, reference
+from .evaluation import BestPoint, Confirmation, Evaluation, ObservedResponse
 from .objective_surrogate import fit_surrogate, training_data
 from .registry import STRATEGIES, strategy_class
 from .responses import ResponseModels, ResponsePredictor
@@ -56,35 +57,39 @@ STATUSES = (Status.OK, Status.FAILED, Status.TERMINATED)
 
 @dataclass(frozen=True)
 class Proposal:
-    """A point to evaluate: ``id`` (unique, increasing), ``x`` in real units."""
+    """A point to evaluate: ``id`` (unique, increasing), ``x`` in real units; ``confirms``: the
+    id of the point a confirmation run repeats."""
 
     id: int
     x: list[float]
     in_initial_design: bool
+    confirms: int | None = None
 
 
-def _outcome(id: int, value: float | None, status: str, replicates: list[float] | None) -> dict:
+def _outcome(
+    id: int, value: float | None, status: str, replicates: list[float] | None
+) -> dict[str, Any]:
     """The record fields of a told outcome (see :meth:`Optimizer.tell`)."""
     if status not in STATUSES:
         raise ValueError(f"status: {status!r} is not one of {', '.join(STATUSES)}")
-    variance = None
+    variance, told = None, None
     if status == Status.OK:
         if replicates:
-            replicates = [float(v) for v in replicates]
+            told = tuple(float(v) for v in replicates)
             if value is None:
-                value = float(np.mean(replicates))
-            if len(replicates) > 1:
-                variance = float(np.var(replicates, ddof=1) / len(replicates))
+                value = float(np.mean(told))
+            if len(told) > 1:
+                variance = float(np.var(told, ddof=1) / len(told))
         if value is None:
             raise ValueError(f"evaluation {id}: status ok needs a value or replicates")
         value = float(value)
         if not math.isfinite(value) or (variance is not None and not math.isfinite(variance)):
             status, value, variance = Status.FAILED, None, None
     return {
-        "status": status,
+        "status": Status(status),
         "value": value if status == Status.OK else None,
         "variance": variance,
-        "replicates": replicates,
+        "replicates": told if status == Status.OK else None,
     }
 
 
@@ -128,7 +133,7 @@ class Optimizer:
         )
         self.initial_size = len(design)
         self.design_queue: list[list[float]] = design.tolist()
-        self.records: list[dict] = []
+        self.records: list[Evaluation] = []
         self.next_id = 0
         self.step = st.StepSize(self.settings.sigma_max)
         self.weight_index = 0
@@ -174,19 +179,19 @@ class Optimizer:
             proposals.append(self._issue(unit, in_design))
         return proposals
 
-    def _issue(self, unit: np.ndarray, in_design: bool) -> Proposal:
-        record: dict[str, Any] = {
-            "id": self.next_id,
-            "x": [float(v) for v in unit],
-            "status": Status.PENDING,
-            "value": None,
-            "variance": None,
-            "replicates": None,
-            "in_initial_design": in_design,
-        }
+    def _issue(
+        self, unit: np.ndarray, in_design: bool, confirms: int | None = None, by_hand: bool = False
+    ) -> Proposal:
+        record = Evaluation(
+            self.next_id,
+            tuple(float(v) for v in unit),
+            in_design,
+            confirms=confirms,
+            by_hand=by_hand,
+        )
         self.records.append(record)
         self.next_id += 1
-        return Proposal(record["id"], self.bounds.from_unit(unit)[0].tolist(), in_design)
+        return Proposal(record.id, self.bounds.from_unit(unit)[0].tolist(), in_design, confirms)
 
     def add_point(self, x: list[float]) -> Proposal:
         """A point given by hand (a colleague's, a previous best): pending, evaluated like any
@@ -195,9 +200,7 @@ class Optimizer:
         Raises ValueError if it lies outside the bounds. It counts towards the
         budget and, once told, joins every model's data.
         """
-        proposal = self._issue(self.bounds.to_unit([x])[0], in_design=False)
-        self._record(proposal.id)["by_hand"] = True
-        return proposal
+        return self._issue(self.bounds.to_unit([x])[0], in_design=False, by_hand=True)
 
     def _adaptive_point(self) -> np.ndarray | None:
         """The point the configured strategy chooses from the current history (None: none now)."""
@@ -210,17 +213,14 @@ class Optimizer:
         """The frozen view of the evaluations that a strategy receives."""
         records, dimension = self.records, self.bounds.dimension
         return History(
-            ids=tuple(r["id"] for r in records),
-            points=np.array([r["x"] for r in records], float).reshape(len(records), dimension),
-            statuses=tuple(r["status"] for r in records),
-            values=np.array(
-                [r["value"] if r["status"] == Status.OK else np.nan for r in records], float
-            ),
+            ids=tuple(r.id for r in records),
+            points=np.array([r.x for r in records], float).reshape(len(records), dimension),
+            statuses=tuple(r.status for r in records),
+            values=np.array([r.value if r.finished else np.nan for r in records], float),
             variances=np.array(
-                [(r["variance"] or 0.0) if r["status"] == Status.OK else np.nan for r in records],
-                float,
+                [(r.variance or 0.0) if r.finished else np.nan for r in records], float
             ),
-            in_initial_design=np.array([r["in_initial_design"] for r in records], bool),
+            in_initial_design=np.array([r.in_initial_design for r in records], bool),
             surrogate=self._fitted_surrogate(),
             sigma=self.step.sigma,
             rng=self.rng,
@@ -231,12 +231,8 @@ class Optimizer:
             if STRATEGIES[self.settings.strategy].needs_targets
             else None,
             response_means=tuple(
-                {
-                    key: float(np.mean(entry["values"]))
-                    for key, entry in r["responses"].items()
-                    if entry["final"]
-                }
-                if r["status"] == Status.OK and r.get("responses")
+                {key: entry.mean for key, entry in r.responses.items() if entry.final}
+                if r.finished and r.responses
                 else None
                 for r in records
             ),
@@ -268,8 +264,8 @@ class Optimizer:
         (final: the response was complete; else an early estimate).
         """
         record = self._record(id)
-        if record["status"] != Status.PENDING:
-            raise ValueError(f"evaluation {id} was already told ({record['status']})")
+        if record.status != Status.PENDING:
+            raise ValueError(f"evaluation {id} was already told ({record.status})")
         if (
             status == Status.OK
             and responses
@@ -278,17 +274,14 @@ class Optimizer:
             and self.objective is not None
         ):
             value, replicates = self._objective_of(responses)
-        record.update(_outcome(id, value, status, replicates))
         observed = (
             partial if status == Status.TERMINATED else (responses if status == Status.OK else None)
         )
-        if observed:
-            record["responses"] = {
-                key: {"values": [float(v) for v in entry["values"]], "final": bool(entry["final"])}
-                if isinstance(entry, dict)
-                else {"values": [float(v) for v in entry], "final": True}
-                for key, entry in observed.items()
-            }
+        record = self._replace(
+            id,
+            **_outcome(id, value, status, replicates),
+            responses={key: ObservedResponse.of(entry) for key, entry in (observed or {}).items()},
+        )
         self._update_progress(record)
 
     def _objective_of(self, responses: dict[str, list[float]]) -> tuple[float, list[float] | None]:
@@ -308,11 +301,11 @@ class Optimizer:
 
         Its old outcome leaves the surrogate data; the step-size history is kept.
         """
-        record = self._record(id)
-        if record["status"] == Status.PENDING:
+        if self._record(id).status == Status.PENDING:
             raise ValueError(f"evaluation {id} is still pending")
-        record.update(status=Status.PENDING, value=None, variance=None, replicates=None)
-        record.pop("responses", None)
+        self._replace(
+            id, status=Status.PENDING, value=None, variance=None, replicates=None, responses={}
+        )
         self._surrogate_version = -1
 
     def rescore(self, outcomes: dict[int, tuple[str, float | None, list[float] | None]]) -> None:
@@ -323,21 +316,20 @@ class Optimizer:
         history is kept, the surrogate is refitted.
         """
         for id, (status, value, replicates) in outcomes.items():
-            record = self._record(id)
-            if record["status"] == Status.PENDING:
+            if self._record(id).status == Status.PENDING:
                 raise ValueError(f"evaluation {id} is pending, it cannot be re-scored")
-            record.update(_outcome(id, value, status, replicates))
-        values = [r["value"] for r in self.records if r["status"] == Status.OK]
+            self._replace(id, **_outcome(id, value, status, replicates))
+        values = [r.value for r in self.records if r.value is not None]
         self.best_observed = min(values) if values else None
         self._surrogate_version = -1
 
-    def _update_progress(self, record: dict) -> None:
-        status, value = record["status"], record["value"]
-        if status == Status.FAILED:
+    def _update_progress(self, record: Evaluation) -> None:
+        if record.status == Status.FAILED:
             self.evaluations_without_improvement += 1
             return
-        improved = status == Status.OK and st.is_improvement(value, self.best_observed)
-        if not record["in_initial_design"]:
+        value = record.value  # None when stopped early
+        improved = value is not None and st.is_improvement(value, self.best_observed)
+        if not record.in_initial_design:
             s = self.settings
             self.step.record(
                 improved,
@@ -346,7 +338,7 @@ class Optimizer:
                 s.success_tolerance,
                 s.failures_to_halve(self.bounds.dimension),
             )
-        if status == Status.OK and (self.best_observed is None or value < self.best_observed):
+        if value is not None and (self.best_observed is None or value < self.best_observed):
             self.best_observed = value
         self.evaluations_without_improvement = (
             0 if improved else self.evaluations_without_improvement + 1
@@ -355,17 +347,17 @@ class Optimizer:
     # ------------------------------------------------------------ queries
     def completed_evaluations(self) -> int:
         """Evaluations told so far (ok, failed and terminated)."""
-        return sum(1 for r in self.records if r["status"] != Status.PENDING)
+        return sum(1 for r in self.records if r.status != Status.PENDING)
 
     def status_counts(self) -> dict[str, int]:
         """How many evaluations are ok, failed, terminated and pending (only those that occur)."""
-        return dict(Counter(r["status"] for r in self.records))
+        return dict(Counter(str(r.status) for r in self.records))
 
     def pending(self) -> list[int]:
         """Ids handed out and not yet told."""
-        return [r["id"] for r in self.records if r["status"] == Status.PENDING]
+        return [r.id for r in self.records if r.status == Status.PENDING]
 
-    def best(self) -> dict | None:
+    def best(self) -> BestPoint | None:
         """The best evaluated point, and how it was chosen (``chosen_by``); see :mod:`.best`.
 
         Once the best point has been confirmed (:meth:`confirm`), it stays
@@ -402,7 +394,7 @@ class Optimizer:
             s.max_evaluations,
             elapsed_seconds,
             s.max_seconds,
-            None if best is None else best["predicted"],
+            None if best is None else best.predicted,
             s.target_objective,
             self.evaluations_without_improvement,
             s.no_improvement_evaluations,
@@ -425,10 +417,10 @@ class Optimizer:
             ),
             partial_estimate,
             progress,
-            in_initial_design=record["in_initial_design"],
+            in_initial_design=record.in_initial_design,
             enabled=et.enabled
             and STRATEGIES[self.settings.strategy].stops_early
-            and "confirms" not in record,
+            and record.confirms is None,
             thresholds=et.thresholds,
             progress_boundaries=et.progress_boundaries,
         )
@@ -445,21 +437,27 @@ class Optimizer:
         wanted, best = self.settings.confirm_replicates, self.best()
         if not wanted or best is None or confirmed_id(self.records) is not None:
             return []
-        unit = np.array(self._record(best["id"])["x"])
-        proposals = [self._issue(unit, in_design=False) for _ in range(wanted)]
-        for proposal in proposals:
-            self._record(proposal.id)["confirms"] = best["id"]
-        return proposals
+        unit = np.array(self._record(best.id).x)
+        return [self._issue(unit, in_design=False, confirms=best.id) for _ in range(wanted)]
 
-    def confirmation(self) -> dict | None:
+    def confirmation(self) -> Confirmation | None:
         """The confirmation runs so far (see :func:`.confirmation.confirmation_summary`)."""
         return confirmation_summary(self.records, self.objective.keys if self.objective else [])
 
-    def _record(self, id: int) -> dict:
-        for record in self.records:
-            if record["id"] == id:
-                return record
+    def _index(self, id: int) -> int:
+        for index, record in enumerate(self.records):
+            if record.id == id:
+                return index
         raise ValueError(f"unknown evaluation id {id!r}")
+
+    def _record(self, id: int) -> Evaluation:
+        return self.records[self._index(id)]
+
+    def _replace(self, id: int, **changes: Any) -> Evaluation:
+        """Replace evaluation ``id``'s record by a copy with ``changes``; returns the new one."""
+        index = self._index(id)
+        self.records[index] = replace(self.records[index], **changes)
+        return self.records[index]
 
     def _fitted_surrogate(self) -> Surrogate | None:
         """The surrogate of the objective (:mod:`.objective_surrogate`), refitted only when its data
@@ -479,8 +477,10 @@ class Optimizer:
         return state.encode(self)
 
     @classmethod
-    def from_json(cls, text: str) -> Optimizer:
+    def from_json(cls, text: str, objective: ResponseObjective | None = None) -> Optimizer:
+        """The optimizer saved in ``text``, scoring responses with ``objective`` (the state names
+        the objective's version, not its targets: ValueError if it had one and none is given)."""
         optimizer = cls.__new__(cls)
-        vars(optimizer).update(state.decode(text))
+        vars(optimizer).update(state.decode(text, objective))
         optimizer._start_models()
         return optimizer

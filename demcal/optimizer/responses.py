@@ -23,6 +23,7 @@ import numpy as np
 from demcal.results.records import Status
 from demcal.study.objective import ResponseObjective
 
+from .evaluation import Evaluation
 from .registry import RESPONSE_MODELS
 from .surrogates.base import ResponseModel
 
@@ -33,7 +34,7 @@ ESTIMATE_RELATIVE_SD = 0.05
 
 
 def observations(
-    records: list[dict], key: str, dimension: int
+    records: list[Evaluation], key: str, dimension: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Training data of one response: points (unit box), means and the variance of each mean.
 
@@ -43,22 +44,18 @@ def observations(
     """
     x, y, variance = [], [], []
     for record in records:
-        entry = (record.get("responses") or {}).get(key)
-        if (
-            record["status"] not in (Status.OK, Status.TERMINATED)
-            or not entry
-            or not entry["values"]
-        ):
+        entry = record.responses.get(key)
+        if record.status not in (Status.OK, Status.TERMINATED) or not entry or not entry.values:
             continue
-        values = np.asarray(entry["values"], float)
+        values = np.asarray(entry.values, float)
         mean = float(values.mean())
         if not math.isfinite(mean):
             continue
-        if entry["final"]:
+        if entry.final:
             var = float(values.var(ddof=1) / len(values)) if len(values) > 1 else 0.0
         else:
             var = (ESTIMATE_RELATIVE_SD * mean) ** 2
-        x.append(record["x"])
+        x.append(record.x)
         y.append(mean)
         variance.append(var)
     return (
@@ -68,15 +65,17 @@ def observations(
     )
 
 
-def final_means(records: list[dict], key: str, dimension: int) -> tuple[np.ndarray, np.ndarray]:
+def final_means(
+    records: list[Evaluation], key: str, dimension: int
+) -> tuple[np.ndarray, np.ndarray]:
     """Points (unit box) and replicate means of one response where it was simulated to the end."""
     rows = [
-        (record["x"], float(np.mean(entry["values"])))
+        (record.x, entry.mean)
         for record in records
-        if record["status"] in (Status.OK, Status.TERMINATED)
-        and (entry := (record.get("responses") or {}).get(key))
-        and entry["values"]
-        and entry["final"]
+        if record.status in (Status.OK, Status.TERMINATED)
+        and (entry := record.responses.get(key))
+        and entry.values
+        and entry.final
     ]
     rows = [(x, y) for x, y in rows if math.isfinite(y)]
     return (
@@ -102,7 +101,7 @@ class ResponseModels:
         self._since_full: dict[str, tuple[int, int]] = {}
 
     def fit(
-        self, records: list[dict], keys: list[str], dimension: int
+        self, records: list[Evaluation], keys: list[str], dimension: int
     ) -> dict[str, ResponseModel] | None:
         """The models of ``keys``, or None while some response has fewer than d + 2 points."""
         models = {}

@@ -5,8 +5,10 @@ One JSON object, format version 1: the bounds, settings, seed, workers,
 initial design (its size and the points not yet handed out), the records,
 the next id, the step size, the weight index, the best value and the
 evaluations without improvement, the random generator's state, and, when
-present, what the strategy remembers (``strategy_state``) and the objective.
-Resuming from it gives the same next proposal.
+present, what the strategy remembers (``strategy_state``) and the version of
+the objective it scored responses with (the targets themselves live in the
+study, ``study.json``; states written before kept a copy of them). Resuming
+from it, with the objective, gives the same next proposal.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from demcal.study.objective import ResponseObjective
 
 from .bounds import Bounds
 from .candidates import StepSize
+from .evaluation import Evaluation
 from .settings import OptimizerSettings
 
 if TYPE_CHECKING:
@@ -39,7 +42,7 @@ def encode(optimizer: Optimizer) -> str:
         "workers": optimizer.workers,
         "initial_size": optimizer.initial_size,
         "design_queue": optimizer.design_queue,
-        "records": optimizer.records,
+        "records": [record.to_dict() for record in optimizer.records],
         "next_id": optimizer.next_id,
         "step": {
             "sigma": optimizer.step.sigma,
@@ -55,18 +58,27 @@ def encode(optimizer: Optimizer) -> str:
     if optimizer.strategy_state:
         state["strategy_state"] = optimizer.strategy_state
     if optimizer.objective is not None:
-        state["objective"] = optimizer.objective.to_dict()
+        state["objective_version"] = optimizer.objective.version
     return json.dumps(state)
 
 
-def decode(text: str) -> dict[str, Any]:
-    """The saved attributes of an optimizer by name, from :func:`encode`'s text.
+def decode(text: str, objective: ResponseObjective | None) -> dict[str, Any]:
+    """The saved attributes of an optimizer by name, from :func:`encode`'s text, with
+    ``objective`` (or the copy a state written before kept).
 
-    Raises ValueError for another format version.
+    Raises ValueError for another format version, and for a state that scored
+    responses when no objective is given.
     """
     state = json.loads(text)
     if state.get("version") != STATE_VERSION:
         raise ValueError(f"optimizer state version {state.get('version')!r} is not {STATE_VERSION}")
+    if objective is None and "objective" in state:
+        objective = ResponseObjective.from_dict(state["objective"])
+    if objective is None and "objective_version" in state:
+        raise ValueError(
+            f"the optimizer scored responses with objective {state['objective_version']}; "
+            "give from_json that objective (e.g. the study's)"
+        )
     rng = np.random.default_rng()
     rng.bit_generator.state = state["rng"]
     return {
@@ -77,14 +89,12 @@ def decode(text: str) -> dict[str, Any]:
         "rng": rng,
         "initial_size": state["initial_size"],
         "design_queue": state["design_queue"],
-        "records": state["records"],
+        "records": [Evaluation.from_dict(record) for record in state["records"]],
         "next_id": state["next_id"],
         "step": StepSize(**state["step"]),
         "weight_index": state["weight_index"],
         "best_observed": state["best_observed"],
         "evaluations_without_improvement": state["evaluations_without_improvement"],
         "strategy_state": state.get("strategy_state", {}),
-        "objective": (
-            ResponseObjective.from_dict(state["objective"]) if "objective" in state else None
-        ),
+        "objective": objective,
     }

@@ -18,8 +18,8 @@ import time
 import matplotlib.pyplot as plt
 import pandas as pd
 
+from demcal.daemon.control import saved_optimizer
 from demcal.daemon.progress import clock
-from demcal.optimizer import Optimizer
 from demcal.reporting.figures import (
     evaluation_statuses,
     load_estimates,
@@ -85,7 +85,7 @@ def running_rows(study: Study, pending: list[str], estimates: pd.DataFrame) -> l
 def live_page(study: Study, state: str, counts: str, refresh_s: float) -> str:
     """The page as HTML: state, running evaluations and the two live figures."""
     files = study.files
-    optimizer = Optimizer.from_json(files.optimizer.read_text())
+    optimizer = saved_optimizer(study)
     pending = [evaluation_id(i) for i in optimizer.pending()]
     estimates = load_estimates(study)
     parts = [

@@ -4,13 +4,18 @@ from __future__ import annotations
 
 import csv
 import io
+from dataclasses import asdict
 from datetime import UTC, datetime
+from typing import TYPE_CHECKING
 
 from demcal.errors import SimulationFailed
 from demcal.results.layout import evaluation_id
 from demcal.results.records import BestRecord, LaunchRecord, ObjectiveRecord, PointRecord, Status
 from demcal.results.storage import atomic_write_text
 from demcal.study.model import Study
+
+if TYPE_CHECKING:
+    from demcal.optimizer.evaluation import BestPoint, Confirmation
 
 #: Significant digits of the numbers in evaluations.csv (the JSON records keep every digit).
 CSV_DIGITS = 7
@@ -106,39 +111,42 @@ def write_evaluations_csv(study: Study) -> None:
 
 
 def write_best(
-    study: Study, best: dict, confirmation: dict | None = None, stop_reason: str | None = None
+    study: Study,
+    best: BestPoint,
+    confirmation: Confirmation | None = None,
+    stop_reason: str | None = None,
 ) -> None:
     """best.json from the optimizer's best point (``Optimizer.best()``) and its records, with the
     re-simulations that confirm it (``Optimizer.confirmation()``) where there are any, the units
     of every parameter and response, and why the calibration ended (None while it runs)."""
-    files = study.files.evaluation(evaluation_id(best["id"]))
+    files = study.files.evaluation(evaluation_id(best.id))
     record = ObjectiveRecord.read_latest(files)
     BestRecord(
         evaluation=files.id,
         stop_reason=stop_reason,
-        parameters=dict(zip([p.name for p in study.free], best["x"])),
+        parameters=dict(zip([p.name for p in study.free], best.x)),
         units={
             **{p.name: p.spec.unit for p in study.free},
             **{t.key: study.scenes[t.scene].responses[t.response].unit for t in study.targets},
         },
-        objective=best["value"],
-        predicted_objective=best["predicted"],
-        chosen_by=best["chosen_by"],
+        objective=best.value,
+        predicted_objective=best.predicted,
+        chosen_by=best.chosen_by,
         responses=record.responses,
         targets={t.key: t.value for t in study.targets},
         relative_errors=record.relative_errors,
         predicted_responses={
-            key: {"mean": mean, "sd": sd} for key, (mean, sd) in best.get("responses", {}).items()
+            key: {"mean": mean, "sd": sd} for key, (mean, sd) in best.responses.items()
         },
         target_spreads={t.key: t.spread for t in study.targets},
-        on_bounds={study.free[i].name: side for i, side in best["on_bounds"]},
+        on_bounds={study.free[i].name: side for i, side in best.on_bounds},
         confirmation=None
         if confirmation is None
         else {
-            "of": evaluation_id(confirmation["confirms"]),
-            "evaluations": [evaluation_id(i) for i in confirmation["ids"]],
-            "pending": confirmation["pending"],
-            "failed": confirmation["failed"],
-            "responses": confirmation["responses"],
+            "of": evaluation_id(confirmation.confirms),
+            "evaluations": [evaluation_id(i) for i in confirmation.ids],
+            "pending": confirmation.pending,
+            "failed": confirmation.failed,
+            "responses": {key: asdict(entry) for key, entry in confirmation.responses.items()},
         },
     ).write(study.files.best)

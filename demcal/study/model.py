@@ -87,6 +87,12 @@ class Study:
         return ResponseObjective(tuple(self.targets), self.objective_form)
 
     @property
+    def response_objective(self) -> ResponseObjective | None:
+        """The objective the optimizer applies to responses; None with the Rayleigh cost term,
+        which the response models do not model yet (the optimizer then works on values only)."""
+        return None if self.rayleigh_cost_weight else self.objective
+
+    @property
     def files(self) -> StudyFiles:
         """Paths of this study's results (``results/<study>/``)."""
         return StudyFiles.of(self.name)

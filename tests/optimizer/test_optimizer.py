@@ -30,7 +30,7 @@ def test_proposals_respect_bounds_and_ids_increase():
 def test_finds_the_minimum_of_a_sphere():
     optimizer = Optimizer([0, 0], [1, 1], {"max_evaluations": 30}, seed=2)
     run(optimizer, 30)
-    assert optimizer.best()["value"] < 1e-4
+    assert optimizer.best().value < 1e-4
 
 
 def test_initial_points_are_proposed_first():
@@ -78,8 +78,8 @@ def test_replicates_give_mean_and_spread():
     (proposal,) = optimizer.ask()
     optimizer.tell(proposal.id, replicates=[1.0, 2.0, 3.0])
     record = optimizer.records[0]
-    assert record["value"] == 2.0
-    assert record["variance"] == pytest.approx(1.0 / 3)
+    assert record.value == 2.0
+    assert record.variance == pytest.approx(1.0 / 3)
 
 
 def test_tell_rejects_unknown_or_repeated_ids():
@@ -99,8 +99,8 @@ def test_best_is_the_surrogate_best_not_the_luckiest_sample():
         (proposal,) = optimizer.ask()
         optimizer.tell(proposal.id, sphere(proposal.x) + rng.normal(0, 0.02))
     best = optimizer.best()
-    assert best["predicted"] != best["value"]
-    assert best["value"] >= min(r["value"] for r in optimizer.records if r["status"] == "ok")
+    assert best.predicted != best.value
+    assert best.value >= min(r.value for r in optimizer.records if r.finished)
 
 
 @pytest.mark.parametrize("strategy", ["dycors", "kriging_ei"])

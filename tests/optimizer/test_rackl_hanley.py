@@ -75,7 +75,9 @@ def test_the_phases_run_in_order_and_each_iteration_runs_its_steps_in_parallel()
     assert not opt.early_termination(first[0].id, 1e9).stop  # every step must finish
     tell(opt, first[0])
     tell(opt, first[1])
-    resumed = Optimizer.from_json(opt.to_json())  # mid-iteration, through the saved state
+    resumed = Optimizer.from_json(
+        opt.to_json(), opt.objective
+    )  # mid-iteration, through the saved state
     assert resumed.strategy_state == json.loads(opt.to_json())["strategy_state"]
     tell(resumed, first[2])
     assert len(resumed.ask(10)) == 3
@@ -100,4 +102,4 @@ def test_with_noise_it_stops_on_its_own_at_the_noise_level_and_counts_the_runs_o
     assert f"runs: 6 sampling, {state['dem_runs']} Levenberg–Marquardt" in reason
     assert opt.completed_evaluations() == 6 + state["dem_runs"] < 60
     noise_level = 2 * 0.005**2
-    assert objective_values(TARGETS, lift(opt.best()["x"])) < noise_level
+    assert objective_values(TARGETS, lift(opt.best().x)) < noise_level

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from demcal.optimizer import Optimizer
+from demcal.optimizer.evaluation import ObservedResponse
 from demcal.optimizer.responses import ResponseModels, observations
 from demcal.study.objective import ResponseObjective, Target, objective_values
 
@@ -43,12 +44,12 @@ def test_the_value_told_is_the_objective_of_the_responses():
     opt.tell(proposal.id, responses=responses)
     record = opt.records[0]
     means = {k: np.mean(v) for k, v in responses.items()}
-    assert record["value"] == pytest.approx(objective_values(TARGETS, means))
+    assert record.value == pytest.approx(objective_values(TARGETS, means))
     per_replicate = [
         objective_values(TARGETS, {k: v[i] for k, v in responses.items()}) for i in (0, 1)
     ]
-    assert record["variance"] == pytest.approx(np.var(per_replicate, ddof=1) / 2)
-    assert record["responses"]["lift.angle"] == {"values": [34.0, 36.5], "final": True}
+    assert record.variance == pytest.approx(np.var(per_replicate, ddof=1) / 2)
+    assert record.responses["lift.angle"] == ObservedResponse((34.0, 36.5), final=True)
 
 
 def test_precision_form_counts_errors_in_target_spreads():
@@ -75,7 +76,7 @@ def test_a_stopped_run_teaches_what_it_completed_and_estimated():
     assert len(y) == 3 and np.all(variance == 0.0)  # final values: as good as finished ones
     x, y, variance = observations(opt.records, "lift.angle", 2)
     assert len(y) == 3 and np.all(variance > 0.0)  # estimates carry their own uncertainty
-    assert all(r["value"] is None for r in opt.records)  # no objective value was invented
+    assert all(r.value is None for r in opt.records)  # no objective value was invented
 
 
 def test_models_are_refitted_only_on_new_data():
@@ -121,15 +122,15 @@ def test_best_is_the_evaluated_point_with_the_lowest_predicted_objective():
         noisy = {k: [v * (1 + 0.01 * rng.standard_normal())] for k, v in lift(proposal.x).items()}
         opt.tell(proposal.id, responses=noisy)
     best = opt.best()
-    assert best["chosen_by"] == "response models"
-    finished = [r for r in opt.records if r["status"] == "ok"]
-    predicted = opt.response_predictor().objective_mean(np.array([r["x"] for r in finished]))
-    assert best["id"] == finished[int(np.argmin(predicted))]["id"]
-    assert best["predicted"] == pytest.approx(predicted.min())
+    assert best.chosen_by == "response models"
+    finished = [r for r in opt.records if r.finished]
+    predicted = opt.response_predictor().objective_mean(np.array([r.x for r in finished]))
+    assert best.id == finished[int(np.argmin(predicted))].id
+    assert best.predicted == pytest.approx(predicted.min())
     means, stds = opt.response_predictor().predict(
-        np.array([finished[int(np.argmin(predicted))]["x"]])
+        np.array([finished[int(np.argmin(predicted))].x])
     )
-    assert best["responses"] == {key: pytest.approx((means[key][0], stds[key][0])) for key in means}
+    assert best.responses == {key: pytest.approx((means[key][0], stds[key][0])) for key in means}
 
 
 @pytest.mark.slow
@@ -151,7 +152,7 @@ def test_a_best_point_on_a_bound_is_flagged_in_best_and_in_the_summary():
         proposal = opt.ask(1)[0]
         opt.tell(proposal.id, responses={k: [v] for k, v in lift(proposal.x).items()})
     best = opt.best()
-    assert best["x"][0] == pytest.approx(0.9, abs=0.008) and best["on_bounds"][0] == (0, "upper")
+    assert best.x[0] == pytest.approx(0.9, abs=0.008) and best.on_bounds[0] == (0, "upper")
 
 
 @pytest.mark.parametrize("strategy", ["response_ei", "dycors"])
@@ -190,7 +191,7 @@ def test_early_termination_does_not_stall_in_one_region(strategy):
             in_a_row, last_stop = 0, None
     assert longest <= 3
     noise_level = 2 * 0.01**2  # eq. 3.3 of 1 % noise in two responses
-    assert objective_values(TARGETS, lift(opt.best()["x"])) < noise_level
+    assert objective_values(TARGETS, lift(opt.best().x)) < noise_level
 
 
 @pytest.mark.slow
@@ -198,8 +199,7 @@ def test_state_with_objective_and_responses_resumes_to_the_same_proposal():
     opt = optimizer()
     for proposal in opt.ask(8):
         opt.tell(proposal.id, responses={k: [v] for k, v in lift(proposal.x).items()})
-    copy = Optimizer.from_json(opt.to_json())
-    assert copy.objective == opt.objective
+    copy = Optimizer.from_json(opt.to_json(), opt.objective)
     assert copy.ask(1)[0].x == opt.ask(1)[0].x
 
 
@@ -223,7 +223,7 @@ def test_confirmation_resimulates_the_best_point_once_and_keeps_it_the_answer():
     best = opt.best()
     confirmations = opt.confirm()
     assert len(confirmations) == 3 and opt.confirm() == []
-    assert all(p.x == pytest.approx(best["x"]) for p in confirmations)
+    assert all(p.x == pytest.approx(best.x) for p in confirmations)
     assert not opt.early_termination(confirmations[0].id, 1e9).stop
     told = []
     for proposal in confirmations:
@@ -232,10 +232,11 @@ def test_confirmation_resimulates_the_best_point_once_and_keeps_it_the_answer():
         )
         opt.tell(proposal.id, responses={k: [v] for k, v in told[-1].items()})
     summary = opt.confirmation()
-    assert summary["confirms"] == best["id"] and summary["pending"] == 0 and summary["failed"] == 0
+    assert summary.confirms == best.id and summary.pending == 0 and summary.failed == 0
     angles = [t["lift.angle"] for t in told]
-    assert summary["responses"]["lift.angle"] == pytest.approx(
-        {"mean": np.mean(angles), "sd": np.std(angles, ddof=1), "count": 3}
+    angle = summary.responses["lift.angle"]
+    assert (angle.mean, angle.sd, angle.count) == pytest.approx(
+        (np.mean(angles), np.std(angles, ddof=1), 3)
     )
-    assert opt.best()["id"] == best["id"]
-    assert Optimizer.from_json(opt.to_json()).confirmation() == summary
+    assert opt.best().id == best.id
+    assert Optimizer.from_json(opt.to_json(), opt.objective).confirmation() == summary

@@ -96,4 +96,4 @@ def test_a_candidate_search_subclass_reuses_the_built_in_search(registry):
     for _ in range(20):
         (proposal,) = optimizer.ask()
         optimizer.tell(proposal.id, float(np.sum((np.asarray(proposal.x) - 0.3) ** 2)))
-    assert optimizer.best()["value"] < 1e-3
+    assert optimizer.best().value < 1e-3

@@ -1,10 +1,12 @@
 """The saved state: optimizer.json files written before the optimizer was split into modules."""
 
+import json
 from pathlib import Path
 
 import pytest
 
 from demcal.optimizer import Optimizer
+from demcal.study.objective import ResponseObjective
 
 DATA = Path(__file__).parent / "data"
 
@@ -23,11 +25,25 @@ NEXT = {
 
 
 @pytest.mark.parametrize("name", sorted(NEXT))
-def test_an_old_state_loads_saves_byte_for_byte_and_resumes_to_the_same_proposals(name):
+def test_an_old_state_loads_saves_the_same_and_resumes_to_the_same_proposals(name):
     text = (DATA / f"optimizer_v1_{name}.json").read_text()
     optimizer = Optimizer.from_json(text)
-    assert optimizer.to_json() == text
+    old, saved = json.loads(text), json.loads(optimizer.to_json())
+    if "objective" in old:  # the copy of the targets becomes the name of their version
+        assert saved.pop("objective_version") == (
+            ResponseObjective.from_dict(old.pop("objective")).version
+        )
+    assert saved == old
     assert [proposal.x for proposal in optimizer.ask(2)] == NEXT[name]
+
+
+def test_a_state_that_scored_responses_needs_its_objective():
+    text = (DATA / "optimizer_v1_response_ei_rbf.json").read_text()
+    objective = Optimizer.from_json(text).objective
+    saved = Optimizer.from_json(text).to_json()
+    with pytest.raises(ValueError, match=f"objective {objective.version}; give from_json"):
+        Optimizer.from_json(saved)
+    assert Optimizer.from_json(saved, objective).ask(2)[0].x == NEXT["response_ei_rbf"][0]
 
 
 def test_another_state_version_is_refused():

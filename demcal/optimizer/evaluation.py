@@ -1,0 +1,158 @@
+"""The optimizer's own records: one evaluation, the best point, the confirmation runs.
+
+An :class:`Evaluation` is what the optimizer knows of one point it handed
+out: where (unit box), its status, its objective value (the replicates'
+mean, the variance of that mean, the replicates) and its responses. It is
+frozen: the optimizer replaces a record when it is told, re-scored or
+reopened. :class:`BestPoint` is the answer :mod:`.best` picks and
+:class:`Confirmation` what the re-simulations of it found
+(:mod:`.confirmation`). The state file (:mod:`.state`) stores evaluations
+with :meth:`Evaluation.to_dict`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from demcal.results.records import Status
+
+
+@dataclass(frozen=True)
+class ObservedResponse:
+    """One response of one evaluation: each replicate's value, and whether it is final.
+
+    ``final`` is False for an early estimate of a run stopped before the
+    response was complete (e.g. a mass flow over part of the discharge).
+    """
+
+    values: tuple[float, ...]
+    final: bool = True
+
+    @property
+    def mean(self) -> float:
+        """The mean over the replicates."""
+        return float(np.mean(self.values))
+
+    @classmethod
+    def of(cls, entry: Any) -> ObservedResponse:
+        """From ``{"values": [...], "final": bool}`` or a plain list of final values."""
+        if isinstance(entry, dict):
+            return cls(tuple(float(v) for v in entry["values"]), bool(entry["final"]))
+        return cls(tuple(float(v) for v in entry))
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """What the optimizer knows of one evaluation (see the module docstring).
+
+    ``x`` is in the unit box. ``value``, ``variance`` and ``replicates`` are
+    set only when the status is ok. ``responses`` are keyed
+    ``scene.response``: the replicates' values of an ok run, or what a
+    stopped run completed or estimated. ``confirms`` names the point a
+    confirmation run repeats; ``by_hand`` marks a point given by hand.
+    """
+
+    id: int
+    x: tuple[float, ...]
+    in_initial_design: bool
+    status: Status = Status.PENDING
+    value: float | None = None
+    variance: float | None = None
+    replicates: tuple[float, ...] | None = None
+    responses: dict[str, ObservedResponse] = field(default_factory=dict)
+    confirms: int | None = None
+    by_hand: bool = False
+
+    @property
+    def finished(self) -> bool:
+        """Told with status ok: its value enters the surrogate data."""
+        return self.status == Status.OK
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON form in the optimizer's state (``confirms`` and ``by_hand`` only when set)."""
+        record: dict[str, Any] = {
+            "id": self.id,
+            "x": list(self.x),
+            "status": str(self.status),
+            "value": self.value,
+            "variance": self.variance,
+            "replicates": None if self.replicates is None else list(self.replicates),
+            "in_initial_design": self.in_initial_design,
+        }
+        if self.responses:
+            record["responses"] = {
+                key: {"values": list(entry.values), "final": entry.final}
+                for key, entry in self.responses.items()
+            }
+        if self.confirms is not None:
+            record["confirms"] = self.confirms
+        if self.by_hand:
+            record["by_hand"] = True
+        return record
+
+    @classmethod
+    def from_dict(cls, record: dict[str, Any]) -> Evaluation:
+        """Inverse of :meth:`to_dict`."""
+        replicates = record.get("replicates")
+        return cls(
+            id=int(record["id"]),
+            x=tuple(float(v) for v in record["x"]),
+            in_initial_design=bool(record["in_initial_design"]),
+            status=Status(record["status"]),
+            value=record.get("value"),
+            variance=record.get("variance"),
+            replicates=None if replicates is None else tuple(float(v) for v in replicates),
+            responses={
+                key: ObservedResponse.of(entry)
+                for key, entry in (record.get("responses") or {}).items()
+            },
+            confirms=record.get("confirms"),
+            by_hand=bool(record.get("by_hand", False)),
+        )
+
+
+@dataclass(frozen=True)
+class BestPoint:
+    """The answer of a calibration so far (:func:`.best.best_point`).
+
+    ``x`` in real units; ``value`` the observed objective (mean of the
+    replicates); ``predicted`` the objective predicted there; ``chosen_by``
+    "response models" or "objective surrogate"; ``on_bounds`` the index and
+    side ("lower"/"upper") of each coordinate on a bound; ``responses``,
+    with response models, each response's predicted (mean, sd).
+    """
+
+    id: int
+    x: list[float]
+    value: float
+    predicted: float
+    chosen_by: str
+    on_bounds: list[tuple[int, str]]
+    responses: dict[str, tuple[float, float]] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class ConfirmedResponse:
+    """One response over the confirmation runs: mean, sd and count of their replicate means."""
+
+    mean: float
+    sd: float
+    count: int
+
+
+@dataclass(frozen=True)
+class Confirmation:
+    """The confirmation runs so far (:func:`.confirmation.confirmation_summary`).
+
+    ``confirms``: the id of the point they repeat; ``ids``: their ids;
+    ``pending`` and ``failed``: how many are still running or gave no result.
+    """
+
+    confirms: int
+    ids: list[int]
+    pending: int
+    failed: int
+    responses: dict[str, ConfirmedResponse]
