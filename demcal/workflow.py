@@ -23,6 +23,7 @@ import os
 import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import yaml
 
@@ -66,15 +67,16 @@ def dag_command(study_file: Path | str, target: Path | str) -> list[str]:
     return snakemake_command(study_file, "--nolock", "--dag", "dot", str(target))
 
 
-def profile_settings(profile: Path | None) -> dict:
-    """The settings of a Snakemake profile (its config.yaml), {} without a profile."""
-    if profile is None:
-        return {}
+def profile_settings(profile: Path) -> dict[str, Any]:
+    """The settings of a Snakemake profile (its config.yaml)."""
     path = Path(profile) / "config.yaml"
     try:
-        return yaml.safe_load(path.read_text()) or {}
+        settings = yaml.safe_load(path.read_text()) or {}
     except (OSError, yaml.YAMLError) as exc:
         raise DemcalError(f"profile {profile}: cannot read {path}: {exc}") from None
+    if not isinstance(settings, dict):
+        raise DemcalError(f"profile {profile}: {path} holds no settings (name: value lines)")
+    return settings
 
 
 #: What demcal's crash safety needs of a profile, whatever else it sets: no directory lock
@@ -83,8 +85,10 @@ def profile_settings(profile: Path | None) -> dict:
 REQUIRED_PROFILE_SETTINGS = {"nolock": True, "rerun-incomplete": True, "rerun-triggers": "mtime"}
 
 
-def check_profile(profile: Path | None) -> None:
-    """Refuse a profile that lacks a setting of :data:`REQUIRED_PROFILE_SETTINGS`, naming it."""
+def check_profile(profile: Path | None) -> dict[str, Any]:
+    """The settings of ``profile`` (None: the local profile, the one the children then run
+    with); a profile that lacks a setting of :data:`REQUIRED_PROFILE_SETTINGS` is refused,
+    naming it."""
     settings = profile_settings(profile or LOCAL_PROFILE)
     for name, wanted in REQUIRED_PROFILE_SETTINGS.items():
         given = settings.get(name)
@@ -94,11 +98,13 @@ def check_profile(profile: Path | None) -> None:
                 f"need {name}: {str(wanted).lower() if isinstance(wanted, bool) else wanted} "
                 f"(see profiles/local/config.yaml)"
             )
+    return settings
 
 
-def child_cores(profile: Path | None, workers: int) -> int | None:
-    """Cores each child Snakemake may use: none set on a cluster executor, else a fair share."""
-    if profile_settings(profile).get("executor", "local") != "local":
+def child_cores(settings: Mapping[str, Any], workers: int) -> int | None:
+    """Cores each child Snakemake may use with a profile's ``settings``: none set on a cluster
+    executor, else a fair share."""
+    if settings.get("executor", "local") != "local":
         return None
     return max(1, (os.cpu_count() or 1) // workers)
 

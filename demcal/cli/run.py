@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import argparse
 import contextlib
 import logging
 import sys
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from pathlib import Path
+from typing import Any, TextIO
 
 import pandas as pd
 
@@ -20,7 +22,7 @@ from demcal.results.layout import StudyFiles
 from demcal.results.records import BestRecord, ObjectiveRecord
 from demcal.study.config import load_study_file
 from demcal.study.model import Study, freeze, load_frozen
-from demcal.workflow import check_profile, child_cores, profile_settings
+from demcal.workflow import check_profile, child_cores
 
 #: Lines of the calibration's daemon.log.
 DAEMON_LOG_FORMAT = "%(asctime)s %(levelname)s %(message)s"
@@ -29,19 +31,15 @@ DAEMON_LOG_FORMAT = "%(asctime)s %(levelname)s %(message)s"
 DEFAULT_WORKERS = 2
 
 
-def _workers(study: Study, profile: Path | None, given: int | None) -> int:
-    """Evaluations in flight: --workers, else calibration.workers, else the profile's jobs,
-    else 2."""
+def _workers(study: Study, settings: Mapping[str, Any], given: int | None) -> int:
+    """Evaluations in flight: --workers, else calibration.workers, else the jobs of the profile's
+    ``settings``, else 2."""
     if given is not None and given < 1:
         raise ConfigError(f"--workers {given}: give at least 1 (evaluations in flight)")
-    return int(
-        given
-        or study.calibration.get("workers")
-        or profile_settings(profile).get("jobs", DEFAULT_WORKERS)
-    )
+    return int(given or study.calibration.get("workers") or settings.get("jobs", DEFAULT_WORKERS))
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     with _log_file(args.log) as log:
         try:
             return _run(args, log)
@@ -96,9 +94,9 @@ def calibrate(
 
     The progress goes to stderr (and ``log``). An interrupt (Ctrl-C) says what keeps running
     and is raised again."""
-    check_profile(profile)
-    workers = _workers(study, profile, workers)
-    launcher = SnakemakeLauncher(study.files.study, profile, child_cores(profile, workers))
+    settings = check_profile(profile)
+    workers = _workers(study, settings, workers)
+    launcher = SnakemakeLauncher(study.files.study, profile, child_cores(settings, workers))
     calibration = Calibration(study, launcher, workers, watch_pid=watch_pid)
     display = ProgressDisplay(sys.stderr, log)
     try:
