@@ -127,15 +127,13 @@ class Calibration:
             evaluation = evaluation_id(record.id)
             files = self.files.evaluation(evaluation)
             try:
-                job, latest = (
-                    ObjectiveRecord.read(files.objective),
-                    ObjectiveRecord.read_latest(files),
-                )
+                job = ObjectiveRecord.read(files.objective)
+                latest = ObjectiveRecord.read(files.rescored) if files.rescored.exists() else job
             except SimulationFailed:
                 continue
             if not job.ok or latest.scored_with == version:
                 continue  # never scored (a failed simulation), or scored as now
-            result = rescore(self.study, evaluation)
+            result = rescore(self.study, files, job)
             outcomes[record.id] = (
                 result.status,
                 result.objective,

@@ -26,7 +26,7 @@ import numpy as np
 
 from demcal.engines.base import RunMonitor, RunResult, SimulationJob
 from demcal.errors import ConfigError, DemcalError, SimulationFailed, bounded_reason
-from demcal.results.layout import ReplicateFiles
+from demcal.results.layout import EvaluationFiles, ReplicateFiles
 from demcal.results.records import (
     ObjectiveRecord,
     PointRecord,
@@ -284,11 +284,10 @@ def score(
     )
 
 
-def rescore(study: Study, evaluation: str) -> ObjectiveRecord:
+def rescore(study: Study, files: EvaluationFiles, record: ObjectiveRecord) -> ObjectiveRecord:
     """An evaluation's objective against the study's current targets, from the replicates'
-    responses its objective job kept (no simulation runs), written to ``rescored.json``."""
-    files = study.files.evaluation(evaluation)
-    record = ObjectiveRecord.read(files.objective)
+    responses its objective job kept in ``record`` (its ``objective.json``; no simulation
+    runs), written to ``rescored.json``."""
     rescored = score(study, replace(record, reason=""), record.replicates)
     rescored.write(files.rescored)
     return rescored
