@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import pandas as pd  # type: ignore[import-untyped]  # (no pandas-stubs in the lock)
+import pandas as pd
 
 from demcal.errors import ConfigError, DemcalError
 from demcal.results.layout import RESULTS, StudyFiles

@@ -165,8 +165,9 @@ def parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Run one demcal command; a user's mistake or a disk error is one line, never a traceback."""
     args = parser().parse_args(argv)
+    command: Command = args.func
     try:
-        return args.func(args)
+        return command(args)
     except DemcalError as exc:
         print(f"demcal: {exc}", file=sys.stderr)
         return 2

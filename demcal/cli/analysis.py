@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import argparse
+
 from demcal.cli.inspect import study_of
 from demcal.errors import ConfigError
 
 
-def solutions(args) -> int:
+def solutions(args: argparse.Namespace) -> int:
     from demcal.analysis.solution_report import write_solutions
 
     study = study_of(args.config)
@@ -29,7 +31,7 @@ def solutions(args) -> int:
     return 0
 
 
-def convergence(args) -> int:
+def convergence(args: argparse.Namespace) -> int:
     from demcal.analysis import convergence as study
 
     study.run(

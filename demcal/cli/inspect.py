@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import time
 from pathlib import Path
 
@@ -24,7 +25,8 @@ def study_of(argument: str) -> Study:
     return load_frozen(study.files.study) if study.files.study.is_file() else study
 
 
-STATUS_WORDS = {
+#: How ``demcal status`` words each status of the optimizer's evaluations.
+STATUS_WORDS: dict[str, str] = {
     Status.OK: "ok",
     Status.FAILED: "failed",
     Status.TERMINATED: "stopped early",
@@ -58,7 +60,7 @@ def study_state(study: Study) -> tuple[str, str]:
     )
 
 
-def status(args) -> int:
+def status(args: argparse.Namespace) -> int:
     study = study_of(args.config)
     if not study.files.optimizer.exists():
         print(f"demcal: study {study.name!r} has not started ({study.files.optimizer} missing)")
@@ -70,7 +72,7 @@ def status(args) -> int:
     return 0
 
 
-def studies(args) -> int:
+def studies(args: argparse.Namespace) -> int:
     """Every study under the results folder with its state, counts and best objective."""
     found = sorted(path.parent for path in RESULTS.glob("*/study.json"))
     if not found:
@@ -92,7 +94,7 @@ def studies(args) -> int:
     return 0
 
 
-def watch(args) -> int:
+def watch(args: argparse.Namespace) -> int:
     """Keep results/<study>/live.html up to date while the calibration runs."""
     from demcal.reporting.live import write_live_page
 

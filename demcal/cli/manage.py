@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import argparse
+
 from demcal.cli.inspect import study_of
 from demcal.daemon.control import add_point, lock_study, reopen_failed, request_stop, running_daemon
 
 
-def stop(args) -> int:
+def stop(args: argparse.Namespace) -> int:
     study = study_of(args.config)
     daemon = running_daemon(study)
     if daemon is None:
@@ -22,7 +24,7 @@ def stop(args) -> int:
     return 0
 
 
-def add_point_command(args) -> int:
+def add_point_command(args: argparse.Namespace) -> int:
     study = study_of(args.config)
     lock = lock_study(study)  # noqa: F841  (no daemon may run meanwhile)
     evaluation = add_point(study, study.free_values(args.values, "add-point"))
@@ -33,7 +35,7 @@ def add_point_command(args) -> int:
     return 0
 
 
-def rerun_failed(args) -> int:
+def rerun_failed(args: argparse.Namespace) -> int:
     study = study_of(args.config)
     lock = lock_study(study)  # noqa: F841  (no daemon may run meanwhile)
     reopened = reopen_failed(study)

@@ -49,7 +49,7 @@ def run(args: argparse.Namespace) -> int:
             raise
 
 
-def _run(args, log) -> int:
+def _run(args: argparse.Namespace, log: TextIO | None) -> int:
     profile = Path(args.profile) if args.profile else None
     with locked_study(args.config, args.frozen, args.watch_pid, log) as study:
         logging.basicConfig(
@@ -68,7 +68,10 @@ def _run(args, log) -> int:
 
 @contextlib.contextmanager
 def locked_study(
-    config: str | Path, frozen: bool = False, watch_pid: int | None = None, log=None
+    config: str | Path,
+    frozen: bool = False,
+    watch_pid: int | None = None,
+    log: TextIO | None = None,
 ) -> Iterator[Study]:
     """The study of ``config`` as its jobs will read it, with the study's daemon lock held
     inside the block. A YAML is validated, its warnings said, and frozen under the lock; with
@@ -87,7 +90,7 @@ def calibrate(
     profile: Path | None,
     workers: int | None = None,
     watch_pid: int | None = None,
-    log=None,
+    log: TextIO | None = None,
 ) -> str:
     """Run the calibration of a frozen study whose lock is held (:func:`locked_study`) until it
     ends, one child Snakemake per evaluation with ``profile``; return why it ended.
@@ -114,7 +117,7 @@ def calibrate(
 
 
 @contextlib.contextmanager
-def _log_file(path: str | None):
+def _log_file(path: str | None) -> Iterator[TextIO | None]:
     """The --log file opened for appending (None without one)."""
     if path is None:
         yield None
@@ -124,7 +127,7 @@ def _log_file(path: str | None):
         yield log
 
 
-def _say(message: str, log=None) -> None:
+def _say(message: str, log: TextIO | None = None) -> None:
     """A message on stderr, and in the log if there is one."""
     for stream in (sys.stderr, log):
         if stream is not None:
@@ -142,7 +145,7 @@ def print_best(study: Study) -> None:
     best = BestRecord.read(files.best)
     evaluation = files.evaluation(best.evaluation)
     print(
-        f"best point ({CHOSEN_BY.get(best.chosen_by, 'lowest objective')} among the "
+        f"best point ({CHOSEN_BY.get(best.chosen_by or '', 'lowest objective')} among the "
         f"evaluated points):"
     )
     print(evaluation_summary(study, ObjectiveRecord.read_latest(evaluation), evaluation.dir, best))

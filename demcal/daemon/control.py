@@ -9,6 +9,7 @@ import os
 import shutil
 import time
 from pathlib import Path
+from typing import TextIO
 
 from demcal.daemon.launcher import alive
 from demcal.errors import ConfigError, DemcalError, SimulationFailed
@@ -129,7 +130,7 @@ def request_stop(study: Study) -> None:
 ORPHAN_WAIT_SECONDS = 60.0
 
 
-def lock_study(study: Study, watch_pid: int | None = None):
+def lock_study(study: Study, watch_pid: int | None = None) -> TextIO:
     """Hold the study's daemon lock (released when the process ends, even by kill -9).
 
     The lock file names its holder and the Snakemake the holder watches. A

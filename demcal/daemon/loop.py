@@ -120,7 +120,7 @@ class Calibration:
         optimizer's value is replaced.
         """
         version = self.study.objective.version
-        outcomes = {}
+        outcomes: dict[int, tuple[str, float | None, list[float] | None]] = {}
         for record in self.optimizer.records:
             if record.status == Status.PENDING:
                 continue
