@@ -26,21 +26,12 @@ import yaml
 
 from demcal.jobs.evaluation import extract, simulate
 from demcal.results.records import PointRecord
+from demcal.scenes.cylinder_lift import TINY_SETTINGS
 from demcal.study.config import load_study
 
 ROOT = Path(__file__).resolve().parents[1]
 POINT = {"sliding_friction_pp": 0.5, "rolling_friction_pp": 0.16}
-CASES = {
-    "default": {},
-    "tiny": {
-        "particle_count": 200,
-        "d50": 3.0e-3,
-        "cylinder_diameter": 24.0e-3,
-        "plate_width": 0.08,
-        "lift_speed": 0.05,
-        "max_settle_time": 0.6,
-    },
-}
+CASES = {"default": {}, "tiny": TINY_SETTINGS}
 ENGINES = ("lammps", "liggghts")
 RESPONSES = ("bulk_density", "angle_of_repose")
 

@@ -17,9 +17,10 @@ A. analytic: ``config/examples/analytic.yaml`` as it is (seed 7, 2 replicates,
    (``optimizer.early_termination.enabled: false``, written into the scratch
    copy of the YAML). About 8 minutes (Snakemake's start-up per evaluation).
 B. lammps: each lab test (cylinder_lift, shear_box, calibration_device) at the
-   centre of its bounds, one tiny LAMMPS run per replicate with the settings
-   of the tests' tiny scenes (tests/test_lammps.py, test_shear_box.py,
-   test_calibration_device.py): a tiny study YAML per scene and
+   centre of its bounds, one tiny LAMMPS run per replicate with the scene's
+   tiny settings (``TINY_SETTINGS`` of ``demcal.scenes.<scene>``, those of the
+   tests, taken from the demcal this script runs with, so the same for every
+   checkout compared): a tiny study YAML per scene and
    ``snakemake -s ROOT/Snakefile --profile ROOT/profiles/local
    --configfile=tiny.yaml evaluate_centre``. Seconds per simulation.
 
@@ -64,6 +65,8 @@ import sys
 import time
 from pathlib import Path
 
+from demcal.scenes import calibration_device, cylinder_lift, shear_box
+
 #: Keys (JSON) and columns (evaluations.csv) dropped: measured times and timestamps.
 TIME_KEYS = frozenset(
     {"started_at", "ended_at", "wall_s", "cpu_s", "simulation_wall_s", "worker_cpu_s"}
@@ -73,17 +76,11 @@ ANALYTIC_YAML = "config/examples/analytic.yaml"
 
 COMMON_FIXED = {"youngs_modulus": 5.0e6, "poisson_ratio": 0.3, "restitution": 0.5}
 
-#: One tiny study per lab test: the tests' tiny settings, the examples' parameters and targets.
+#: One tiny study per lab test: the scene's tiny settings (its ``TINY_SETTINGS``, those of the
+#: tests), the examples' parameters and targets.
 TINY_STUDIES = {
     "cylinder_lift": {
-        "settings": {  # tests/test_lammps.py TINY
-            "particle_count": 200,
-            "d50": 3.0e-3,
-            "cylinder_diameter": 24.0e-3,
-            "plate_width": 0.08,
-            "lift_speed": 0.05,
-            "max_settle_time": 0.6,
-        },
+        "settings": cylinder_lift.TINY_SETTINGS,
         "parameters": {
             "sliding_friction_pp": {"lower": 0.1, "upper": 0.9},
             "rolling_friction_pp": {"lower": 0.02, "upper": 0.3},
@@ -96,12 +93,7 @@ TINY_STUDIES = {
         "seed": 7,
     },
     "shear_box": {
-        "settings": {  # tests/test_shear_box.py TINY
-            "d50": 3.0e-3,
-            "sigma_ln": 0.0,
-            "box_size_dmax": 5.0,
-            "max_settle_time": 2.0,
-        },
+        "settings": shear_box.TINY_SETTINGS,
         "parameters": {
             "sliding_friction_pp": {"lower": 0.1, "upper": 0.9},
             "particle_density": {"lower": 2000.0, "upper": 3000.0, "unit": "kg/m^3"},
@@ -114,15 +106,7 @@ TINY_STUDIES = {
         "seed": 7,
     },
     "calibration_device": {
-        "settings": {  # tests/test_calibration_device.py TINY
-            "particle_count": 300,
-            "d50": 2.0e-3,
-            "floor_length": 0.08,
-            "slide_length": 0.03,
-            "slide_edge_height": 0.02,
-            "max_time": 1.0,
-            "max_settle_time": 0.5,
-        },
+        "settings": calibration_device.TINY_SETTINGS,
         "parameters": {
             "sliding_friction_pp": {"lower": 0.2, "upper": 0.9},
             "sliding_friction_pw": {"lower": 0.2, "upper": 0.9},

@@ -13,7 +13,7 @@ from demcal.physics import measure
 from demcal.results.records import Status
 from demcal.results.storage import read_partial
 from demcal.scenes import SCENES
-from demcal.scenes.calibration_device import device_geometry
+from demcal.scenes.calibration_device import TINY_SETTINGS, device_geometry
 from demcal.study.catalogue import CATALOG
 
 SCENE = SCENES.load("calibration_device")
@@ -144,24 +144,13 @@ def test_analytic_model_trends():
 
 
 # -- real LAMMPS on a tiny device ------------------------------------------------
-TINY = {
-    "particle_count": 300,
-    "d50": 2.0e-3,
-    "floor_length": 0.08,
-    "slide_length": 0.03,
-    "slide_edge_height": 0.02,
-    "max_time": 1.0,
-    "max_settle_time": 0.5,
-}
-
-
 def tiny_job(tmp_path, responses, fraction=0.25, **params):
     values = {name: spec.default for name, spec in CATALOG.items()}
     values.update({"youngs_modulus": 5.0e6, **params})
     return SimulationJob(
         scene="calibration_device",
         parameters=values,
-        settings=settings(**TINY),
+        settings=settings(**TINY_SETTINGS),
         seed=3,
         responses=list(responses),
         timestep_fraction=fraction,

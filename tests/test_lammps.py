@@ -17,19 +17,12 @@ from demcal.engines.lammps import LammpsEngine
 from demcal.results.records import Status
 from demcal.results.storage import read_partial
 from demcal.scenes import SCENES
+from demcal.scenes.cylinder_lift import TINY_SETTINGS
 from demcal.study.catalogue import CATALOG
 
 pytestmark = pytest.mark.lammps
 
 SCENE = SCENES.load("cylinder_lift")
-TINY = {
-    "particle_count": 200,
-    "d50": 3.0e-3,
-    "cylinder_diameter": 24.0e-3,
-    "plate_width": 0.08,
-    "lift_speed": 0.05,
-    "max_settle_time": 0.6,
-}
 #: Solid fraction bounds of the fill. Dense random packing is 0.64; the loose
 #: bound is below bulk random loose packing (0.55) because in a cylinder only
 #: 8 diameters wide the wall zone and the top layer are loosely packed.
@@ -42,7 +35,7 @@ def tiny_job(tmp_path, fraction=0.25, responses=("bulk_density", "angle_of_repos
     return SimulationJob(
         scene="cylinder_lift",
         parameters=values,
-        settings=SCENE.resolve_settings(TINY, "s"),
+        settings=SCENE.resolve_settings(TINY_SETTINGS, "s"),
         seed=7,
         responses=list(responses),
         timestep_fraction=fraction,

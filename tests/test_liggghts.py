@@ -22,6 +22,7 @@ from demcal.physics.timestep import rayleigh_time
 from demcal.results.records import Status
 from demcal.results.storage import read_partial
 from demcal.scenes import SCENES
+from demcal.scenes.cylinder_lift import TINY_SETTINGS
 from demcal.scenes.cylinder_lift.liggghts import (
     CylinderLiftInput,
     cylinder_triangles,
@@ -32,14 +33,6 @@ from demcal.study.catalogue import CATALOG
 from demcal.study.config import load_study
 
 SCENE = SCENES.load("cylinder_lift")
-TINY = {
-    "particle_count": 200,
-    "d50": 3.0e-3,
-    "cylinder_diameter": 24.0e-3,
-    "plate_width": 0.08,
-    "lift_speed": 0.05,
-    "max_settle_time": 0.6,
-}
 needs_liggghts = pytest.mark.skipif(
     shutil.which(liggghts.BINARY) is None,
     reason="LIGGGHTS not installed (apt-get install liggghts)",
@@ -54,7 +47,7 @@ def tiny_job(
     return SimulationJob(
         scene="cylinder_lift",
         parameters=values,
-        settings=SCENE.resolve_settings({**TINY, **(settings or {})}, "s"),
+        settings=SCENE.resolve_settings({**TINY_SETTINGS, **(settings or {})}, "s"),
         seed=7,
         responses=list(responses),
         timestep_fraction=fraction,
@@ -119,7 +112,7 @@ def test_script_time_step_walls_and_contact_model(tmp_path):
     lines = case.script().splitlines()
     p = job.parameters
     dt = 0.2 * rayleigh_time(
-        TINY["d50"] / 2, p["particle_density"], p["youngs_modulus"], p["poisson_ratio"]
+        TINY_SETTINGS["d50"] / 2, p["particle_density"], p["youngs_modulus"], p["poisson_ratio"]
     )
     assert f"timestep {dt:.10g}" in lines
     model = "model hertz tangential history rolling_friction epsd"

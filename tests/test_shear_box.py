@@ -19,7 +19,12 @@ from demcal.physics.psd import sample_diameters
 from demcal.results.records import Status
 from demcal.results.storage import read_partial
 from demcal.scenes import SCENES
-from demcal.scenes.shear_box import box_dimensions, fill_particle_count, mean_sphere_volume
+from demcal.scenes.shear_box import (
+    TINY_SETTINGS,
+    box_dimensions,
+    fill_particle_count,
+    mean_sphere_volume,
+)
 from demcal.scenes.shear_box.lammps import random_loose_packing
 from demcal.study.catalogue import CATALOG
 
@@ -213,14 +218,12 @@ def test_random_loose_packing_places_spheres_without_overlap():
 
 # -- tiny real LAMMPS runs ----------------------------------------------------
 
-TINY = {"d50": 3.0e-3, "sigma_ln": 0.0, "box_size_dmax": 5.0, "max_settle_time": 2.0}
-
 
 def tiny_job(tmp_path, fraction=0.25, responses=("bulk_density", "shear_angle"), **params):
     return SimulationJob(
         scene="shear_box",
         parameters={**DEFAULTS, **params},
-        settings=settings(**TINY),
+        settings=settings(**TINY_SETTINGS),
         seed=7,
         responses=list(responses),
         timestep_fraction=fraction,

@@ -221,3 +221,15 @@ SCENE = Scene(
     drivers={"lammps": f"{__name__}.lammps:run"},
     check_settings=check_geometry,
 )
+
+#: A tiny calibration device, seconds per LAMMPS run (300 spheres of 2 mm on a short floor
+#: and slide): the settings of the scene's tests and of the benchmarks' quick real runs.
+TINY_SETTINGS = {
+    "particle_count": 300,
+    "d50": 2.0e-3,
+    "floor_length": 0.08,
+    "slide_length": 0.03,
+    "slide_edge_height": 0.02,
+    "max_time": 1.0,
+    "max_settle_time": 0.5,
+}

@@ -121,3 +121,14 @@ SCENE = Scene(
     drivers={"lammps": f"{__name__}.lammps:run", "liggghts": f"{__name__}.liggghts:case"},
     check_settings=check_geometry,
 )
+
+#: A tiny cylinder lift, seconds per LAMMPS or LIGGGHTS run (200 spheres of 3 mm lifted at
+#: 0.05 m/s): the settings of the engine tests and of the benchmarks' quick real runs.
+TINY_SETTINGS = {
+    "particle_count": 200,
+    "d50": 3.0e-3,
+    "cylinder_diameter": 24.0e-3,
+    "plate_width": 0.08,
+    "lift_speed": 0.05,
+    "max_settle_time": 0.6,
+}

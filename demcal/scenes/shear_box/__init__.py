@@ -186,3 +186,7 @@ SCENE = Scene(
     check_settings=check_settings,
     size_setting="box_size_dmax",
 )
+
+#: A tiny shear box, seconds per LAMMPS run (monodisperse 3 mm spheres, the box's smallest
+#: side five of them): the settings of the scene's tests and of the benchmarks' quick real runs.
+TINY_SETTINGS = {"d50": 3.0e-3, "sigma_ln": 0.0, "box_size_dmax": 5.0, "max_settle_time": 2.0}
