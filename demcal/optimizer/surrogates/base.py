@@ -32,6 +32,16 @@ class TrainingData:
     scale: float
 
 
+@dataclass(frozen=True)
+class HyperparameterSearch:
+    """How a model that searches its hyperparameters (Kriging) is to search: ``restarts`` starts
+    drawn with ``seed``, and ``warm_start``, a previous fit's optimum to start from (or None)."""
+
+    restarts: int
+    seed: int
+    warm_start: tuple[np.ndarray, float] | None
+
+
 def merge_duplicates(
     x: np.ndarray, y: np.ndarray, variance: np.ndarray, tolerance: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -114,8 +124,14 @@ class Surrogate:
         seed: int = 0,
         warm_start: tuple[np.ndarray, float] | None = None,
     ) -> Self:
-        """The model as the optimizer makes it; ``restarts``, ``seed`` and ``warm_start`` are for
-        models that search hyperparameters (Kriging), the others ignore them."""
+        """The model as the optimizer makes it: ``restarts``, ``seed`` and ``warm_start`` are the
+        :class:`HyperparameterSearch` it is made :meth:`searching` with."""
+        return cls.searching(duplicate_tolerance, HyperparameterSearch(restarts, seed, warm_start))
+
+    @classmethod
+    def searching(cls, duplicate_tolerance: float, search: HyperparameterSearch) -> Self:
+        """The model with ``search`` for its hyperparameters; models without hyperparameters to
+        search (all but Kriging) ignore it."""
         return cls(duplicate_tolerance)
 
     def fit(self, x: ArrayLike, y: ArrayLike, variance: ArrayLike | None = None) -> Self:

@@ -14,7 +14,7 @@ from typing import Self
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .base import ResponseModel, TrainingData
+from .base import HyperparameterSearch, ResponseModel, TrainingData
 
 #: A Kriging nugget (relative to the process variance) this large leaves only the trend.
 DEGENERATE_NUGGET = 1e6
@@ -46,19 +46,14 @@ class KrigingSurrogate(ResponseModel):
         self.start = warm_start
 
     @classmethod
-    def create(
-        cls,
-        duplicate_tolerance: float,
-        restarts: int = 5,
-        seed: int = 0,
-        warm_start: tuple[np.ndarray, float] | None = None,
-    ) -> Self:
-        """With a ``warm_start``, one start of the hyperparameter search, else ``restarts``."""
+    def searching(cls, duplicate_tolerance: float, search: HyperparameterSearch) -> Self:
+        """With a warm start, one start of the hyperparameter search, else ``restarts``."""
+        warm = search.warm_start
         return cls(
             duplicate_tolerance,
-            restarts=1 if warm_start is not None else restarts,
-            seed=seed,
-            warm_start=warm_start,
+            restarts=1 if warm is not None else search.restarts,
+            seed=search.seed,
+            warm_start=warm,
         )
 
     def _fit_standardised(self, data: TrainingData) -> None:
