@@ -65,3 +65,6 @@ def test_a_profile_without_what_crash_safety_needs_is_refused(tmp_path):
     )
     check_profile(tmp_path)
     check_profile(None)  # the local profile
+    (tmp_path / "config.yaml").write_text("- nolock\n- rerun-incomplete\n")
+    with pytest.raises(DemcalError, match="config.yaml holds no settings"):
+        check_profile(tmp_path)
