@@ -41,6 +41,7 @@ RESUMABLE_OPTIMIZER_SETTINGS = (
     "no_improvement_evaluations",
     "early_termination",
     "confirm_replicates",
+    "map_solutions",
 )
 #: Target fields that may change on resume (stored simulations are re-scored).
 RESCORABLE_TARGET_FIELDS = ("value", "weight", "spread", "unit")
