@@ -355,6 +355,9 @@ class Optimizer:
         values = [r.value for r in self.records if r.value is not None]
         self.best_observed = min(values) if values else None
         self._surrogate_version = -1
+        # the search is judged anew on the new objective
+        self.strategy_state.pop("calm_proposals", None)
+        self.search_ended = None
 
     def _update_progress(self, record: Evaluation) -> None:
         if record.status == Status.FAILED:
@@ -441,6 +444,12 @@ class Optimizer:
         if strategy_reason:
             return strategy_reason
         best = self.best()
+        if best is not None and self._answer_known(best):
+            return (
+                "answer known: the best point's predicted responses meet every target within "
+                f"its spread, and the expected improvement stayed below {s.calm_share:.0%} of "
+                f"the noise level for {s.calm_proposals} proposals"
+            )
         return stop_reason(
             self.completed_evaluations(),
             s.max_evaluations,
@@ -452,6 +461,15 @@ class Optimizer:
             s.no_improvement_evaluations,
             self.step.collapsed and s.stop_on_step_collapse and STRATEGIES[s.strategy].step_size,
         )
+
+    def _answer_known(self, best: BestPoint) -> bool:
+        """The rule ``stop_when_known``: the strategy counted ``calm_proposals`` proposals in a
+        row of negligible expected improvement, and the best point meets the targets."""
+        s = self.settings
+        if not s.stop_when_known or self.strategy_state.get("calm_proposals", 0) < s.calm_proposals:
+            return False
+        predictor = self.response_predictor()
+        return predictor is not None and predictor.meets_targets(self.bounds.to_unit([best.x])[0])
 
     def early_termination(self, id: int, partial_estimate: float) -> EarlyTerminationDecision:
         """Apply :func:`early_termination_decision` to running evaluation ``id``."""

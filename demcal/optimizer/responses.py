@@ -167,6 +167,26 @@ class ResponsePredictor:
         stds = {key: model.predict_std(x) for key, model in self.models.items()}
         return means, stds
 
+    def noise_level(self) -> float:
+        """The objective of responses that each miss their target by one sd: the simulation
+        noise the model's fit found or, where larger, the target's spread. What noise alone
+        makes of the objective, the scale an improvement is judged on."""
+        missed = {
+            t.key: t.value + max(self.models[t.key].noise_sd, t.spread or 0.0)
+            for t in self.objective.targets
+        }
+        return float(np.asarray(self.objective(missed)))
+
+    def meets_targets(self, x: np.ndarray) -> bool:
+        """Whether the predicted responses at the point ``x`` (unit box) each lie within their
+        target's spread or, without a spread or where larger, the simulation noise."""
+        means, _ = self.predict(np.atleast_2d(x)[:1])
+        return all(
+            abs(float(means[t.key][0]) - t.value)
+            <= max(t.spread or 0.0, self.models[t.key].noise_sd)
+            for t in self.objective.targets
+        )
+
     def objective_mean(self, x: np.ndarray) -> np.ndarray:
         """The objective of the predicted responses (the plug-in estimate) at the rows of ``x``."""
         means, _ = self.predict(x)

@@ -42,6 +42,9 @@ RESUMABLE_OPTIMIZER_SETTINGS = (
     "early_termination",
     "confirm_replicates",
     "map_solutions",
+    "stop_when_known",
+    "calm_share",
+    "calm_proposals",
 )
 #: Target fields that may change on resume (stored simulations are re-scored).
 RESCORABLE_TARGET_FIELDS = ("value", "weight", "spread", "unit")
