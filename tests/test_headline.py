@@ -124,7 +124,8 @@ def test_headline_from_files_written_by_hand(study):
     write_json(
         files.solutions_summary,
         {
-            "accepted": 12,
+            "likely": 12,
+            "possible": 30,
             "sampled": 4000,
             "k": 2.0,
             "verdicts": [{"sentence": "sliding_friction_pp is identified."}],
@@ -146,7 +147,10 @@ def test_headline_from_files_written_by_hand(study):
     assert table_row([f"{DENSITY} [kg/m^3]", "1430", "–", "1450", "-1.4 %"]) in headline
     assert "**Confirmed** by 2 more simulations of the best point" in headline
     assert table_row([ANGLE, "25.25 ±0.35", "2", "25"]) in headline
-    assert "(12 of 4000 sampled parameter sets meet every target within 2 sd)" in headline
+    assert (
+        "(12 of 4000 sampled parameter sets are likely to meet every target within 2 sd, "
+        "30 cannot be ruled out)" in headline
+    )
     assert "- sliding_friction_pp is identified." in headline
     # the figure is embedded: its bytes are in the data URI, cut into lines
     lines = headline.splitlines()

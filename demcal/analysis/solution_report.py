@@ -98,6 +98,7 @@ def analyse(study: Study, k: float = 2.0, samples: int = 2**16, seed: int = 0) -
         np.array(optimizer.bounds.lower),
         np.array(optimizer.bounds.upper),
         largest_total_index(sensitivity),
+        f"demcal solutions --explore 8 {study.name}",
     )
     return SolutionAnalysis(
         predictor,

@@ -227,7 +227,7 @@ def identifiability(
     lower: np.ndarray,
     upper: np.ndarray,
     total_index: dict[str, float] | None = None,
-    explore_command: str = "demcal solutions --explore 8 CONFIG",
+    explore_command: str = "demcal solutions --explore 8 STUDY",
 ) -> list[Verdict]:
     """A verdict per parameter from its span over the whole likely set.
 
@@ -258,7 +258,8 @@ def identifiability(
             sentence = (
                 f"{name}: no verdict: only {len(possible)} of {solutions.sampled} sampled "
                 f"parameter sets may meet all targets within {solutions.k:g} sd (the targets may "
-                "lie outside what these bounds reach)"
+                "lie outside what these bounds reach, or be too narrow for a set of any width: "
+                "give each target the spread of its measurement)"
             )
         elif len(likely) < MIN_SOLUTIONS:
             verdict = "not established"

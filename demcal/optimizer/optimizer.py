@@ -144,6 +144,9 @@ class Optimizer:
         #: why the search for the best point stopped, once it has and the solution set is being
         #: mapped (``map_solutions``); None before
         self.search_ended: str | None = None
+        #: evaluations of the solution-set mapping asked for beyond ``map_solutions``
+        #: (:meth:`explore`)
+        self.explore_more = 0
         self.objective = objective
         self._check_objective()
         self._start_models()
@@ -195,7 +198,7 @@ class Optimizer:
 
     def _map_solutions(self, n: int) -> list[Proposal]:
         """Up to ``n`` points of the solution-set mapping, within ``map_solutions``."""
-        room = self.settings.map_solutions - sum(r.maps_solutions for r in self.records)
+        room = self.mapping_budget - sum(r.maps_solutions for r in self.records)
         proposals = []
         for _ in range(max(min(n, room), 0)):
             weights = WeightCycle(self.settings.weights, self.weight_index)
@@ -426,7 +429,7 @@ class Optimizer:
         evaluations are told (or on the wall clock).
         """
         reason = self._search_stop_reason(elapsed_seconds)
-        wanted = self.settings.map_solutions
+        wanted = self.mapping_budget
         if reason is None or not wanted or reason.startswith("wall-clock"):
             return reason
         self.search_ended = self.search_ended or reason
@@ -434,6 +437,20 @@ class Optimizer:
         if mapped < wanted:
             return None
         return f"{self.search_ended}; then {mapped} evaluations mapped the solution set"
+
+    @property
+    def mapping_budget(self) -> int:
+        """Evaluations that map the solution set in all: ``map_solutions`` and those
+        :meth:`explore` added."""
+        return self.settings.map_solutions + self.explore_more
+
+    def explore(self, n: int) -> None:
+        """Map the solution set with ``n`` more evaluations, now (ends the search if it had not
+        ended). ValueError without the targets."""
+        if self.objective is None:
+            raise ValueError("mapping the solution set needs the targets as response models")
+        self.explore_more += n
+        self.search_ended = self.search_ended or "the solution set was to be explored"
 
     def _search_stop_reason(self, elapsed_seconds: float) -> str | None:
         """Why the search for the best point should stop, or None."""

@@ -59,6 +59,8 @@ def encode(optimizer: Optimizer) -> str:
         state["strategy_state"] = optimizer.strategy_state
     if optimizer.search_ended is not None:
         state["search_ended"] = optimizer.search_ended
+    if optimizer.explore_more:
+        state["explore_more"] = optimizer.explore_more
     if optimizer.objective is not None:
         state["objective_version"] = optimizer.objective.version
     return json.dumps(state)
@@ -99,5 +101,6 @@ def decode(text: str, objective: ResponseObjective | None) -> dict[str, Any]:
         "evaluations_without_improvement": state["evaluations_without_improvement"],
         "strategy_state": state.get("strategy_state", {}),
         "search_ended": state.get("search_ended"),
+        "explore_more": state.get("explore_more", 0),
         "objective": objective,
     }

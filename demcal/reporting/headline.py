@@ -151,8 +151,9 @@ def _identified(solutions_summary: Path) -> list[str]:
     if not solutions:
         return []
     return [
-        f"**What the targets identify** ({solutions['accepted']} of {solutions['sampled']} "
-        f"sampled parameter sets meet every target within {solutions['k']:g} sd):",
+        f"**What the targets identify** ({solutions['likely']} of {solutions['sampled']} "
+        f"sampled parameter sets are likely to meet every target within {solutions['k']:g} sd, "
+        f"{solutions['possible']} cannot be ruled out):",
         "",
         *[f"- {verdict['sentence']}" for verdict in solutions["verdicts"]],
         "",
