@@ -129,6 +129,10 @@ def test_headline_from_files_written_by_hand(study):
             "sampled": 4000,
             "k": 2.0,
             "verdicts": [{"sentence": "sliding_friction_pp is identified."}],
+            "posterior": {
+                "interval_90": {"sliding_friction_pp": [0.31, 0.42]},
+                "effective_samples": 812.4,
+            },
         },
     )
     image = b"\x89PNG\r\n\x1a\n" + bytes(range(256)) * 2
@@ -152,6 +156,7 @@ def test_headline_from_files_written_by_hand(study):
         "30 cannot be ruled out)" in headline
     )
     assert "- sliding_friction_pp is identified." in headline
+    assert "812 effective samples), central 90 %: sliding_friction_pp 0.31–0.42" in headline
     # the figure is embedded: its bytes are in the data URI, cut into lines
     lines = headline.splitlines()
     start = lines.index(".. image::") + 1

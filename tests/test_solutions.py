@@ -154,3 +154,31 @@ def test_with_nothing_likely_yet_the_verdict_is_not_established_not_no_solutions
     assert all(
         "no parameter set is yet predicted to meet every target" in v.sentence for v in verdicts
     )
+
+
+class Linear:
+    """An exact model of mass flow = 10 x0, sure everywhere."""
+
+    noise_sd = 0.0
+
+    def predict(self, x):
+        return 10.0 * np.atleast_2d(x)[:, 0]
+
+    def predict_std(self, x):
+        return np.zeros(len(np.atleast_2d(x)))
+
+
+def test_the_posterior_of_a_linear_response_is_its_gaussian():
+    """Target 5 ± 0.2 on 10 x0: x0 ~ N(0.5, 0.02²), 90 % within 0.5 ± 1.645 x 0.02; x1
+    keeps its uniform prior; the two are uncorrelated."""
+    target = Target("calibration_device", "mass_flow", 5.0, spread=0.2)
+    predictor = ResponsePredictor({target.key: Linear()}, ResponseObjective((target,)))
+    posterior = sample_solutions(predictor, 2, {target.key: 0.0}, seed=3).posterior
+    assert posterior.low == pytest.approx([0.5 - 1.645 * 0.02, 0.05], abs=2e-3)
+    assert posterior.high == pytest.approx([0.5 + 1.645 * 0.02, 0.95], abs=2e-3)
+    assert abs(posterior.correlation[0, 1]) < 0.02
+    assert 2000 < posterior.effective_samples < 65536 / 10
+    (pp, _) = identifiability(
+        sample_solutions(predictor, 2, {target.key: 0.0}, seed=3), NAMES, UNITS, LOWER, UPPER
+    )
+    assert pp.posterior_low == pytest.approx(0.2 + 0.7 * (0.5 - 1.645 * 0.02), abs=2e-3)

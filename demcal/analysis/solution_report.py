@@ -290,6 +290,11 @@ def write_solutions(
         "simulation_noise_sd": s.noise_sd,
         "target_spread": {t.key: t.spread for t in study.targets},
         "verdicts": [asdict(v) for v in analysis.verdicts],
+        "posterior": {
+            "interval_90": {v.name: [v.posterior_low, v.posterior_high] for v in analysis.verdicts},
+            "correlation": s.posterior.correlation.round(3).tolist(),
+            "effective_samples": s.posterior.effective_samples,
+        },
     }
     files.solutions_summary.write_text(json.dumps(summary, indent=2, default=float))
     best = read_json(files.best, "best.json") if files.best.exists() else None

@@ -27,6 +27,7 @@ and the bounds; the files and figures are in :mod:`demcal.analysis.solution_repo
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -115,6 +116,62 @@ def membership_probability(
     return probability
 
 
+def log_likelihood(
+    targets: tuple[Target, ...],
+    means: dict[str, np.ndarray],
+    stds: dict[str, np.ndarray],
+    noise_sd: dict[str, float],
+) -> np.ndarray:
+    """The log-likelihood of the targets per point: each target normal about the model's
+    prediction with variance spread² + noise² + model sd² (independent responses), up to a
+    constant."""
+    total = np.zeros(len(next(iter(means.values()))))
+    for t in targets:
+        variance = tolerance_sd(t, noise_sd[t.key], stds[t.key]) ** 2
+        variance = np.maximum(variance, np.finfo(float).tiny)
+        total -= 0.5 * ((means[t.key] - t.value) ** 2 / variance + np.log(variance))
+    return total
+
+
+@dataclass(frozen=True)
+class Posterior:
+    """The posterior of the parameters with a uniform prior over the box and the targets'
+    Gaussian likelihood (:func:`log_likelihood`), from the weighted Sobol sample.
+
+    ``low`` and ``high``: each parameter's central 90 % interval (unit box);
+    ``correlation``: the parameters' correlation matrix; ``effective_samples``:
+    Kish's effective sample size of the weights (few: the interval is rough).
+    """
+
+    low: np.ndarray
+    high: np.ndarray
+    correlation: np.ndarray
+    effective_samples: float
+
+
+def weighted_quantile(values: np.ndarray, weights: np.ndarray, q: float) -> float:
+    """The ``q`` quantile of ``values`` under normalised ``weights``."""
+    order = np.argsort(values)
+    cumulative = np.cumsum(weights[order])
+    return float(values[order][min(np.searchsorted(cumulative, q), len(values) - 1)])
+
+
+def posterior_of(points: np.ndarray, log_weights: np.ndarray) -> Posterior:
+    """The 90 % intervals, correlation and effective sample size of weighted ``points``."""
+    weights = np.exp(log_weights - log_weights.max())
+    weights /= weights.sum()
+    mean = weights @ points
+    centred = points - mean
+    covariance = (weights[:, None] * centred).T @ centred
+    sd = np.sqrt(np.maximum(np.diag(covariance), np.finfo(float).tiny))
+    return Posterior(
+        np.array([weighted_quantile(points[:, i], weights, 0.05) for i in range(len(mean))]),
+        np.array([weighted_quantile(points[:, i], weights, 0.95) for i in range(len(mean))]),
+        covariance / np.outer(sd, sd),
+        float(1.0 / np.sum(weights**2)),
+    )
+
+
 @dataclass(frozen=True)
 class SolutionSet:
     """The points of the box (unit coordinates) that may meet every target, with their predicted
@@ -133,6 +190,7 @@ class SolutionSet:
     sampled: int
     k: float
     noise_sd: dict[str, float]
+    posterior: Posterior
 
     @property
     def likely(self) -> np.ndarray:
@@ -159,13 +217,14 @@ def sample_solutions(
     """The points of a scrambled Sobol sample of the unit box that the models cannot rule out."""
     sampler = qmc.Sobol(dimension, scramble=True, seed=seed)
     points = sampler.random_base2(int(math.ceil(math.log2(samples))))
-    kept, probabilities = [], []
+    kept, probabilities, log_weights = [], [], []
     means: dict[str, list[np.ndarray]] = {key: [] for key in predictor.models}
     stds: dict[str, list[np.ndarray]] = {key: [] for key in predictor.models}
     for start in range(0, len(points), BATCH):
         batch = points[start : start + BATCH]
         mean, std = predictor.predict(batch)
         probability = membership_probability(predictor.objective.targets, mean, std, noise_sd, k)
+        log_weights.append(log_likelihood(predictor.objective.targets, mean, std, noise_sd))
         possible = probability >= POSSIBLE
         kept.append(batch[possible])
         probabilities.append(probability[possible])
@@ -180,6 +239,7 @@ def sample_solutions(
         len(points),
         k,
         noise_sd,
+        posterior_of(points, np.concatenate(log_weights)),
     )
 
 
@@ -190,7 +250,10 @@ class Verdict:
     ``low``–``high``: its span over the likely set (NaN without one);
     ``possible_low``–``possible_high``: over every set the models cannot
     rule out, which exploring may still confirm; ``share``: the likely
-    span as a share of the bounds.
+    span as a share of the bounds; ``verdict``: pinned, partly identified,
+    not identified, not established or no solutions;
+    ``posterior_low``–``posterior_high``: the central 90 % of its posterior
+    (:class:`Posterior`), for comparison.
     """
 
     name: str
@@ -202,10 +265,10 @@ class Verdict:
     possible_low: float
     possible_high: float
     share: float
-    verdict: (
-        str  # "pinned", "partly identified", "not identified", "not established", "no solutions"
-    )
+    verdict: str
     sentence: str
+    posterior_low: float
+    posterior_high: float
 
 
 def _fmt(value: float) -> str:
@@ -299,9 +362,21 @@ def identifiability(
                 share,
                 verdict,
                 sentence,
+                lower[i] + solutions.posterior.low[i] * width,
+                lower[i] + solutions.posterior.high[i] * width,
             )
         )
     return verdicts
+
+
+def posterior_line(intervals: dict[str, Sequence[float]], effective_samples: float) -> str:
+    """The posterior's central 90 % interval per parameter in one line (``intervals``: name ->
+    (low, high)), for those who read posteriors."""
+    text = ", ".join(f"{name} {_fmt(low)}–{_fmt(high)}" for name, (low, high) in intervals.items())
+    return (
+        f"posterior (uniform prior over the bounds, Gaussian targets; {effective_samples:.0f} "
+        f"effective samples), central 90 %: {text}"
+    )
 
 
 def _why(name: str, total_index: dict[str, float] | None) -> str:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from demcal.analysis.solutions import posterior_line
 from demcal.cli.inspect import study_of
 from demcal.daemon.control import explore_solutions, lock_study
 from demcal.errors import ConfigError
@@ -26,6 +27,8 @@ def solutions(args) -> int:
     )
     for verdict in analysis.verdicts:
         print(f"  {verdict.sentence}")
+    intervals = {v.name: (v.posterior_low, v.posterior_high) for v in analysis.verdicts}
+    print(f"  {posterior_line(intervals, s.posterior.effective_samples)}")
     files = study.files
     print(
         f"sets: {files.solutions}; figures: {files.plots / 'solution_space.png'}, "
