@@ -182,3 +182,15 @@ def test_the_posterior_of_a_linear_response_is_its_gaussian():
         sample_solutions(predictor, 2, {target.key: 0.0}, seed=3), NAMES, UNITS, LOWER, UPPER
     )
     assert pp.posterior_low == pytest.approx(0.2 + 0.7 * (0.5 - 1.645 * 0.02), abs=2e-3)
+
+
+def test_a_thin_set_is_sampled_again_densely_around_itself():
+    """Target 5 ± 0.01 on 10 x0: the set is x0 in 0.498–0.502, 16 of 4096 uniform points;
+    sampled again around itself it has over 200, and its ends are found to 1e-4."""
+    target = Target("calibration_device", "mass_flow", 5.0, spread=0.01)
+    predictor = ResponsePredictor({target.key: Linear()}, ResponseObjective((target,)))
+    solutions = sample_solutions(predictor, 2, {target.key: 0.0}, samples=4096, seed=4)
+    likely = solutions.points_unit[solutions.likely]
+    assert len(likely) > 200 and solutions.sampled == 4096
+    assert likely[:, 0].min() == pytest.approx(0.498, abs=1e-4)
+    assert likely[:, 0].max() == pytest.approx(0.502, abs=1e-4)

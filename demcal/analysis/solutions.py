@@ -49,6 +49,8 @@ ESTABLISHED_MARGIN = 0.05
 INSENSITIVE_INDEX = 0.05
 #: Fewer accepted samples than this give no verdict.
 MIN_SOLUTIONS = 20
+#: A solution set with fewer likely points than this is sampled again, densely, around itself.
+THIN_SET = 300
 #: Prediction batch size (memory of the Kriging predictions).
 BATCH = 8192
 
@@ -206,17 +208,11 @@ class SolutionSet:
         return float(np.mean(self.unsure)) if len(self.probability) else 0.0
 
 
-def sample_solutions(
-    predictor: ResponsePredictor,
-    dimension: int,
-    noise_sd: dict[str, float],
-    k: float = 2.0,
-    samples: int = 2**16,
-    seed: int = 0,
-) -> SolutionSet:
-    """The points of a scrambled Sobol sample of the unit box that the models cannot rule out."""
-    sampler = qmc.Sobol(dimension, scramble=True, seed=seed)
-    points = sampler.random_base2(int(math.ceil(math.log2(samples))))
+def _scan(
+    predictor: ResponsePredictor, points: np.ndarray, noise_sd: dict[str, float], k: float
+) -> tuple[np.ndarray, dict[str, np.ndarray], dict[str, np.ndarray], np.ndarray, np.ndarray]:
+    """The ``points`` the models cannot rule out, their predicted means, sds and membership
+    probabilities, and the log-likelihood of every one of ``points``; in batches."""
     kept, probabilities, log_weights = [], [], []
     means: dict[str, list[np.ndarray]] = {key: [] for key in predictor.models}
     stds: dict[str, list[np.ndarray]] = {key: [] for key in predictor.models}
@@ -231,16 +227,43 @@ def sample_solutions(
         for key in predictor.models:
             means[key].append(mean[key][possible])
             stds[key].append(std[key][possible])
-    return SolutionSet(
+    return (
         np.vstack(kept),
         {key: np.concatenate(v) for key, v in means.items()},
         {key: np.concatenate(v) for key, v in stds.items()},
         np.concatenate(probabilities),
-        len(points),
-        k,
-        noise_sd,
-        posterior_of(points, np.concatenate(log_weights)),
+        np.concatenate(log_weights),
     )
+
+
+def sample_solutions(
+    predictor: ResponsePredictor,
+    dimension: int,
+    noise_sd: dict[str, float],
+    k: float = 2.0,
+    samples: int = 2**16,
+    seed: int = 0,
+) -> SolutionSet:
+    """The points of a scrambled Sobol sample of the unit box that the models cannot rule out.
+
+    A thin set (fewer than ``THIN_SET`` likely points) is sampled again as
+    densely within the box around the possible points, widened by two
+    sample spacings, so that its ends are found to a finer resolution. The
+    posterior comes from the first, uniform sample.
+    """
+    sampler = qmc.Sobol(dimension, scramble=True, seed=seed)
+    points = sampler.random_base2(int(math.ceil(math.log2(samples))))
+    kept, means, stds, probability, log_weights = _scan(predictor, points, noise_sd, k)
+    posterior = posterior_of(points, log_weights)
+    if len(kept) and np.sum(probability >= LIKELY) < THIN_SET:
+        margin = 2.0 * len(points) ** (-1.0 / dimension)
+        low = np.clip(kept.min(axis=0) - margin, 0.0, 1.0)
+        high = np.clip(kept.max(axis=0) + margin, 0.0, 1.0)
+        dense = low + qmc.Sobol(dimension, scramble=True, seed=seed + 1).random_base2(
+            int(math.ceil(math.log2(samples)))
+        ) * (high - low)
+        kept, means, stds, probability, _ = _scan(predictor, dense, noise_sd, k)
+    return SolutionSet(kept, means, stds, probability, len(points), k, noise_sd, posterior)
 
 
 @dataclass(frozen=True)
