@@ -91,7 +91,7 @@ class OptimizerSettings:
     response_model: str = "kriging"
     confirm_replicates: int = 0
     stop_when_known: bool = True
-    calm_share: float = 0.01
+    calm_share: float = 0.05
     calm_proposals: int = 3
     map_solutions: int = 0
     early_termination: EarlyTerminationSettings = field(default_factory=EarlyTerminationSettings)
