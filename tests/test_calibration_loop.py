@@ -144,3 +144,30 @@ def test_corrected_targets_rescore_into_their_own_record(tmp_path, monkeypatch):
         density = rescored.responses["cylinder_lift.bulk_density"]
         expected = ((angle - 26.0) / 26.0) ** 2 + ((density - 1450.0) / 1450.0) ** 2
         assert rescored.objective == pytest.approx(expected, rel=1e-12)
+
+
+def test_explore_after_the_end_maps_the_set_on_the_next_run(tmp_path, monkeypatch):
+    from demcal.analysis.solution_report import write_solutions
+    from demcal.daemon.control import explore_solutions
+
+    monkeypatch.chdir(tmp_path)
+    targets = [{**t, "spread": spread} for t, spread in zip(ANALYTIC_STUDY["targets"], (1, 10))]
+    calibration, runner, reason = calibrate(config(targets=targets))
+    assert reason == "evaluation budget reached (8 of 8)"
+    explore_solutions(calibration.study, 3)
+    assert not calibration.files.finished.exists()  # the next run of the same command goes on
+    again = Calibration(calibration.study, runner, workers=2)
+    reason = again.run(show_progress=lambda progress: None)
+    assert (
+        reason == "the solution set was to be explored; then 3 evaluations mapped the solution set"
+    )
+    assert runner.launched[8:] == ["e0008", "e0009", "e0010"]
+    assert [r.maps_solutions for r in again.optimizer.records] == [False] * 8 + [True] * 3
+    analysis = write_solutions(calibration.study, samples=1024)
+    assert {v.verdict for v in analysis.verdicts} <= {
+        "pinned",
+        "partly identified",
+        "not identified",
+        "not established",
+    }
+    assert "likely" in json.loads(calibration.files.solutions_summary.read_text())

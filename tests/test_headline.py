@@ -124,10 +124,15 @@ def test_headline_from_files_written_by_hand(study):
     write_json(
         files.solutions_summary,
         {
-            "accepted": 12,
+            "likely": 12,
+            "possible": 30,
             "sampled": 4000,
             "k": 2.0,
             "verdicts": [{"sentence": "sliding_friction_pp is identified."}],
+            "posterior": {
+                "interval_90": {"sliding_friction_pp": [0.31, 0.42]},
+                "effective_samples": 812.4,
+            },
         },
     )
     image = b"\x89PNG\r\n\x1a\n" + bytes(range(256)) * 2
@@ -146,8 +151,12 @@ def test_headline_from_files_written_by_hand(study):
     assert table_row([f"{DENSITY} [kg/m^3]", "1430", "–", "1450", "-1.4 %"]) in headline
     assert "**Confirmed** by 2 more simulations of the best point" in headline
     assert table_row([ANGLE, "25.25 ±0.35", "2", "25"]) in headline
-    assert "(12 of 4000 sampled parameter sets meet every target within 2 sd)" in headline
+    assert (
+        "(12 of 4000 sampled parameter sets are likely to meet every target within 2 sd, "
+        "30 cannot be ruled out)" in headline
+    )
     assert "- sliding_friction_pp is identified." in headline
+    assert "812 effective samples), central 90 %: sliding_friction_pp 0.31–0.42" in headline
     # the figure is embedded: its bytes are in the data URI, cut into lines
     lines = headline.splitlines()
     start = lines.index(".. image::") + 1

@@ -6,11 +6,11 @@ import pytest
 from demcal.analysis.solutions import (
     identifiability,
     largest_total_index,
+    membership_probability,
     sample_solutions,
     sensitivity_indices,
     simulation_noise_sd,
     tolerance_sd,
-    within_tolerance,
 )
 from demcal.optimizer.responses import ResponsePredictor
 from demcal.optimizer.surrogates.cubic_rbf import ResponseRBF
@@ -79,7 +79,20 @@ def test_the_tolerance_combines_spread_noise_and_model_sd():
     target = Target("s", "r", 10.0, spread=3.0)
     assert tolerance_sd(target, 4.0, np.array([0.0, 12.0])) == pytest.approx([5.0, 13.0])
     means, stds = {"s.r": np.array([19.9, 20.1])}, {"s.r": np.zeros(2)}
-    assert within_tolerance((target,), means, stds, {"s.r": 4.0}, k=2.0).tolist() == [True, False]
+    sure = membership_probability((target,), means, stds, {"s.r": 4.0}, k=2.0)
+    assert sure.tolist() == [1.0, 0.0]
+
+
+def test_membership_is_the_chance_that_the_noise_free_response_lies_in_the_band():
+    """Target 10, band ±2 x 5 = ±10: a prediction of 20 ± 5 on the band's edge is in with
+    probability 1/2; 10 ± 5, centred, with 2 Phi(2) - 1; two responses multiply."""
+    a, b = Target("s", "a", 10.0, spread=3.0), Target("s", "b", 10.0, spread=3.0)
+    means = {"s.a": np.array([20.0, 10.0]), "s.b": np.array([10.0, 10.0])}
+    stds = {"s.a": np.array([5.0, 5.0]), "s.b": np.array([5.0, 5.0])}
+    noise = {"s.a": 4.0, "s.b": 4.0}
+    centred = 2 * 0.9772498680518208 - 1
+    p = membership_probability((a, b), means, stds, noise, k=2.0)
+    assert p == pytest.approx([0.5 * centred, centred**2], rel=1e-3)
 
 
 def test_the_noise_is_the_scatter_of_simulations_about_the_model():
@@ -93,6 +106,8 @@ def test_the_noise_is_the_scatter_of_simulations_about_the_model():
 class HalfKnown:
     """A response model that predicts the target everywhere, sure of it only where x0 < 0.5."""
 
+    noise_sd = 0.0
+
     def predict(self, x):
         return np.full(len(np.atleast_2d(x)), 5.0)
 
@@ -100,12 +115,82 @@ class HalfKnown:
         return np.where(np.atleast_2d(x)[:, 0] < 0.5, 0.0, 10.0)
 
 
-def test_sets_accepted_only_because_the_models_are_unsure_do_not_widen_the_verdict():
+def test_a_span_the_unexplored_part_could_widen_is_not_established():
     target = Target("calibration_device", "mass_flow", 5.0, spread=1.0)
     predictor = ResponsePredictor({target.key: HalfKnown()}, ResponseObjective((target,)))
     solutions = sample_solutions(predictor, 2, {target.key: 0.0}, samples=4096, seed=2)
     assert len(solutions.points_unit) == 4096  # nothing can be ruled out
-    assert np.array_equal(solutions.supported, solutions.points_unit[:, 0] < 0.5)
-    pp, _ = identifiability(solutions, NAMES, UNITS, LOWER, UPPER)
-    assert pp.high < 0.2 + 0.7 * 0.5 and pp.verdict == "partly identified"
-    assert "the other 50 % of the set lie where the models are unsure" in pp.sentence
+    decided = ~solutions.unsure
+    assert np.array_equal(decided, solutions.points_unit[:, 0] < 0.5)
+    assert solutions.unsure_share == pytest.approx(0.5, abs=0.01)
+    pp, pw = identifiability(solutions, NAMES, UNITS, LOWER, UPPER, explore_command="EXPLORE")
+    assert (
+        pp.verdict == "not established"
+        and pp.high < 0.2 + 0.7 * 0.5 < 0.2 + 0.7 * 0.99 < pp.possible_high
+    )
+    assert "50 % of the set lies where no simulation has been; `EXPLORE`" in pp.sentence
+    assert pw.verdict == "not identified"  # a span of the whole box cannot narrow
+
+
+class Unsure:
+    """A response model with no evidence anywhere: the target is possible, never likely."""
+
+    noise_sd = 0.0
+
+    def predict(self, x):
+        return np.full(len(np.atleast_2d(x)), 0.0)
+
+    def predict_std(self, x):
+        return np.full(len(np.atleast_2d(x)), 5.0)
+
+
+def test_with_nothing_likely_yet_the_verdict_is_not_established_not_no_solutions():
+    target = Target("calibration_device", "mass_flow", 5.0, spread=1.0)
+    predictor = ResponsePredictor({target.key: Unsure()}, ResponseObjective((target,)))
+    solutions = sample_solutions(predictor, 2, {target.key: 0.0}, samples=1024, seed=2)
+    assert len(solutions.points_unit) == 1024 and not solutions.likely.any()
+    verdicts = identifiability(solutions, NAMES, UNITS, LOWER, UPPER)
+    assert all(v.verdict == "not established" for v in verdicts)
+    assert all(
+        "no parameter set is yet predicted to meet every target" in v.sentence for v in verdicts
+    )
+
+
+class Linear:
+    """An exact model of mass flow = 10 x0, sure everywhere."""
+
+    noise_sd = 0.0
+
+    def predict(self, x):
+        return 10.0 * np.atleast_2d(x)[:, 0]
+
+    def predict_std(self, x):
+        return np.zeros(len(np.atleast_2d(x)))
+
+
+def test_the_posterior_of_a_linear_response_is_its_gaussian():
+    """Target 5 ± 0.2 on 10 x0: x0 ~ N(0.5, 0.02²), 90 % within 0.5 ± 1.645 x 0.02; x1
+    keeps its uniform prior; the two are uncorrelated."""
+    target = Target("calibration_device", "mass_flow", 5.0, spread=0.2)
+    predictor = ResponsePredictor({target.key: Linear()}, ResponseObjective((target,)))
+    posterior = sample_solutions(predictor, 2, {target.key: 0.0}, seed=3).posterior
+    assert posterior.low == pytest.approx([0.5 - 1.645 * 0.02, 0.05], abs=2e-3)
+    assert posterior.high == pytest.approx([0.5 + 1.645 * 0.02, 0.95], abs=2e-3)
+    assert abs(posterior.correlation[0, 1]) < 0.02
+    assert 2000 < posterior.effective_samples < 65536 / 10
+    (pp, _) = identifiability(
+        sample_solutions(predictor, 2, {target.key: 0.0}, seed=3), NAMES, UNITS, LOWER, UPPER
+    )
+    assert pp.posterior_low == pytest.approx(0.2 + 0.7 * (0.5 - 1.645 * 0.02), abs=2e-3)
+
+
+def test_a_thin_set_is_sampled_again_densely_around_itself():
+    """Target 5 ± 0.01 on 10 x0: the set is x0 in 0.498–0.502, 16 of 4096 uniform points;
+    sampled again around itself it has over 200, and its ends are found to 1e-4."""
+    target = Target("calibration_device", "mass_flow", 5.0, spread=0.01)
+    predictor = ResponsePredictor({target.key: Linear()}, ResponseObjective((target,)))
+    solutions = sample_solutions(predictor, 2, {target.key: 0.0}, samples=4096, seed=4)
+    likely = solutions.points_unit[solutions.likely]
+    assert len(likely) > 200 and solutions.sampled == 4096
+    assert likely[:, 0].min() == pytest.approx(0.498, abs=1e-4)
+    assert likely[:, 0].max() == pytest.approx(0.502, abs=1e-4)

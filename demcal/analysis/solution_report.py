@@ -31,6 +31,8 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from demcal.analysis.solutions import (  # noqa: E402
+    LIKELY,
+    SURE,
     SolutionSet,
     Verdict,
     identifiability,
@@ -41,7 +43,11 @@ from demcal.analysis.solutions import (  # noqa: E402
 )
 from demcal.daemon.control import saved_optimizer  # noqa: E402
 from demcal.errors import DemcalError  # noqa: E402
-from demcal.optimizer.responses import ResponsePredictor, final_means  # noqa: E402
+from demcal.optimizer.responses import (  # noqa: E402
+    ResponsePredictor,
+    final_means,
+    replicate_scatter,
+)
 from demcal.results.storage import read_json  # noqa: E402
 from demcal.study.model import Study, load_frozen  # noqa: E402
 
@@ -80,7 +86,8 @@ def analyse(study: Study, k: float = 2.0, samples: int = 2**16, seed: int = 0) -
             f"(every targeted response needs at least {dimension + 2})"
         )
     observed = {key: final_means(optimizer.records, key, dimension) for key in predictor.models}
-    noise = simulation_noise_sd(predictor, observed)
+    scatter = {key: replicate_scatter(optimizer.records, key) for key in predictor.models}
+    noise = simulation_noise_sd(predictor, observed, scatter)
     solutions = sample_solutions(predictor, dimension, noise, k, samples, seed)
     names = [p.name for p in study.free]
     sensitivity = sensitivity_indices(predictor, names, seed=seed)
@@ -91,6 +98,7 @@ def analyse(study: Study, k: float = 2.0, samples: int = 2**16, seed: int = 0) -
         np.array(optimizer.bounds.lower),
         np.array(optimizer.bounds.upper),
         largest_total_index(sensitivity),
+        f"demcal solutions --explore 8 {study.name}",
     )
     return SolutionAnalysis(
         predictor,
@@ -105,6 +113,7 @@ def analyse(study: Study, k: float = 2.0, samples: int = 2**16, seed: int = 0) -
 
 def solutions_table(analysis: SolutionAnalysis) -> pd.DataFrame:
     table = pd.DataFrame(analysis.points(), columns=analysis.names)
+    table["membership_probability"] = analysis.solutions.probability
     for key in analysis.solutions.means:
         table[f"{key} predicted"] = analysis.solutions.means[key]
         table[f"{key} sd"] = analysis.solutions.stds[key]
@@ -112,12 +121,21 @@ def solutions_table(analysis: SolutionAnalysis) -> pd.DataFrame:
 
 
 def plot_corner(analysis: SolutionAnalysis, best: dict | None, path: Path, seed: int = 0) -> None:
-    """Pairwise scatter of the solution set, a histogram per parameter, the best point in red."""
+    """Pairwise scatter of the solution set, a histogram per parameter, the best point in red.
+
+    Blue: in the set on the simulations' evidence; orange: likely in, not
+    decided yet; grey: not ruled out, but more likely out.
+    """
     points, names, d = analysis.points(), analysis.names, len(analysis.names)
-    supported = analysis.solutions.supported
+    probability = analysis.solutions.probability
     if len(points) > CORNER_POINTS:
         keep = np.random.default_rng(seed).choice(len(points), CORNER_POINTS, replace=False)
-        points, supported = points[keep], supported[keep]
+        points, probability = points[keep], probability[keep]
+    groups = [
+        (probability >= SURE, "tab:blue"),
+        ((probability >= LIKELY) & (probability < SURE), "tab:orange"),
+        (probability < LIKELY, "lightgrey"),
+    ]
     size = max(2.2, 9.0 / d)
     fig, axes = plt.subplots(d, d, figsize=(size * d, size * d), squeeze=False)
     best_x = None if best is None else [best["parameters"][name] for name in names]
@@ -130,32 +148,25 @@ def plot_corner(analysis: SolutionAnalysis, best: dict | None, path: Path, seed:
             if col == row:
                 if len(points):
                     ax.hist(
-                        [points[supported, col], points[~supported, col]],
+                        [points[group, col] for group, _ in groups],
                         bins=30,
                         stacked=True,
                         range=(analysis.lower[col], analysis.upper[col]),
-                        color=["tab:blue", "lightgrey"],
+                        color=[colour for _, colour in groups],
                     )
                 if best_x is not None:
                     ax.axvline(best_x[col], color="tab:red")
                 ax.set_yticks([])
             else:
-                ax.scatter(
-                    points[~supported, col],
-                    points[~supported, row],
-                    s=2,
-                    alpha=0.3,
-                    color="lightgrey",
-                    rasterized=True,
-                )
-                ax.scatter(
-                    points[supported, col],
-                    points[supported, row],
-                    s=2,
-                    alpha=0.3,
-                    color="tab:blue",
-                    rasterized=True,
-                )
+                for group, colour in reversed(groups):  # the decided points drawn last, on top
+                    ax.scatter(
+                        points[group, col],
+                        points[group, row],
+                        s=2,
+                        alpha=0.3,
+                        color=colour,
+                        rasterized=True,
+                    )
                 if best_x is not None:
                     ax.plot(best_x[col], best_x[row], marker="*", color="tab:red", markersize=12)
                 ax.set_ylim(analysis.lower[row], analysis.upper[row])
@@ -166,9 +177,9 @@ def plot_corner(analysis: SolutionAnalysis, best: dict | None, path: Path, seed:
                 ax.set_xlabel(names[col])
     s = analysis.solutions
     fig.suptitle(
-        f"Parameter sets whose predicted responses meet every target within {s.k:g} sd\n"
-        f"{len(s.points_unit)} of {s.sampled} sampled; blue: supported by the simulations, grey: "
-        "where the models are unsure; best point in red",
+        f"Parameter sets that may meet every target within {s.k:g} sd: {len(s.points_unit)} of "
+        f"{s.sampled} sampled\nblue: in the set on the simulations' evidence; orange: likely, not "
+        "decided yet; grey: not ruled out; best point in red",
         fontsize="medium",
     )
     fig.tight_layout()
@@ -273,10 +284,17 @@ def write_solutions(
     summary = {
         "k": s.k,
         "sampled": s.sampled,
-        "accepted": int(len(s.points_unit)),
+        "possible": int(len(s.points_unit)),
+        "likely": int(np.sum(s.likely)),
+        "undecided_share": s.unsure_share,
         "simulation_noise_sd": s.noise_sd,
         "target_spread": {t.key: t.spread for t in study.targets},
         "verdicts": [asdict(v) for v in analysis.verdicts],
+        "posterior": {
+            "interval_90": {v.name: [v.posterior_low, v.posterior_high] for v in analysis.verdicts},
+            "correlation": s.posterior.correlation.round(3).tolist(),
+            "effective_samples": s.posterior.effective_samples,
+        },
     }
     files.solutions_summary.write_text(json.dumps(summary, indent=2, default=float))
     best = read_json(files.best, "best.json") if files.best.exists() else None

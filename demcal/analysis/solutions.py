@@ -6,12 +6,15 @@ a whole family for the cylinder lift; Richter & Will 2021, sec. 4.2, read
 the non-uniqueness off their per-response metamodels). demcal answers the
 question on the optimizer's response models:
 
-* :func:`sample_solutions` — the parameter sets whose predicted responses
-  all lie within ``k`` combined standard deviations of the targets (target
-  spread, simulation noise and the model's own standard deviation), found
-  by dense scrambled-Sobol sampling of the box;
-* :func:`identifiability` — per parameter, the range it spans inside that
-  set and a verdict in words (pinned, partly identified, not identified);
+* :func:`membership_probability` — per point, the probability that every
+  noise-free response lies within ``k`` combined standard deviations (target
+  spread and simulation noise) of its target, under the models' posteriors;
+* :func:`sample_solutions` — the points of a dense scrambled-Sobol sample of
+  the box that the models cannot rule out, with that probability: the
+  likely set (at least as likely in as out) and the part still undecided;
+* :func:`identifiability` — per parameter, its span over the whole likely
+  set and a verdict in words (pinned, partly identified, not identified),
+  or "not established yet" where the undecided part could widen the span;
 * :func:`sensitivity_indices` — first-order and total Sobol indices of
   each response on its model (Saltelli sampling, SALib), which says whether
   a parameter that is not identified moves no response at all or trades
@@ -24,37 +27,52 @@ and the bounds; the files and figures are in :mod:`demcal.analysis.solution_repo
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import qmc
+from scipy.stats import norm, qmc
 
 from demcal.optimizer.responses import ResponsePredictor
 from demcal.study.objective import Target
 
-#: Width of the central share of the solution set, relative to the bounds, at or below which a
-#: parameter counts as pinned, and above which it counts as not identified.
+#: Width of a parameter's span over the solution set, relative to the bounds, at or below which
+#: it counts as pinned, and above which it counts as not identified.
 PINNED_SHARE, NOT_IDENTIFIED_SHARE = 0.25, 0.6
+#: Membership probabilities: at least POSSIBLE, the models cannot rule a point out; at least
+#: LIKELY, it belongs to the estimate of the set; at least SURE, its membership is decided.
+POSSIBLE, LIKELY, SURE = 0.05, 0.5, 0.95
+#: How far (share of the bounds) the possible set may reach beyond the likely one at either end
+#: for a span to count as established.
+ESTABLISHED_MARGIN = 0.05
 #: A parameter whose largest total Sobol index over the responses is below this moves no response.
 INSENSITIVE_INDEX = 0.05
 #: Fewer accepted samples than this give no verdict.
 MIN_SOLUTIONS = 20
+#: A solution set with fewer likely points than this is sampled again, densely, around itself.
+THIN_SET = 300
 #: Prediction batch size (memory of the Kriging predictions).
 BATCH = 8192
 
 
 def simulation_noise_sd(
-    predictor: ResponsePredictor, observed: dict[str, tuple[np.ndarray, np.ndarray]]
+    predictor: ResponsePredictor,
+    observed: dict[str, tuple[np.ndarray, np.ndarray]],
+    replicate_variance: dict[str, float] | None = None,
 ) -> dict[str, float]:
-    """Scatter of the simulated responses about their models: RMS of observed − predicted.
+    """The scatter of single simulations per response: the largest of three estimates.
 
-    ``observed``: per response, the evaluated points (unit box) and the
-    simulated means there.
+    The RMS of observed − predicted (``observed``: per response, the
+    evaluated points in the unit box and the simulated means there), the
+    noise the model's fit attributes to the data (a Kriging nugget), and
+    the scatter measured between replicates (``replicate_variance``).
     """
     noise = {}
     for key, model in predictor.models.items():
         x, y = observed[key]
-        noise[key] = float(np.sqrt(np.mean((y - model.predict(x)) ** 2))) if len(y) else 0.0
+        residual = float(np.sqrt(np.mean((y - model.predict(x)) ** 2))) if len(y) else 0.0
+        replicates = math.sqrt((replicate_variance or {}).get(key, 0.0))
+        noise[key] = max(residual, model.noise_sd, replicates)
     return noise
 
 
@@ -68,38 +86,154 @@ def tolerance_sd(target: Target, noise_sd: float, model_sd: np.ndarray) -> np.nd
     return np.sqrt(spread**2 + noise_sd**2 + np.asarray(model_sd) ** 2)
 
 
-def within_tolerance(
+def membership_probability(
     targets: tuple[Target, ...],
     means: dict[str, np.ndarray],
     stds: dict[str, np.ndarray],
     noise_sd: dict[str, float],
     k: float,
 ) -> np.ndarray:
-    """Whether every targeted response is within ``k`` combined sd of its target (per point)."""
-    accepted = None
+    """The probability, per point, that every response meets its target within ``k`` sd.
+
+    Each response's noise-free value is normal with the model's predicted
+    mean and sd (the model's own uncertainty, independent between
+    responses), and must lie within k sqrt(spread² + noise²) of the target
+    (:func:`tolerance_sd` without the model term). Near 1 where the
+    simulations show the point meets every target, near 0 where they rule
+    it out, and in between where no simulation has been near enough to say:
+    the membership a level-set estimation maps (Bryan et al. 2005).
+    """
+    probability = None
     for t in targets:
-        ok = np.abs(means[t.key] - t.value) <= k * tolerance_sd(t, noise_sd[t.key], stds[t.key])
-        accepted = ok if accepted is None else accepted & ok
-    return accepted
+        half_width = k * tolerance_sd(t, noise_sd[t.key], 0.0)
+        mean, sd = np.asarray(means[t.key], float), np.asarray(stds[t.key], float)
+        inside = (np.abs(mean - t.value) <= half_width).astype(float)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            spread = norm.cdf((t.value + half_width - mean) / sd) - norm.cdf(
+                (t.value - half_width - mean) / sd
+            )
+        p = np.where(sd > 0.0, spread, inside)
+        probability = p if probability is None else probability * p
+    assert probability is not None, "an objective has at least one target"
+    return probability
+
+
+def log_likelihood(
+    targets: tuple[Target, ...],
+    means: dict[str, np.ndarray],
+    stds: dict[str, np.ndarray],
+    noise_sd: dict[str, float],
+) -> np.ndarray:
+    """The log-likelihood of the targets per point: each target normal about the model's
+    prediction with variance spread² + noise² + model sd² (independent responses), up to a
+    constant."""
+    total = np.zeros(len(next(iter(means.values()))))
+    for t in targets:
+        variance = tolerance_sd(t, noise_sd[t.key], stds[t.key]) ** 2
+        variance = np.maximum(variance, np.finfo(float).tiny)
+        total -= 0.5 * ((means[t.key] - t.value) ** 2 / variance + np.log(variance))
+    return total
+
+
+@dataclass(frozen=True)
+class Posterior:
+    """The posterior of the parameters with a uniform prior over the box and the targets'
+    Gaussian likelihood (:func:`log_likelihood`), from the weighted Sobol sample.
+
+    ``low`` and ``high``: each parameter's central 90 % interval (unit box);
+    ``correlation``: the parameters' correlation matrix; ``effective_samples``:
+    Kish's effective sample size of the weights (few: the interval is rough).
+    """
+
+    low: np.ndarray
+    high: np.ndarray
+    correlation: np.ndarray
+    effective_samples: float
+
+
+def weighted_quantile(values: np.ndarray, weights: np.ndarray, q: float) -> float:
+    """The ``q`` quantile of ``values`` under normalised ``weights``."""
+    order = np.argsort(values)
+    cumulative = np.cumsum(weights[order])
+    return float(values[order][min(np.searchsorted(cumulative, q), len(values) - 1)])
+
+
+def posterior_of(points: np.ndarray, log_weights: np.ndarray) -> Posterior:
+    """The 90 % intervals, correlation and effective sample size of weighted ``points``."""
+    weights = np.exp(log_weights - log_weights.max())
+    weights /= weights.sum()
+    mean = weights @ points
+    centred = points - mean
+    covariance = (weights[:, None] * centred).T @ centred
+    sd = np.sqrt(np.maximum(np.diag(covariance), np.finfo(float).tiny))
+    return Posterior(
+        np.array([weighted_quantile(points[:, i], weights, 0.05) for i in range(len(mean))]),
+        np.array([weighted_quantile(points[:, i], weights, 0.95) for i in range(len(mean))]),
+        covariance / np.outer(sd, sd),
+        float(1.0 / np.sum(weights**2)),
+    )
 
 
 @dataclass(frozen=True)
 class SolutionSet:
-    """Accepted points of the box (unit coordinates) with their predicted responses.
+    """The points of the box (unit coordinates) that may meet every target, with their predicted
+    responses and membership probability (:func:`membership_probability`).
 
-    ``supported``: per accepted point, whether every model is surer there
-    than the target spread and simulation noise combined, i.e. the point is
-    accepted on the simulations' evidence and not only because the models
-    cannot rule it out (an unexplored region).
+    Every point kept has a probability of at least ``POSSIBLE``: the models
+    cannot rule it out. ``likely`` marks those at least as likely in as out
+    (the estimate of the set); ``unsure`` those whose membership the models
+    cannot yet decide (below ``SURE``): where no simulation has been.
     """
 
     points_unit: np.ndarray
     means: dict[str, np.ndarray]
     stds: dict[str, np.ndarray]
+    probability: np.ndarray
     sampled: int
     k: float
     noise_sd: dict[str, float]
-    supported: np.ndarray
+    posterior: Posterior
+
+    @property
+    def likely(self) -> np.ndarray:
+        return self.probability >= LIKELY
+
+    @property
+    def unsure(self) -> np.ndarray:
+        return self.probability < SURE
+
+    @property
+    def unsure_share(self) -> float:
+        """The share of the possible set whose membership is not decided yet."""
+        return float(np.mean(self.unsure)) if len(self.probability) else 0.0
+
+
+def _scan(
+    predictor: ResponsePredictor, points: np.ndarray, noise_sd: dict[str, float], k: float
+) -> tuple[np.ndarray, dict[str, np.ndarray], dict[str, np.ndarray], np.ndarray, np.ndarray]:
+    """The ``points`` the models cannot rule out, their predicted means, sds and membership
+    probabilities, and the log-likelihood of every one of ``points``; in batches."""
+    kept, probabilities, log_weights = [], [], []
+    means: dict[str, list[np.ndarray]] = {key: [] for key in predictor.models}
+    stds: dict[str, list[np.ndarray]] = {key: [] for key in predictor.models}
+    for start in range(0, len(points), BATCH):
+        batch = points[start : start + BATCH]
+        mean, std = predictor.predict(batch)
+        probability = membership_probability(predictor.objective.targets, mean, std, noise_sd, k)
+        log_weights.append(log_likelihood(predictor.objective.targets, mean, std, noise_sd))
+        possible = probability >= POSSIBLE
+        kept.append(batch[possible])
+        probabilities.append(probability[possible])
+        for key in predictor.models:
+            means[key].append(mean[key][possible])
+            stds[key].append(std[key][possible])
+    return (
+        np.vstack(kept),
+        {key: np.concatenate(v) for key, v in means.items()},
+        {key: np.concatenate(v) for key, v in stds.items()},
+        np.concatenate(probabilities),
+        np.concatenate(log_weights),
+    )
 
 
 def sample_solutions(
@@ -110,55 +244,66 @@ def sample_solutions(
     samples: int = 2**16,
     seed: int = 0,
 ) -> SolutionSet:
-    """The points of a scrambled Sobol sample of the unit box that meet every
-    target within ``k`` sd."""
+    """The points of a scrambled Sobol sample of the unit box that the models cannot rule out.
+
+    A thin set (fewer than ``THIN_SET`` likely points) is sampled again as
+    densely within the box around the possible points, widened by two
+    sample spacings, so that its ends are found to a finer resolution. The
+    posterior comes from the first, uniform sample.
+    """
     sampler = qmc.Sobol(dimension, scramble=True, seed=seed)
     points = sampler.random_base2(int(math.ceil(math.log2(samples))))
-    kept, means, stds = (
-        [],
-        {key: [] for key in predictor.models},
-        {key: [] for key in predictor.models},
-    )
-    for start in range(0, len(points), BATCH):
-        batch = points[start : start + BATCH]
-        mean, std = predictor.predict(batch)
-        ok = within_tolerance(predictor.objective.targets, mean, std, noise_sd, k)
-        kept.append(batch[ok])
-        for key in predictor.models:
-            means[key].append(mean[key][ok])
-            stds[key].append(std[key][ok])
-    stds = {key: np.concatenate(v) for key, v in stds.items()}
-    supported = np.ones(sum(len(batch) for batch in kept), bool)
-    for t in predictor.objective.targets:
-        supported &= stds[t.key] <= tolerance_sd(t, noise_sd[t.key], 0.0)
-    return SolutionSet(
-        np.vstack(kept),
-        {key: np.concatenate(v) for key, v in means.items()},
-        stds,
-        len(points),
-        k,
-        noise_sd,
-        supported,
-    )
+    kept, means, stds, probability, log_weights = _scan(predictor, points, noise_sd, k)
+    posterior = posterior_of(points, log_weights)
+    if len(kept) and np.sum(probability >= LIKELY) < THIN_SET:
+        margin = 2.0 * len(points) ** (-1.0 / dimension)
+        low = np.clip(kept.min(axis=0) - margin, 0.0, 1.0)
+        high = np.clip(kept.max(axis=0) + margin, 0.0, 1.0)
+        dense = low + qmc.Sobol(dimension, scramble=True, seed=seed + 1).random_base2(
+            int(math.ceil(math.log2(samples)))
+        ) * (high - low)
+        kept, means, stds, probability, _ = _scan(predictor, dense, noise_sd, k)
+    return SolutionSet(kept, means, stds, probability, len(points), k, noise_sd, posterior)
 
 
 @dataclass(frozen=True)
 class Verdict:
-    """What the targets say about one parameter."""
+    """What the targets say about one parameter.
+
+    ``low``–``high``: its span over the likely set (NaN without one);
+    ``possible_low``–``possible_high``: over every set the models cannot
+    rule out, which exploring may still confirm; ``share``: the likely
+    span as a share of the bounds; ``verdict``: pinned, partly identified,
+    not identified, not established or no solutions;
+    ``posterior_low``–``posterior_high``: the central 90 % of its posterior
+    (:class:`Posterior`), for comparison.
+    """
 
     name: str
     unit: str
     lower: float  # bounds
     upper: float
-    low: float  # the central 95 % of the solution set (NaN without a set)
+    low: float
     high: float
-    share: float  # (high - low) / (upper - lower)
-    verdict: str  # "pinned", "partly identified", "not identified", "no solutions"
+    possible_low: float
+    possible_high: float
+    share: float
+    verdict: str
     sentence: str
+    posterior_low: float
+    posterior_high: float
 
 
 def _fmt(value: float) -> str:
     return f"{value:.3g}"
+
+
+def _span(points: np.ndarray, i: int, lower: float, upper: float) -> tuple[float, float]:
+    """The full span of column ``i`` of unit ``points`` in real units (NaN without points)."""
+    if not len(points):
+        return math.nan, math.nan
+    low_u, high_u = float(points[:, i].min()), float(points[:, i].max())
+    return lower + low_u * (upper - lower), lower + high_u * (upper - lower)
 
 
 def identifiability(
@@ -168,80 +313,107 @@ def identifiability(
     lower: np.ndarray,
     upper: np.ndarray,
     total_index: dict[str, float] | None = None,
+    explore_command: str = "demcal solutions --explore 8 STUDY",
 ) -> list[Verdict]:
-    """A verdict per parameter from the span of the solution set (central 95 %).
+    """A verdict per parameter from its span over the whole likely set.
 
-    The span is taken over the points the simulations support (``supported``)
-    when there are enough of them, so that a region the calibration never
-    explored does not pass for a solution; the sentence then says how much
-    of the set lies where the models are unsure. ``total_index``: per
-    parameter, its largest total Sobol index over the responses; it tells a
-    parameter no response moves from one that trades off against the others.
+    A verdict of "pinned" or "partly identified" is given only when the
+    sets the models cannot rule out reach no further (within
+    ``ESTABLISHED_MARGIN`` of the box) than the likely set: exploring could
+    not widen the span. Otherwise it is "not established", with the share
+    of the set still undecided and ``explore_command``. A likely span wider
+    than ``NOT_IDENTIFIED_SHARE`` is "not identified" either way: exploring
+    can only widen it. ``total_index``: per parameter, its largest total
+    Sobol index over the responses; it tells a parameter no response moves
+    from one that trades off against the others.
     """
     lower, upper = np.asarray(lower, float), np.asarray(upper, float)
+    possible = solutions.points_unit
+    likely = possible[solutions.likely]
+    undecided = f"{100 * solutions.unsure_share:.0f} %"
     verdicts = []
-    points = solutions.points_unit
-    unsure = 1.0 - float(np.mean(solutions.supported)) if len(points) else 0.0
-    if int(np.sum(solutions.supported)) >= MIN_SOLUTIONS and unsure > 0.0:
-        points = points[solutions.supported]
-        caveat = (
-            f" (over the {len(points)} sets the simulations support; the other {100 * unsure:.0f} "
-            "% of the set lie where the models are unsure, too little explored to rule out)"
-        )
-    else:
-        caveat = ""
-    count = len(points)
     for i, (name, unit) in enumerate(zip(names, units)):
         box = f"{_fmt(lower[i])}–{_fmt(upper[i])}" + ("" if unit in ("-", "") else f" {unit}")
-        if count < MIN_SOLUTIONS:
+        low, high = _span(likely, i, lower[i], upper[i])
+        possible_low, possible_high = _span(possible, i, lower[i], upper[i])
+        width = upper[i] - lower[i]
+        share = (high - low) / width if len(likely) else math.nan
+        reach = f"it could reach {_fmt(possible_low)}–{_fmt(possible_high)} of {box}"
+        if len(possible) < MIN_SOLUTIONS:
+            verdict = "no solutions"
             sentence = (
-                f"{name}: no verdict: only {count} of {solutions.sampled} sampled parameter sets "
-                f"meet all targets within {solutions.k:g} sd (the targets may lie outside what "
-                "these bounds reach)"
+                f"{name}: no verdict: only {len(possible)} of {solutions.sampled} sampled "
+                f"parameter sets may meet all targets within {solutions.k:g} sd (the targets may "
+                "lie outside what these bounds reach, or be too narrow for a set of any width: "
+                "give each target the spread of its measurement)"
             )
-            verdicts.append(
-                Verdict(
-                    name,
-                    unit,
-                    lower[i],
-                    upper[i],
-                    math.nan,
-                    math.nan,
-                    math.nan,
-                    "no solutions",
-                    sentence,
-                )
+        elif len(likely) < MIN_SOLUTIONS:
+            verdict = "not established"
+            sentence = (
+                f"{name}: not established yet: no parameter set is yet predicted to meet every "
+                f"target; {reach}, where no simulation has been; `{explore_command}` simulates "
+                "there"
             )
-            continue
-        low_u, high_u = np.percentile(points[:, i], [2.5, 97.5])
-        low, high = (
-            lower[i] + low_u * (upper[i] - lower[i]),
-            lower[i] + high_u * (upper[i] - lower[i]),
-        )
-        share = float(high_u - low_u)
-        spans = f"it spans {_fmt(low)}–{_fmt(high)} of {box} ({100 * share:.0f} %){caveat}"
-        if share <= PINNED_SHARE:
-            verdict, sentence = "pinned", f"{name}: pinned by these targets: {spans}"
-        elif share <= NOT_IDENTIFIED_SHARE:
-            verdict, sentence = "partly identified", f"{name}: partly identified: {spans}"
         else:
-            verdict = "not identified"
-            index = None if total_index is None else total_index.get(name)
-            if index is not None and index < INSENSITIVE_INDEX:
-                why = (
-                    "no targeted response is sensitive to it (total Sobol index at most "
-                    f"{index:.2f}); a test sensitive to {name} would pin it"
+            spans = f"it spans {_fmt(low)}–{_fmt(high)} of {box} ({100 * share:.0f} %)"
+            widens = max(low - possible_low, possible_high - high) > ESTABLISHED_MARGIN * width
+            if share > NOT_IDENTIFIED_SHARE:
+                verdict = "not identified"
+                sentence = f"{name}: not identified by these targets: {spans}; " + _why(
+                    name, total_index
                 )
+            elif widens:
+                verdict = "not established"
+                sentence = (
+                    f"{name}: not established yet: {spans}, but {reach}: {undecided} of the set "
+                    f"lies where no simulation has been; `{explore_command}` simulates there"
+                )
+            elif share <= PINNED_SHARE:
+                verdict, sentence = "pinned", f"{name}: pinned by these targets: {spans}"
             else:
-                why = (
-                    "it trades off against other parameters (several combinations match the "
-                    f"targets equally well); one more test sensitive to {name} would pin it"
-                )
-            sentence = f"{name}: not identified by these targets: {spans}; {why}"
+                verdict, sentence = "partly identified", f"{name}: partly identified: {spans}"
         verdicts.append(
-            Verdict(name, unit, lower[i], upper[i], low, high, share, verdict, sentence)
+            Verdict(
+                name,
+                unit,
+                lower[i],
+                upper[i],
+                low,
+                high,
+                possible_low,
+                possible_high,
+                share,
+                verdict,
+                sentence,
+                lower[i] + solutions.posterior.low[i] * width,
+                lower[i] + solutions.posterior.high[i] * width,
+            )
         )
     return verdicts
+
+
+def posterior_line(intervals: Mapping[str, Sequence[float]], effective_samples: float) -> str:
+    """The posterior's central 90 % interval per parameter in one line (``intervals``: name ->
+    (low, high)), for those who read posteriors."""
+    text = ", ".join(f"{name} {_fmt(low)}–{_fmt(high)}" for name, (low, high) in intervals.items())
+    return (
+        f"posterior (uniform prior over the bounds, Gaussian targets; {effective_samples:.0f} "
+        f"effective samples), central 90 %: {text}"
+    )
+
+
+def _why(name: str, total_index: dict[str, float] | None) -> str:
+    """Why a parameter is not identified: no response moves it, or it trades off."""
+    index = None if total_index is None else total_index.get(name)
+    if index is not None and index < INSENSITIVE_INDEX:
+        return (
+            f"no targeted response is sensitive to it (total Sobol index at most {index:.2f}); "
+            f"a test sensitive to {name} would pin it"
+        )
+    return (
+        "it trades off against other parameters (several combinations match the targets equally "
+        f"well); one more test sensitive to {name} would pin it"
+    )
 
 
 def sensitivity_indices(

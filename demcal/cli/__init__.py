@@ -7,7 +7,7 @@
     demcal watch [CONFIG] [--every 10]
     demcal rerun-failed [CONFIG]
     demcal add-point [CONFIG] NAME=VALUE ...
-    demcal solutions [CONFIG] [--k 2] [--samples 65536]
+    demcal solutions [CONFIG] [--k 2] [--samples 65536] [--explore N]
     demcal convergence [CONFIG] [--scene S] [--fractions F ...] [--sizes N ...] [--seeds 2]
 
 CONFIG defaults to config/config.yaml. Errors in the configuration or on
@@ -71,6 +71,13 @@ def solutions_arguments(sub: argparse.ArgumentParser) -> None:
         type=int,
         default=2**16,
         help="Sobol points sampled over the box (default 65536)",
+    )
+    sub.add_argument(
+        "--explore",
+        type=int,
+        metavar="N",
+        help="queue N simulations where membership in the solution set is least certain, "
+        "for the next run",
     )
 
 

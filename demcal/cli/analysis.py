@@ -4,8 +4,11 @@ from __future__ import annotations
 
 import argparse
 
+from demcal.analysis.solutions import posterior_line
 from demcal.cli.inspect import study_of
+from demcal.daemon.control import explore_solutions, lock_study
 from demcal.errors import ConfigError
+from demcal.study.model import Study
 
 
 def solutions(args: argparse.Namespace) -> int:
@@ -14,19 +17,38 @@ def solutions(args: argparse.Namespace) -> int:
     study = study_of(args.config)
     if not (args.k > 0 and args.samples >= 64):
         raise ConfigError(f"--k {args.k} must be > 0 and --samples {args.samples} at least 64")
+    if args.explore is not None:
+        return explore(study, args.explore)
     analysis = write_solutions(study, args.k, args.samples)
     s = analysis.solutions
     print(
-        f"solution space of {study.name!r}: {len(s.points_unit)} of {s.sampled} sampled "
-        f"parameter sets meet every target within {s.k:g} sd (target spread, simulation "
-        f"noise and model sd combined)"
+        f"solution space of {study.name!r}: of {s.sampled} sampled parameter sets, "
+        f"{int(s.likely.sum())} are likely to meet every target within {s.k:g} sd (target "
+        f"spread and simulation noise combined) and {len(s.points_unit)} cannot be ruled out; "
+        f"{100 * s.unsure_share:.0f} % of those are undecided"
     )
     for verdict in analysis.verdicts:
         print(f"  {verdict.sentence}")
+    intervals = {v.name: (v.posterior_low, v.posterior_high) for v in analysis.verdicts}
+    print(f"  {posterior_line(intervals, s.posterior.effective_samples)}")
     files = study.files
     print(
         f"sets: {files.solutions}; figures: {files.plots / 'solution_space.png'}, "
         f"{files.plots / 'sensitivity.png'}, {files.plots / 'objective_slices.png'}"
+    )
+    return 0
+
+
+def explore(study: Study, evaluations: int) -> int:
+    """``--explore N``: queue N simulations that map the solution set."""
+    if evaluations < 1:
+        raise ConfigError(f"--explore {evaluations}: give at least 1 evaluation")
+    lock = lock_study(study)  # noqa: F841  (no daemon may run meanwhile)
+    explore_solutions(study, evaluations)
+    print(
+        f"demcal: {evaluations} evaluations that map the solution set of {study.name!r} are "
+        "queued; the next 'demcal run' or 'snakemake --profile ...' simulates them, then "
+        f"'demcal solutions {study.name}' gives the verdicts anew"
     )
     return 0
 

@@ -115,6 +115,24 @@ def add_point(study: Study, values: dict[str, float]) -> str:
     return evaluation
 
 
+def explore_solutions(study: Study, evaluations: int) -> None:
+    """Queue ``evaluations`` more simulations that map the solution set for the next run.
+
+    The search for the best point ends if it had not; finished.json goes, so
+    the next run of the same command simulates them.
+    """
+    optimizer = saved_optimizer(study)
+    try:
+        optimizer.explore(evaluations)
+    except ValueError as exc:
+        raise ConfigError(
+            f"study {study.name!r}: {exc} (with rayleigh_cost_weight the optimizer works on "
+            "objective values only)"
+        ) from None
+    atomic_write_text(study.files.optimizer, optimizer.to_json())
+    study.files.finished.unlink(missing_ok=True)
+
+
 def request_stop(study: Study) -> None:
     """Make a running daemon stop proposing and stop running evaluations cleanly."""
     files = study.files

@@ -359,7 +359,11 @@ class Calibration:
     def progress(self) -> Progress:
         counts = self.optimizer.status_counts()
         failed, stopped = counts.get(Status.FAILED, 0), counts.get(Status.TERMINATED, 0)
-        budget = self.optimizer.settings.max_evaluations
+        optimizer = self.optimizer
+        searched = sum(not r.maps_solutions for r in optimizer.records)
+        budget = (
+            searched if optimizer.search_ended else optimizer.settings.max_evaluations
+        ) + optimizer.mapping_budget
         best = self.optimizer.best()
         best_text = (
             "no result yet"

@@ -52,7 +52,8 @@ class Evaluation:
     set only when the status is ok. ``responses`` are keyed
     ``scene.response``: the replicates' values of an ok run, or what a
     stopped run completed or estimated. ``confirms`` names the point a
-    confirmation run repeats; ``by_hand`` marks a point given by hand.
+    confirmation run repeats; ``by_hand`` marks a point given by hand;
+    ``maps_solutions`` one of the solution-set mapping (``map_solutions``).
     """
 
     id: int
@@ -65,6 +66,7 @@ class Evaluation:
     responses: dict[str, ObservedResponse] = field(default_factory=dict)
     confirms: int | None = None
     by_hand: bool = False
+    maps_solutions: bool = False
 
     @property
     def finished(self) -> bool:
@@ -91,6 +93,8 @@ class Evaluation:
             record["confirms"] = self.confirms
         if self.by_hand:
             record["by_hand"] = True
+        if self.maps_solutions:
+            record["maps_solutions"] = True
         return record
 
     @classmethod
@@ -111,6 +115,7 @@ class Evaluation:
             },
             confirms=record.get("confirms"),
             by_hand=bool(record.get("by_hand", False)),
+            maps_solutions=bool(record.get("maps_solutions", False)),
         )
 
 

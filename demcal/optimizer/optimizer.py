@@ -141,6 +141,12 @@ class Optimizer:
         self.evaluations_without_improvement = 0
         #: what a strategy must remember between proposals (saved with the state)
         self.strategy_state: dict = {}
+        #: why the search for the best point stopped, once it has and the solution set is being
+        #: mapped (``map_solutions``); None before
+        self.search_ended: str | None = None
+        #: evaluations of the solution-set mapping asked for beyond ``map_solutions``
+        #: (:meth:`explore`)
+        self.explore_more = 0
         self.objective = objective
         self._check_objective()
         self._start_models()
@@ -150,6 +156,11 @@ class Optimizer:
             raise ValueError(
                 f"optimizer.strategy: {self.settings.strategy} works on the responses and "
                 f"needs the targets; give the Optimizer an objective"
+            )
+        if self.objective is None and self.settings.map_solutions:
+            raise ValueError(
+                "optimizer.map_solutions: mapping the solution set needs the targets; "
+                "give the Optimizer an objective"
             )
 
     def _start_models(self) -> None:
@@ -163,7 +174,13 @@ class Optimizer:
 
     # ------------------------------------------------------------------ ask
     def ask(self, n: int = 1) -> list[Proposal]:
-        """Up to ``n`` new points; fewer once the evaluation budget is handed out."""
+        """Up to ``n`` new points; fewer once the evaluation budget is handed out.
+
+        Once the search has ended (:meth:`stop_reason`) with ``map_solutions``
+        left, the points map the solution set instead.
+        """
+        if self.search_ended is not None:
+            return self._map_solutions(n)
         room = self.settings.max_evaluations - self.completed_evaluations() - len(self.pending())
         proposals = []
         for _ in range(max(min(n, room), 0)):
@@ -179,8 +196,25 @@ class Optimizer:
             proposals.append(self._issue(unit, in_design))
         return proposals
 
+    def _map_solutions(self, n: int) -> list[Proposal]:
+        """Up to ``n`` points of the solution-set mapping, within ``map_solutions``."""
+        room = self.mapping_budget - sum(r.maps_solutions for r in self.records)
+        proposals = []
+        for _ in range(max(min(n, room), 0)):
+            weights = WeightCycle(self.settings.weights, self.weight_index)
+            unit = strategy_class("solution_map")().propose(self._history(weights, mapping=True))
+            if unit is None:
+                break
+            proposals.append(self._issue(unit, in_design=False, maps_solutions=True))
+        return proposals
+
     def _issue(
-        self, unit: np.ndarray, in_design: bool, confirms: int | None = None, by_hand: bool = False
+        self,
+        unit: np.ndarray,
+        in_design: bool,
+        confirms: int | None = None,
+        by_hand: bool = False,
+        maps_solutions: bool = False,
     ) -> Proposal:
         record = Evaluation(
             self.next_id,
@@ -188,6 +222,7 @@ class Optimizer:
             in_design,
             confirms=confirms,
             by_hand=by_hand,
+            maps_solutions=maps_solutions,
         )
         self.records.append(record)
         self.next_id += 1
@@ -209,8 +244,9 @@ class Optimizer:
         self.weight_index = weights.index
         return point
 
-    def _history(self, weights: WeightCycle) -> History:
-        """The frozen view of the evaluations that a strategy receives."""
+    def _history(self, weights: WeightCycle, mapping: bool = False) -> History:
+        """The frozen view of the evaluations that a strategy receives (``mapping``: for the
+        solution-set mapping, which needs the response models whatever the strategy)."""
         records, dimension = self.records, self.bounds.dimension
         return History(
             ids=tuple(r.id for r in records),
@@ -228,7 +264,7 @@ class Optimizer:
             settings=self.settings,
             initial_size=self.initial_size,
             responses=self.response_predictor()
-            if STRATEGIES[self.settings.strategy].needs_targets
+            if mapping or STRATEGIES[self.settings.strategy].needs_targets
             else None,
             response_means=tuple(
                 {key: entry.mean for key, entry in r.responses.items() if entry.final}
@@ -322,6 +358,9 @@ class Optimizer:
         values = [r.value for r in self.records if r.value is not None]
         self.best_observed = min(values) if values else None
         self._surrogate_version = -1
+        # the search is judged anew on the new objective
+        self.strategy_state.pop("calm_proposals", None)
+        self.search_ended = None
 
     def _update_progress(self, record: Evaluation) -> None:
         if record.status == Status.FAILED:
@@ -383,12 +422,51 @@ class Optimizer:
         return None if models is None else ResponsePredictor(models, objective)
 
     def stop_reason(self, elapsed_seconds: float) -> str | None:
-        """Why the run should stop (budget, wall clock, target, stagnation, collapse) or None."""
+        """Why the run should stop (budget, wall clock, target, stagnation, collapse) or None.
+
+        With ``map_solutions``, the first stop of the search starts the
+        mapping of the solution set instead; the run stops once those
+        evaluations are told (or on the wall clock).
+        """
+        reason = self._search_stop_reason(elapsed_seconds)
+        wanted = self.mapping_budget
+        if reason is None or not wanted or reason.startswith("wall-clock"):
+            return reason
+        self.search_ended = self.search_ended or reason
+        mapped = sum(r.maps_solutions and r.status != Status.PENDING for r in self.records)
+        if mapped < wanted:
+            return None
+        return f"{self.search_ended}; then {mapped} evaluations mapped the solution set"
+
+    @property
+    def mapping_budget(self) -> int:
+        """Evaluations that map the solution set in all: ``map_solutions`` and those
+        :meth:`explore` added."""
+        return self.settings.map_solutions + self.explore_more
+
+    def explore(self, n: int) -> None:
+        """Map the solution set with ``n`` more evaluations, now (ends the search if it had not
+        ended). ValueError without the targets."""
+        if self.objective is None:
+            raise ValueError("mapping the solution set needs the targets as response models")
+        self.explore_more += n
+        self.search_ended = self.search_ended or "the solution set was to be explored"
+
+    def _search_stop_reason(self, elapsed_seconds: float) -> str | None:
+        """Why the search for the best point should stop, or None."""
+        if self.search_ended is not None:
+            return self.search_ended
         s = self.settings
         strategy_reason: str | None = self.strategy_state.get("stop_reason")
         if strategy_reason:
             return strategy_reason
         best = self.best()
+        if best is not None and self._answer_known(best):
+            return (
+                "answer known: the best point's predicted responses meet every target within "
+                f"its spread, and the expected improvement stayed below {s.calm_share:.0%} of "
+                f"the noise level for {s.calm_proposals} proposals"
+            )
         return stop_reason(
             self.completed_evaluations(),
             s.max_evaluations,
@@ -400,6 +478,15 @@ class Optimizer:
             s.no_improvement_evaluations,
             self.step.collapsed and s.stop_on_step_collapse and STRATEGIES[s.strategy].step_size,
         )
+
+    def _answer_known(self, best: BestPoint) -> bool:
+        """The rule ``stop_when_known``: the strategy counted ``calm_proposals`` proposals in a
+        row of negligible expected improvement, and the best point meets the targets."""
+        s = self.settings
+        if not s.stop_when_known or self.strategy_state.get("calm_proposals", 0) < s.calm_proposals:
+            return False
+        predictor = self.response_predictor()
+        return predictor is not None and predictor.meets_targets(self.bounds.to_unit([best.x])[0])
 
     def early_termination(self, id: int, partial_estimate: float) -> EarlyTerminationDecision:
         """Apply :func:`early_termination_decision` to running evaluation ``id``."""
@@ -420,7 +507,8 @@ class Optimizer:
             in_initial_design=record.in_initial_design,
             enabled=et.enabled
             and STRATEGIES[self.settings.strategy].stops_early
-            and record.confirms is None,
+            and record.confirms is None
+            and not record.maps_solutions,
             thresholds=et.thresholds,
             progress_boundaries=et.progress_boundaries,
         )

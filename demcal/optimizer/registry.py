@@ -68,6 +68,9 @@ STRATEGIES: Registry[StrategyEntry] = Registry(
             f"{_STRATEGIES}.kriging_ei:KrigingEI", surrogate="kriging", surrogates=("kriging",)
         ),
         "response_ei": StrategyEntry(f"{_STRATEGIES}.response_ei:ResponseEI", needs_targets=True),
+        "solution_map": StrategyEntry(
+            f"{_STRATEGIES}.solution_map:SolutionMap", needs_targets=True
+        ),
         "rackl_hanley": StrategyEntry(
             f"{_STRATEGIES}.rackl_hanley:RacklHanley",
             samples_per_parameter=3,

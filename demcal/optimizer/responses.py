@@ -84,6 +84,33 @@ def final_means(
     )
 
 
+def replicate_scatter(records: list[Evaluation], key: str) -> float:
+    """The variance of single simulations of one response, pooled over every point simulated
+    more than once (replicates, confirmation runs); 0 where none was.
+
+    The deviations of each point's final values from their mean, over
+    their degrees of freedom: the noise that no model of the response can
+    be surer than.
+    """
+    values: dict[tuple[float, ...], list[float]] = {}
+    for record in records:
+        entry = record.responses.get(key)
+        if record.status in (Status.OK, Status.TERMINATED) and entry and entry.final:
+            values.setdefault(record.x, []).extend(entry.values)
+    groups = [np.asarray(v, float) for v in values.values() if len(v) > 1]
+    groups = [g for g in groups if np.all(np.isfinite(g))]
+    freedom = sum(len(g) - 1 for g in groups)
+    if not freedom:
+        return 0.0
+    return float(sum(np.sum((g - g.mean()) ** 2) for g in groups) / freedom)
+
+
+def replicates_per_evaluation(records: list[Evaluation], key: str) -> int:
+    """The most common number of final values of one response per evaluation (1 without any)."""
+    counts = [len(r.responses[key].values) for r in records if key in r.responses]
+    return int(np.median(counts)) if counts else 1
+
+
 #: A Kriging response model is refitted from the last fit's length scales and
 #: nugget with one start; every this many refits, whenever the data grew by a
 #: quarter, and after a degenerate fit, with all ``kriging_restarts`` starts.
@@ -109,7 +136,8 @@ class ResponseModels:
             x, y, variance = observations(records, key, dimension)
             if len(y) < dimension + 2:
                 return None
-            signature = (x.tobytes(), y.tobytes(), variance.tobytes())
+            floor = replicate_scatter(records, key) / replicates_per_evaluation(records, key)
+            signature = (x.tobytes(), y.tobytes(), variance.tobytes(), floor)
             cached = self._fitted.get(key)
             if cached is None or cached[0] != signature:
                 refits, size = self._since_full.get(key, (0, 0))
@@ -119,7 +147,7 @@ class ResponseModels:
                 model = kind.create(
                     self.duplicate_tolerance, self.restarts, self.seed, warm_start=start
                 )
-                self._fitted[key] = (signature, model.fit(x, y, variance))
+                self._fitted[key] = (signature, model.fit(x, y, variance, noise_floor=floor))
                 self._since_full[key] = (0, len(y)) if start is None else (refits + 1, size)
             models[key] = self._fitted[key][1]
         return models
@@ -138,6 +166,26 @@ class ResponsePredictor:
         means = {key: model.predict(x) for key, model in self.models.items()}
         stds = {key: model.predict_std(x) for key, model in self.models.items()}
         return means, stds
+
+    def noise_level(self) -> float:
+        """The objective of responses that each miss their target by one sd: the simulation
+        noise the model's fit found or, where larger, the target's spread. What noise alone
+        makes of the objective, the scale an improvement is judged on."""
+        missed = {
+            t.key: t.value + max(self.models[t.key].noise_sd, t.spread or 0.0)
+            for t in self.objective.targets
+        }
+        return float(np.asarray(self.objective(missed)))
+
+    def meets_targets(self, x: np.ndarray) -> bool:
+        """Whether the predicted responses at the point ``x`` (unit box) each lie within their
+        target's spread or, without a spread or where larger, the simulation noise."""
+        means, _ = self.predict(np.atleast_2d(x)[:1])
+        return all(
+            abs(float(means[t.key][0]) - t.value)
+            <= max(t.spread or 0.0, self.models[t.key].noise_sd)
+            for t in self.objective.targets
+        )
 
     def objective_mean(self, x: np.ndarray) -> np.ndarray:
         """The objective of the predicted responses (the plug-in estimate) at the rows of ``x``."""

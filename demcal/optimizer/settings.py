@@ -57,6 +57,13 @@ class OptimizerSettings:
     ``confirm_replicates``: once the calibration has stopped, simulate the
     best point this many times more (new seeds) and report their mean
     (0: no confirmation).
+    ``stop_when_known``: end the search (``response_ei``) once the best
+    point's predicted responses meet every target within its spread and the
+    expected improvement has stayed below ``calm_share`` of the noise level
+    for ``calm_proposals`` proposals in a row.
+    ``map_solutions``: once the search for the best point has stopped, this
+    many more evaluations map the set of parameters that meet the targets as
+    well (the ``solution_map`` strategy; needs the targets; 0: none).
     """
 
     strategy: str = "dycors"
@@ -83,6 +90,10 @@ class OptimizerSettings:
     kriging_restarts: int = 3
     response_model: str = "kriging"
     confirm_replicates: int = 0
+    stop_when_known: bool = True
+    calm_share: float = 0.05
+    calm_proposals: int = 3
+    map_solutions: int = 0
     early_termination: EarlyTerminationSettings = field(default_factory=EarlyTerminationSettings)
 
     @classmethod
@@ -165,6 +176,10 @@ class OptimizerSettings:
         _number("duplicate_tolerance", self.duplicate_tolerance, 0.0, 1.0)
         _integer("kriging_restarts", self.kriging_restarts, 1, None)
         _integer("confirm_replicates", self.confirm_replicates, 0, 100)
+        _integer("map_solutions", self.map_solutions, 0, None)
+        _boolean("stop_when_known", self.stop_when_known)
+        _integer("calm_proposals", self.calm_proposals, 1, None)
+        _number("calm_share", self.calm_share, 0.0, 1.0, open_low=True)
         et = self.early_termination
         _boolean("early_termination.enabled", et.enabled)
         if len(et.thresholds) != len(et.progress_boundaries) + 1:

@@ -57,6 +57,10 @@ def encode(optimizer: Optimizer) -> str:
     }
     if optimizer.strategy_state:
         state["strategy_state"] = optimizer.strategy_state
+    if optimizer.search_ended is not None:
+        state["search_ended"] = optimizer.search_ended
+    if optimizer.explore_more:
+        state["explore_more"] = optimizer.explore_more
     if optimizer.objective is not None:
         state["objective_version"] = optimizer.objective.version
     return json.dumps(state)
@@ -96,5 +100,7 @@ def decode(text: str, objective: ResponseObjective | None) -> dict[str, Any]:
         "best_observed": state["best_observed"],
         "evaluations_without_improvement": state["evaluations_without_improvement"],
         "strategy_state": state.get("strategy_state", {}),
+        "search_ended": state.get("search_ended"),
+        "explore_more": state.get("explore_more", 0),
         "objective": objective,
     }

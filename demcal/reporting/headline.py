@@ -15,6 +15,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from demcal.analysis.solutions import posterior_line
 from demcal.reporting.terminal import CHOSEN_BY, duration, with_sd
 from demcal.results.records import BestRecord, FinishedRecord, Status
 from demcal.study.model import Study
@@ -150,10 +151,17 @@ def _identified(solutions_summary: Path) -> list[str]:
     solutions = _read(solutions_summary)
     if not solutions:
         return []
+    posterior = solutions.get("posterior")
     return [
-        f"**What the targets identify** ({solutions['accepted']} of {solutions['sampled']} "
-        f"sampled parameter sets meet every target within {solutions['k']:g} sd):",
+        f"**What the targets identify** ({solutions['likely']} of {solutions['sampled']} "
+        f"sampled parameter sets are likely to meet every target within {solutions['k']:g} sd, "
+        f"{solutions['possible']} cannot be ruled out):",
         "",
         *[f"- {verdict['sentence']}" for verdict in solutions["verdicts"]],
+        *(
+            [f"- {posterior_line(posterior['interval_90'], posterior['effective_samples'])}"]
+            if posterior
+            else []
+        ),
         "",
     ]

@@ -41,6 +41,10 @@ RESUMABLE_OPTIMIZER_SETTINGS = (
     "no_improvement_evaluations",
     "early_termination",
     "confirm_replicates",
+    "map_solutions",
+    "stop_when_known",
+    "calm_share",
+    "calm_proposals",
 )
 #: Target fields that may change on resume (stored simulations are re-scored).
 RESCORABLE_TARGET_FIELDS = ("value", "weight", "spread", "unit")

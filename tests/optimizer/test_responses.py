@@ -1,6 +1,8 @@
 """Responses as the optimizer's data: per-response models, the objective on top,
 stopped runs that teach."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -240,3 +242,20 @@ def test_confirmation_resimulates_the_best_point_once_and_keeps_it_the_answer():
     )
     assert opt.best().id == best.id
     assert Optimizer.from_json(opt.to_json(), opt.objective).confirmation() == summary
+
+
+def test_the_search_stops_once_the_answer_is_known():
+    """On the lift with small noise the best point meets both spreads long before 40
+    evaluations; the search then stops and says why; switched off, it would go on."""
+    rng = np.random.default_rng(11)
+    opt = optimizer(kriging_restarts=1)
+    while opt.stop_reason(0.0) is None:
+        (proposal,) = opt.ask(1)
+        noisy = {k: [v * (1 + 0.002 * rng.standard_normal())] for k, v in lift(proposal.x).items()}
+        opt.tell(proposal.id, responses=noisy)
+    reason = opt.stop_reason(0.0)
+    assert reason.startswith("answer known: the best point's predicted responses meet every")
+    assert opt.completed_evaluations() < 40
+    assert all(abs(lift(opt.best().x)[t.key] - t.value) <= t.spread for t in TARGETS)
+    opt.settings = dataclasses.replace(opt.settings, stop_when_known=False)
+    assert opt.stop_reason(0.0) is None

@@ -35,7 +35,13 @@ class Exploit(CandidateSearch):
 
 
 def test_built_in_strategies_are_registered_by_name():
-    assert list(STRATEGIES) == ["dycors", "kriging_ei", "response_ei", "rackl_hanley"]
+    assert list(STRATEGIES) == [
+        "dycors",
+        "kriging_ei",
+        "response_ei",
+        "solution_map",
+        "rackl_hanley",
+    ]
     assert strategy_class("dycors") is Dycors and strategy_class("kriging_ei") is KrigingEI
     assert OptimizerSettings.from_dict({"strategy": "kriging_ei"}).surrogate_name == "kriging"
 
@@ -46,7 +52,9 @@ def test_unknown_strategy_lists_exactly_the_registered_names(registry):
     assert str(error.value) == f"optimizer.strategy: 'guess' is not one of {', '.join(registry)}"
     register_strategy("diagonal", Diagonal)
     with pytest.raises(
-        ValueError, match="is not one of dycors, kriging_ei, response_ei, rackl_hanley, diagonal$"
+        ValueError,
+        match="is not one of dycors, kriging_ei, response_ei, solution_map, rackl_hanley, "
+        "diagonal$",
     ):
         OptimizerSettings.from_dict({"strategy": "guess"})
     with pytest.raises(ValueError, match="already registered"):

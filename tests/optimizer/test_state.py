@@ -6,6 +6,7 @@ from pathlib import Path
 import pytest
 
 from demcal.optimizer import Optimizer
+from demcal.optimizer.settings import OptimizerSettings
 from demcal.study.objective import ResponseObjective
 
 DATA = Path(__file__).parent / "data"
@@ -33,6 +34,9 @@ def test_an_old_state_loads_saves_the_same_and_resumes_to_the_same_proposals(nam
         assert saved.pop("objective_version") == (
             ResponseObjective.from_dict(old.pop("objective")).version
         )
+    defaults = OptimizerSettings().to_dict()
+    for added in set(saved["settings"]) - set(old["settings"]):  # settings added since: defaults
+        assert saved["settings"].pop(added) == defaults[added]
     assert saved == old
     assert [proposal.x for proposal in optimizer.ask(2)] == NEXT[name]
 

@@ -21,6 +21,10 @@ class ResponseEI(Strategy):
     within sigma of running points. The best point is the evaluated one
     with the lowest predicted objective. Without response models yet, or
     without an admissible candidate, the point is space filling.
+
+    It counts the proposals in a row whose largest expected improvement is
+    below ``calm_share`` of the noise level (``calm_proposals`` in the
+    strategy state): half of the optimizer's rule that the answer is known.
     """
 
     def propose(self, history: History) -> np.ndarray:
@@ -49,6 +53,9 @@ class ResponseEI(Strategy):
         improvement = predictor.expected_improvement(
             candidates, float(np.min(predicted)), history.rng
         )
+        calm = float(improvement.max()) < s.calm_share * predictor.noise_level()
+        state = history.strategy_state
+        state["calm_proposals"] = state.get("calm_proposals", 0) + 1 if calm else 0
         score = improvement * st.pending_damping(
             candidates, history.select(Status.PENDING), history.sigma
         )

@@ -170,6 +170,27 @@ class ResponseModel(Surrogate):
     """
 
     caps_large_values = False
+    #: variance of the model's data that its noise term may not fall below (response units²)
+    noise_floor = 0.0
+
+    def fit(
+        self,
+        x: ArrayLike,
+        y: ArrayLike,
+        variance: ArrayLike | None = None,
+        noise_floor: float = 0.0,
+    ) -> Self:
+        """As :meth:`Surrogate.fit`; ``noise_floor``: the scatter of the data measured from
+        replicates (variance), below which a model with a noise term (Kriging) keeps its
+        estimate, so that no prediction is surer than the simulations it rests on."""
+        self.noise_floor = noise_floor
+        return super().fit(x, y, variance)
+
+    @property
+    def noise_sd(self) -> float:
+        """The scatter of the data about the model that the fit attributes to noise (response
+        units); 0 for a model without a noise term."""
+        return 0.0
 
     @property
     def warm_start(self) -> tuple[np.ndarray, float] | None:

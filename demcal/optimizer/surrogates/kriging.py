@@ -9,7 +9,7 @@ plateau as noise.
 from __future__ import annotations
 
 import warnings
-from typing import Self
+from typing import Any, Self
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -28,6 +28,8 @@ class KrigingSurrogate(ResponseModel):
     The nugget (``eval_noise``) is estimated by maximum likelihood; the mean
     replicate variance, when given, is its starting value. A ``warm_start``
     (length scales, nugget) of a previous fit starts the search there instead.
+    A fit whose noise (nugget times process variance) falls below the
+    ``noise_floor`` is refitted with the nugget bounded there.
     """
 
     caps_large_values = False  # capping plus a nugget made the fit mostly trend and noise
@@ -57,19 +59,30 @@ class KrigingSurrogate(ResponseModel):
         )
 
     def _fit_standardised(self, data: TrainingData) -> None:
+        self.model = self._train(data, self.start[1] if self.start is not None else None)
+        floor = self.noise_floor / data.scale**2
+        if self._noise_variance() < floor:  # refit with the nugget held above the measured scatter
+            sigma2 = float(np.ravel(self.model.optimal_par["sigma2"])[0])
+            self.model = self._train(data, floor / sigma2, lowest=floor / sigma2)
+
+    def _noise_variance(self) -> float:
+        """The fitted noise variance in standardised units: nugget times process variance."""
+        nugget = float(np.ravel(self.model.optimal_noise)[0])
+        return nugget * float(np.ravel(self.model.optimal_par["sigma2"])[0])
+
+    def _train(self, data: TrainingData, nugget: float | None, lowest: float | None = None) -> Any:
+        """SMT's KRG trained on ``data``, its nugget search starting at ``nugget`` (default: the
+        mean replicate variance) and bounded below by ``lowest``."""
         from smt.surrogate_models import KRG
 
         n, d = data.x.shape
         trend = "linear" if n > 2 * (d + 1) else "constant"
-        self.model = KRG(
+        model = KRG(
             corr="matern52",
             poly=trend,
             eval_noise=True,
             noise0=[
-                max(
-                    float(np.mean(data.noise)) if self.start is None else self.start[1],
-                    NUGGET_START_MIN,
-                )
+                max(float(np.mean(data.noise)) if nugget is None else nugget, NUGGET_START_MIN)
             ],
             hyper_opt="Cobyla",
             n_start=self.restarts,
@@ -80,16 +93,26 @@ class KrigingSurrogate(ResponseModel):
                 if self.start is None or len(self.start[0]) != d
                 else {"theta0": list(self.start[0])}
             ),
+            **({} if lowest is None else {"noise_bounds": [lowest, 1e10]}),
         )
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            self.model.set_training_values(data.x, data.z)
-            self.model.train()
+            model.set_training_values(data.x, data.z)
+            model.train()
+        return model
+
+    @property
+    def noise_sd(self) -> float:
+        if self.constant:
+            return 0.0
+        assert self.data is not None, "a surrogate has a noise once fitted"
+        return self.data.scale * float(np.sqrt(max(self._noise_variance(), 0.0)))
 
     def _predict_standardised(self, x: np.ndarray) -> np.ndarray:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            return self.model.predict_values(x).ravel()
+            values: np.ndarray = self.model.predict_values(x).ravel()
+        return values
 
     @property
     def warm_start(self) -> tuple[np.ndarray, float] | None:
