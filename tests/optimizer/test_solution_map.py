@@ -42,7 +42,7 @@ def mapped_optimizer(**settings):
 
 def test_the_search_stops_then_the_set_is_mapped_then_the_run_stops():
     rng = np.random.default_rng(5)
-    opt = mapped_optimizer()
+    opt = mapped_optimizer(stop_when_known=False)  # the search runs its budget
     run(opt, rng)
     assert opt.completed_evaluations() == 12
     assert opt.stop_reason(0.0) is None  # the search ended: the mapping begins
