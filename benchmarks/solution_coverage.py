@@ -543,9 +543,9 @@ def main(argv: list[str] | None = None) -> None:
     minutes = (time.monotonic() - wall) / 60
     figures = overall(summary, rows)
     args.out.mkdir(parents=True, exist_ok=True)
-    stem = args.out / f"solution_coverage_{args.label}"
-    write_csv(stem.with_suffix(".csv"), summary + [{"problem": "overall", **figures}])
-    write_csv(stem.parent / f"{stem.name}_runs.csv", rows)
+    stem = f"solution_coverage_{args.label}"  # a label may hold dots: no with_suffix
+    write_csv(args.out / f"{stem}.csv", summary + [{"problem": "overall", **figures}])
+    write_csv(args.out / f"{stem}_runs.csv", rows)
     command = "python benchmarks/solution_coverage.py " + " ".join(argv or sys.argv[1:])
     import demcal
 
@@ -576,7 +576,7 @@ def main(argv: list[str] | None = None) -> None:
             "",
         ]
     )
-    stem.with_suffix(".txt").write_text(text)
+    (args.out / f"{stem}.txt").write_text(text)
     print(text)
 
 
