@@ -159,7 +159,8 @@ def test_explore_after_the_end_maps_the_set_on_the_next_run(tmp_path, monkeypatc
     again = Calibration(calibration.study, runner, workers=2)
     reason = again.run(show_progress=lambda progress: None)
     assert (
-        reason == "the solution set was to be explored; then 3 evaluations mapped the solution set"
+        reason
+        == "exploring the solution set was asked for; then 3 evaluations mapped the solution set"
     )
     assert runner.launched[8:] == ["e0008", "e0009", "e0010"]
     assert [r.maps_solutions for r in again.optimizer.records] == [False] * 8 + [True] * 3

@@ -450,7 +450,7 @@ class Optimizer:
         if self.objective is None:
             raise ValueError("mapping the solution set needs the targets as response models")
         self.explore_more += n
-        self.search_ended = self.search_ended or "the solution set was to be explored"
+        self.search_ended = self.search_ended or "exploring the solution set was asked for"
 
     def _search_stop_reason(self, elapsed_seconds: float) -> str | None:
         """Why the search for the best point should stop, or None."""
