@@ -73,13 +73,11 @@ def test_local_calibration_reaches_the_known_optimum(tmp_path):
     assert "evaluation budget reached (20 of 20)" in out
     assert "cylinder_lift.angle_of_repose [deg]" in out
 
-    # the solution space on the same response models: the truth lies in (or next to) the set
+    # the solution space on the same response models: targets without a spread on a
+    # noise-free engine allow a set of no width, and the verdicts say so instead of a range
     out = finish(demcal(tmp_path, "solutions", config, "--samples", 4096))
-    sets = pd.read_csv(tmp_path / "results/conv/solutions.csv")
-    unit = (sets[list(TRUTH)] - [0.1, 0.02]) / [0.8, 0.28]
-    truth = (np.array(list(TRUTH.values())) - [0.1, 0.02]) / [0.8, 0.28]
-    assert len(sets) >= 20 and np.min(np.linalg.norm(unit - truth, axis=1)) < 0.05
-    assert all(f"  {name}: " in out for name in TRUTH)
+    assert all(f"  {name}: no verdict" in out for name in TRUTH)
+    assert "give each target the spread of its measurement" in out
     for figure in (
         "solution_space.png",
         "sensitivity.png",
