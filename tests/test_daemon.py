@@ -236,7 +236,7 @@ def test_bad_config_is_one_message(tmp_path):
     assert proc.returncode == 2
     assert err.strip() == (
         "demcal: optimizer.strategy: 'guess' is not one of dycors, "
-        "kriging_ei, response_ei, rackl_hanley"
+        "kriging_ei, response_ei, solution_map, rackl_hanley"
     )
     proc = demcal(tmp_path, "run", study(tmp_path, "good"), "--workers", "-1")
     _, err = proc.communicate(timeout=60)
