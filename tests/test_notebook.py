@@ -64,4 +64,7 @@ def test_the_example_notebook_calibrates_and_shows_table_best_point_and_figure(t
     figure = next(cell for cell in code if "draw_figures" in cell.source)
     assert any("image/png" in o.get("data", {}) for o in figure.outputs)
     assert (tmp_path / "results/analytic-notebook/plots/objective_vs_evaluation.png").is_file()
-    assert re.search(r"sliding_friction_pp.*(pinned|identified)", outputs[-1])
+    assert re.search(
+        r"sliding_friction_pp: (pinned|partly identified|not identified|not established)",
+        outputs[-1],
+    )
