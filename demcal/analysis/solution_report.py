@@ -31,6 +31,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from demcal.analysis.solutions import (  # noqa: E402
+    BAND_SD,
     LIKELY,
     SURE,
     SolutionSet,
@@ -70,7 +71,9 @@ class SolutionAnalysis:
         return self.lower + self.solutions.points_unit * (self.upper - self.lower)
 
 
-def analyse(study: Study, k: float = 2.0, samples: int = 2**16, seed: int = 0) -> SolutionAnalysis:
+def analyse(
+    study: Study, k: float = BAND_SD, samples: int = 2**16, seed: int = 0
+) -> SolutionAnalysis:
     """The solution space and identifiability of ``study`` from its saved evaluations."""
     if not study.files.optimizer.exists():
         raise DemcalError(
@@ -270,7 +273,7 @@ def plot_sensitivity(rows: list[dict], path: Path) -> None:
 
 
 def write_solutions(
-    study: Study, k: float = 2.0, samples: int = 2**16, seed: int = 0
+    study: Study, k: float = BAND_SD, samples: int = 2**16, seed: int = 0
 ) -> SolutionAnalysis:
     """Analyse the study and write its solution files and figures (see the module docstring)."""
     files = study.files

@@ -36,6 +36,8 @@ from scipy.stats import norm, qmc
 from demcal.optimizer.responses import ResponsePredictor
 from demcal.study.objective import Target
 
+#: Half-width of the acceptance band in combined sd: the default k of the report and the mapping.
+BAND_SD = 2.0
 #: Width of a parameter's span over the solution set, relative to the bounds, at or below which
 #: it counts as pinned, and above which it counts as not identified.
 PINNED_SHARE, NOT_IDENTIFIED_SHARE = 0.25, 0.6
@@ -240,7 +242,7 @@ def sample_solutions(
     predictor: ResponsePredictor,
     dimension: int,
     noise_sd: dict[str, float],
-    k: float = 2.0,
+    k: float = BAND_SD,
     samples: int = 2**16,
     seed: int = 0,
 ) -> SolutionSet:

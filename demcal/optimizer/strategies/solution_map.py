@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from demcal.analysis.solutions import membership_probability
+from demcal.analysis.solutions import BAND_SD, membership_probability
 from demcal.results.records import Status
 
 from .. import candidates as st
@@ -23,8 +23,6 @@ from .base import History, Strategy
 
 #: Uniform candidates scored per proposal, per parameter (predictions are cheap).
 CANDIDATES_PER_PARAMETER = 1000
-#: Half-width of the acceptance band in combined sd, as the solution report's default.
-BAND_SD = 2.0
 
 
 class SolutionMap(Strategy):
