@@ -128,7 +128,7 @@ class Calibration:
             files = self.files.evaluation(evaluation)
             try:
                 job = ObjectiveRecord.read(files.objective)
-                latest = ObjectiveRecord.read(files.rescored) if files.rescored.exists() else job
+                latest = ObjectiveRecord.read_latest(files, job)
             except SimulationFailed:
                 continue
             if not job.ok or latest.scored_with == version:

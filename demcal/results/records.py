@@ -325,10 +325,15 @@ class ObjectiveRecord(Record):
         return self.status == Status.OK
 
     @classmethod
-    def read_latest(cls, files: EvaluationFiles) -> ObjectiveRecord:
+    def read_latest(
+        cls, files: EvaluationFiles, job: ObjectiveRecord | None = None
+    ) -> ObjectiveRecord:
         """The evaluation's outcome as it stands: its re-score (``files.rescored``) if there is
-        one, else what its objective job wrote (``files.objective``)."""
-        return cls.read(files.rescored if files.rescored.exists() else files.objective)
+        one, else what its objective job wrote (``files.objective``; ``job`` when the caller
+        has read it already)."""
+        if files.rescored.exists():
+            return cls.read(files.rescored)
+        return job if job is not None else cls.read(files.objective)
 
 
 @dataclass(frozen=True)
