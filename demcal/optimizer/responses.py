@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from demcal.results.records import Status
-from demcal.study.objective import ResponseObjective
+from demcal.study.objective import ResponseObjective, Target
 
 from .evaluation import Evaluation
 from .registry import RESPONSE_MODELS
@@ -167,23 +167,23 @@ class ResponsePredictor:
         stds = {key: model.predict_std(x) for key, model in self.models.items()}
         return means, stds
 
+    def allowed_miss(self, target: Target) -> float:
+        """How far a response may miss its target and still meet it: the target's spread or,
+        without a spread or where larger, the simulation noise the model's fit found."""
+        return max(target.spread or 0.0, self.models[target.key].noise_sd)
+
     def noise_level(self) -> float:
-        """The objective of responses that each miss their target by one sd: the simulation
-        noise the model's fit found or, where larger, the target's spread. What noise alone
-        makes of the objective, the scale an improvement is judged on."""
-        missed = {
-            t.key: t.value + max(self.models[t.key].noise_sd, t.spread or 0.0)
-            for t in self.objective.targets
-        }
+        """The objective of responses that each miss their target by :meth:`allowed_miss`:
+        what noise alone makes of the objective, the scale an improvement is judged on."""
+        missed = {t.key: t.value + self.allowed_miss(t) for t in self.objective.targets}
         return float(np.asarray(self.objective(missed)))
 
     def meets_targets(self, x: np.ndarray) -> bool:
-        """Whether the predicted responses at the point ``x`` (unit box) each lie within their
-        target's spread or, without a spread or where larger, the simulation noise."""
+        """Whether the predicted responses at the point ``x`` (unit box) each lie within
+        :meth:`allowed_miss` of their target."""
         means, _ = self.predict(np.atleast_2d(x)[:1])
         return all(
-            abs(float(means[t.key][0]) - t.value)
-            <= max(t.spread or 0.0, self.models[t.key].noise_sd)
+            abs(float(means[t.key][0]) - t.value) <= self.allowed_miss(t)
             for t in self.objective.targets
         )
 
