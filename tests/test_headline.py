@@ -77,6 +77,29 @@ def test_headline_of_a_finished_calibration(study):
         in headline
     )
     assert "Confirmed" not in headline and "What the targets identify" not in headline
+    assert "is not measured" not in headline  # two replicates per evaluation measure it
+    assert rst_problems(headline) == []
+
+
+def test_headline_says_when_the_scatter_of_single_runs_is_not_measured(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    study = freeze(load_study(analytic_example(replicates=1)))
+    write_json(study.files.finished, {"reason": "answer known", "evaluations": {"ok": 4}})
+    write_json(
+        study.files.best,
+        {
+            "evaluation": "e0003",
+            "objective": 0.001,
+            "parameters": {"sliding_friction_pp": 0.4, "rolling_friction_pp": 0.1},
+            "responses": {ANGLE: 25.5, DENSITY: 1430.0},
+            "predicted_responses": {ANGLE: {"mean": 25.4, "sd": 0.001}},
+        },
+    )
+    headline = report_headline(study)
+    assert (
+        "No point was simulated twice, so the scatter of single simulations is not measured "
+        "and the predicted sd may be too small: set ``optimizer.confirm_replicates``"
+    ) in " ".join(headline.split())
     assert rst_problems(headline) == []
 
 
@@ -151,6 +174,7 @@ def test_headline_from_files_written_by_hand(study):
     assert table_row([f"{DENSITY} [kg/m^3]", "1430", "–", "1450", "-1.4 %"]) in headline
     assert "**Confirmed** by 2 more simulations of the best point" in headline
     assert table_row([ANGLE, "25.25 ±0.35", "2", "25"]) in headline
+    assert "scatter of single simulations is not" not in headline  # the confirmations measure it
     assert (
         "(12 of 4000 sampled parameter sets are likely to meet every target within 2 sd, "
         "30 cannot be ruled out)" in headline

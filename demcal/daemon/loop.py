@@ -34,7 +34,7 @@ from demcal.daemon.termination import (
 )
 from demcal.errors import DemcalError, SimulationFailed
 from demcal.jobs.evaluation import rescore
-from demcal.optimizer import Optimizer
+from demcal.optimizer import Optimizer, Proposal
 from demcal.results.layout import evaluation_id, proposal_id
 from demcal.results.records import (
     FinishedRecord,
@@ -168,12 +168,18 @@ class Calibration:
             if not proposals:
                 return
             proposal = proposals[0]
-            evaluation = evaluation_id(proposal.id)
-            PointRecord(
-                dict(zip(self.names, proposal.x)), in_initial_design=proposal.in_initial_design
-            ).write(self.files.evaluation(evaluation).params)
+            self.write_point(proposal)
             self.save_state()
-            self.launch(evaluation)
+            self.launch(evaluation_id(proposal.id))
+
+    def write_point(self, proposal: Proposal) -> None:
+        """The proposal's params.json; a confirmation run names the point it repeats."""
+        of = None if proposal.confirms is None else evaluation_id(proposal.confirms)
+        PointRecord(
+            dict(zip(self.names, proposal.x)),
+            in_initial_design=proposal.in_initial_design,
+            proposed_by=None if of is None else f"confirmation of {of}",
+        ).write(self.files.evaluation(evaluation_id(proposal.id)).params)
 
     def confirm_best(self, reason: str) -> bool:
         """Launch the re-simulations of the best point (``confirm_replicates``) once the
@@ -183,13 +189,8 @@ class Calibration:
         proposals = self.optimizer.confirm()
         if not proposals:
             return False
-        confirms = proposals[0].confirms
-        assert confirms is not None, "confirm() marks what its proposals confirm"
-        of = evaluation_id(confirms)
         for proposal in proposals:
-            PointRecord(
-                dict(zip(self.names, proposal.x)), proposed_by=f"confirmation of {of}"
-            ).write(self.files.evaluation(evaluation_id(proposal.id)).params)
+            self.write_point(proposal)
         self.save_state()
         log.info("confirming the best point with %d more simulations", len(proposals))
         for proposal in proposals:

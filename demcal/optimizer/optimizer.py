@@ -40,7 +40,7 @@ from . import candidates as st
 from . import state
 from .best import best_point
 from .bounds import Bounds
-from .confirmation import confirmation_summary, confirmed_id
+from .confirmation import confirmation_summary
 from .designs import default_initial_size, initial_design
 from .early_termination import EarlyTerminationDecision, early_termination_decision, reference
 from .evaluation import BestPoint, Confirmation, Evaluation, ObservedResponse
@@ -177,10 +177,13 @@ class Optimizer:
         """Up to ``n`` new points; fewer once the evaluation budget is handed out.
 
         Once the search has ended (:meth:`stop_reason`) with ``map_solutions``
-        left, the points map the solution set instead.
+        left, the points map the solution set instead, after the confirmation
+        runs (:meth:`confirm`): the scatter they measure floors the models that
+        choose the mapping points.
         """
         if self.search_ended is not None:
-            return self._map_solutions(n)
+            confirmations = self.confirm(n)
+            return confirmations + self._map_solutions(n - len(confirmations))
         room = self.settings.max_evaluations - self.completed_evaluations() - len(self.pending())
         proposals = []
         for _ in range(max(min(n, room), 0)):
@@ -514,19 +517,22 @@ class Optimizer:
         )
 
     # ------------------------------------------------------- confirmation
-    def confirm(self) -> list[Proposal]:
-        """Proposals that simulate the best point ``confirm_replicates`` more times; once per run.
+    def confirm(self, n: int | None = None) -> list[Proposal]:
+        """Proposals that simulate the best point again, ``confirm_replicates`` times per run in
+        all (``n``: at most this many now).
 
-        For after the calibration has stopped. The confirmations are ordinary
+        For after the search has stopped. The confirmations are ordinary
         evaluations (they join the response data) marked with the id they
         confirm; early termination never stops them. [] when none are
-        wanted, they were made already or there is no best point.
+        wanted, all were made already or there is no best point.
         """
-        wanted, best = self.settings.confirm_replicates, self.best()
-        if not wanted or best is None or confirmed_id(self.records) is not None:
+        best = self.best()
+        due = self.settings.confirm_replicates - sum(r.confirms is not None for r in self.records)
+        if best is None or due <= 0:
             return []
         unit = np.array(self._record(best.id).x)
-        return [self._issue(unit, in_design=False, confirms=best.id) for _ in range(wanted)]
+        count = due if n is None else min(due, n)
+        return [self._issue(unit, in_design=False, confirms=best.id) for _ in range(count)]
 
     def confirmation(self) -> Confirmation | None:
         """The confirmation runs so far (see :func:`.confirmation.confirmation_summary`)."""

@@ -54,9 +54,10 @@ class OptimizerSettings:
     is a stop reason (the step then stays at sigma_min either way).
     ``failure_tolerance`` None means max(4, d): the thesis' 4 for its 2-D
     case, growing with the dimension as in Regis & Shoemaker (2013).
-    ``confirm_replicates``: once the calibration has stopped, simulate the
-    best point this many times more (new seeds) and report their mean
-    (0: no confirmation).
+    ``confirm_replicates``: once the search has stopped (before any mapping of
+    the solution set), simulate the best point this many times more (new
+    seeds) and report their mean; their scatter floors the response models'
+    noise (0: no confirmation).
     ``stop_when_known``: end the search (``response_ei``) once the best
     point's predicted responses meet every target within its spread and the
     expected improvement has stayed below ``calm_share`` of the noise level

@@ -119,11 +119,22 @@ def _best_responses(study: Study, best: BestRecord) -> list[str]:
                 f"{100 * best.relative_errors.get(t.key, float('nan')):+.1f} %",
             ]
         )
+    unmeasured = study.replicates == 1 and not best.confirmation
     return [
         "**Responses against the targets** (simulated at the best point; predicted there by the "
         "response models ± their sd; target ± its measurement spread):",
         "",
         *_table(["response", "simulated", "predicted", "target", "error"], rows),
+        *(
+            [
+                "",
+                "No point was simulated twice, so the scatter of single simulations is not "
+                "measured and the predicted sd may be too small: set "
+                "``optimizer.confirm_replicates`` (e.g. 2) or ``replicates`` to measure it.",
+            ]
+            if unmeasured
+            else []
+        ),
     ]
 
 

@@ -5,6 +5,7 @@ import pytest
 
 from demcal.analysis.solutions import membership_probability
 from demcal.optimizer import Optimizer
+from demcal.optimizer.responses import replicate_scatter
 from demcal.study.objective import ResponseObjective, Target
 
 
@@ -55,6 +56,28 @@ def test_the_search_stops_then_the_set_is_mapped_then_the_run_stops():
     assert opt.stop_reason(0.0) == (
         "evaluation budget reached (12 of 12); then 8 evaluations mapped the solution set"
     )
+
+
+def test_the_answer_is_confirmed_before_the_set_is_mapped():
+    """With confirm_replicates, the first points after the search repeat the best point, so
+    the scatter they measure floors the models that choose the mapping points."""
+    rng = np.random.default_rng(5)
+    opt = mapped_optimizer(stop_when_known=False, confirm_replicates=2, map_solutions=3)
+    run(opt, rng)
+    assert opt.stop_reason(0.0) is None and opt.search_ended
+    best = opt.best()
+    first = opt.ask(1) + opt.ask(1)
+    assert [p.confirms for p in first] == [best.id, best.id]
+    assert all(p.x == pytest.approx(best.x) for p in first)
+    for proposal in first:  # a scatter of 1.0, five times the noise the search saw
+        opt.tell(proposal.id, responses={"lift.angle": [angle(best.x)["lift.angle"] + 1.0]})
+    opt.tell(opt.ask(1)[0].id, responses={"lift.angle": [40.0]})
+    assert opt.confirm() == [] and opt.best().id == best.id
+    assert sum(r.maps_solutions for r in opt.records) == 1
+    scatter = replicate_scatter(opt.records, "lift.angle")  # the best point's three runs
+    assert scatter > 4 * 0.2**2  # the confirmations', not the search's noise of 0.2
+    (model,) = opt.response_predictor().models.values()
+    assert model.noise_sd >= np.sqrt(scatter) - 1e-9
 
 
 def test_mapping_points_go_where_membership_is_undecided():

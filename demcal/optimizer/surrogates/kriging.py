@@ -103,10 +103,13 @@ class KrigingSurrogate(ResponseModel):
 
     @property
     def noise_sd(self) -> float:
+        """The fitted noise, and never less than the ``noise_floor``: the refit bounds the nugget
+        relative to the process variance, which a fit that is all trend can still shrink."""
         if self.constant:
             return 0.0
         assert self.data is not None, "a surrogate has a noise once fitted"
-        return self.data.scale * float(np.sqrt(max(self._noise_variance(), 0.0)))
+        fitted = self.data.scale * float(np.sqrt(max(self._noise_variance(), 0.0)))
+        return max(fitted, float(np.sqrt(self.noise_floor)))
 
     def _predict_standardised(self, x: np.ndarray) -> np.ndarray:
         with warnings.catch_warnings():
