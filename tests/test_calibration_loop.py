@@ -14,9 +14,10 @@ from dataclasses import dataclass
 
 import pandas as pd
 import pytest
-from conftest import ANALYTIC_STUDY
+from conftest import ANALYTIC_STUDY, TRUTH, true_targets
 
 from demcal.daemon.loop import Calibration
+from demcal.errors import ConfigError
 from demcal.jobs.evaluation import extract, objective, response_paths, simulate
 from demcal.results.layout import EvaluationFiles
 from demcal.results.records import FinishedRecord, ObjectiveRecord, Status
@@ -146,12 +147,15 @@ def test_corrected_targets_rescore_into_their_own_record(tmp_path, monkeypatch):
         assert rescored.objective == pytest.approx(expected, rel=1e-12)
 
 
-def test_explore_after_the_end_maps_the_set_on_the_next_run(tmp_path, monkeypatch):
-    from demcal.analysis.solution_report import write_solutions
+def test_explore_after_the_end_maps_the_set_on_the_next_run(tmp_path, monkeypatch, capsys):
+    from demcal.analysis.solution_report import check_point, write_solutions
+    from demcal.analysis.solutions import LIKELY, POSSIBLE
+    from demcal.cli.analysis import print_point_check
     from demcal.daemon.control import explore_solutions
 
     monkeypatch.chdir(tmp_path)
-    targets = [{**t, "spread": spread} for t, spread in zip(ANALYTIC_STUDY["targets"], (1, 10))]
+    spreads = {"angle_of_repose": 1.0, "bulk_density": 10.0}
+    targets = [{**t, "spread": spreads[t["response"]]} for t in true_targets()]  # at TRUTH
     calibration, runner, reason = calibrate(config(targets=targets))
     assert reason == "evaluation budget reached (8 of 8)"
     explore_solutions(calibration.study, 3)
@@ -172,3 +176,17 @@ def test_explore_after_the_end_maps_the_set_on_the_next_run(tmp_path, monkeypatc
         "not established",
     }
     assert "likely" in json.loads(calibration.files.solutions_summary.read_text())
+    # demcal solutions --point: the truth meets the targets, a far corner does not
+    assert check_point(analysis, TRUTH).probability >= LIKELY
+    print_point_check(calibration.study, analysis, TRUTH)
+    out = capsys.readouterr().out
+    assert "sliding_friction_pp=0.4, rolling_friction_pp=0.1: probability " in out
+    assert "in the solution set\n  cylinder_lift.angle_of_repose: predicted " in out
+    corner = check_point(analysis, {"sliding_friction_pp": 0.9, "rolling_friction_pp": 0.3})
+    assert corner.probability < POSSIBLE
+    with pytest.raises(ConfigError, match="give every free parameter; rolling_friction_pp is"):
+        check_point(analysis, {"sliding_friction_pp": 0.3})
+    with pytest.raises(
+        ConfigError, match=r"sliding_friction_pp=1.2: outside its bounds \[0.1, 0.9\]"
+    ):
+        check_point(analysis, {"sliding_friction_pp": 1.2, "rolling_friction_pp": 0.1})

@@ -38,12 +38,14 @@ from demcal.analysis.solutions import (  # noqa: E402
     Verdict,
     identifiability,
     largest_total_index,
+    membership_probability,
     sample_solutions,
     sensitivity_indices,
     simulation_noise_sd,
+    tolerance_sd,
 )
 from demcal.daemon.control import saved_optimizer  # noqa: E402
-from demcal.errors import DemcalError  # noqa: E402
+from demcal.errors import ConfigError, DemcalError  # noqa: E402
 from demcal.optimizer.responses import (  # noqa: E402
     ResponsePredictor,
     final_means,
@@ -111,6 +113,43 @@ def analyse(
         names,
         np.array(optimizer.bounds.lower),
         np.array(optimizer.bounds.upper),
+    )
+
+
+@dataclass(frozen=True)
+class PointCheck:
+    """One parameter set judged against the targets on the study's response models.
+
+    ``probability``: that every noise-free response meets its target within
+    k combined sd; per response: the predicted mean and sd there, and the
+    half-width of the band it must lie in (k sqrt(spread² + noise²)).
+    """
+
+    probability: float
+    predicted: dict[str, tuple[float, float]]
+    half_width: dict[str, float]
+
+
+def check_point(analysis: SolutionAnalysis, values: dict[str, float]) -> PointCheck:
+    """:class:`PointCheck` of the free-parameter ``values`` (every free parameter, in bounds;
+    a ConfigError names the missing or out-of-bounds one)."""
+    for name, lower, upper in zip(analysis.names, analysis.lower, analysis.upper):
+        if name not in values:
+            raise ConfigError(f"--point: give every free parameter; {name} is missing")
+        if not lower <= values[name] <= upper:
+            raise ConfigError(
+                f"--point {name}={values[name]:g}: outside its bounds [{lower:g}, {upper:g}]"
+            )
+    x = np.array([values[name] for name in analysis.names])
+    unit = ((x - analysis.lower) / (analysis.upper - analysis.lower))[None, :]
+    means, stds = analysis.predictor.predict(unit)
+    s = analysis.solutions
+    targets = analysis.predictor.objective.targets
+    probability = membership_probability(targets, means, stds, s.noise_sd, s.k)[0]
+    return PointCheck(
+        float(probability),
+        {key: (float(means[key][0]), float(stds[key][0])) for key in means},
+        {t.key: float(s.k * tolerance_sd(t, s.noise_sd[t.key], 0.0)) for t in targets},
     )
 
 

@@ -120,6 +120,17 @@ def membership_probability(
     return probability
 
 
+def membership_word(probability: float) -> str:
+    """What a membership probability says of one parameter set, in the report's words."""
+    if probability >= SURE:
+        return "in the solution set"
+    if probability >= LIKELY:
+        return "likely in the solution set"
+    if probability >= POSSIBLE:
+        return "undecided: the models cannot rule it out"
+    return "ruled out"
+
+
 def log_likelihood(
     targets: tuple[Target, ...],
     means: dict[str, np.ndarray],

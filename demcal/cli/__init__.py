@@ -7,7 +7,7 @@
     demcal watch [CONFIG] [--every 10]
     demcal rerun-failed [CONFIG]
     demcal add-point [CONFIG] NAME=VALUE ...
-    demcal solutions [CONFIG] [--k 2] [--samples 65536] [--explore N]
+    demcal solutions [CONFIG] [--k 2] [--samples 65536] [--explore N] [--point NAME=VALUE ...]
     demcal convergence [CONFIG] [--scene S] [--fractions F ...] [--sizes N ...] [--seeds 2]
 
 CONFIG defaults to config/config.yaml. Errors in the configuration or on
@@ -71,6 +71,12 @@ def solutions_arguments(sub: argparse.ArgumentParser) -> None:
         type=int,
         default=2**16,
         help="Sobol points sampled over the box (default 65536)",
+    )
+    sub.add_argument(
+        "--point",
+        nargs="+",
+        metavar="NAME=VALUE",
+        help="judge one parameter set (every free parameter) against the targets",
     )
     sub.add_argument(
         "--explore",

@@ -3,22 +3,29 @@
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
 
-from demcal.analysis.solutions import posterior_line
+from demcal.analysis.solutions import membership_word, posterior_line
 from demcal.cli.inspect import study_of
 from demcal.daemon.control import explore_solutions, lock_study
 from demcal.errors import ConfigError
 from demcal.study.model import Study
 
+if TYPE_CHECKING:
+    from demcal.analysis.solution_report import SolutionAnalysis
+
 
 def solutions(args: argparse.Namespace) -> int:
-    from demcal.analysis.solution_report import write_solutions
+    from demcal.analysis.solution_report import analyse, write_solutions
 
     study = study_of(args.config)
     if not (args.k > 0 and args.samples >= 64):
         raise ConfigError(f"--k {args.k} must be > 0 and --samples {args.samples} at least 64")
     if args.explore is not None:
         return explore(study, args.explore)
+    if args.point:
+        values = study.free_values(args.point, "--point")
+        return print_point_check(study, analyse(study, args.k, args.samples), values)
     analysis = write_solutions(study, args.k, args.samples)
     s = analysis.solutions
     print(
@@ -36,6 +43,27 @@ def solutions(args: argparse.Namespace) -> int:
         f"sets: {files.solutions}; figures: {files.plots / 'solution_space.png'}, "
         f"{files.plots / 'sensitivity.png'}, {files.plots / 'objective_slices.png'}"
     )
+    return 0
+
+
+def print_point_check(study: Study, analysis: SolutionAnalysis, values: dict[str, float]) -> int:
+    """``--point NAME=VALUE ...``: whether one parameter set (a literature value, a colleague's,
+    a known truth) meets the targets, on the study's response models."""
+    from demcal.analysis.solution_report import check_point
+
+    check = check_point(analysis, values)
+    point = ", ".join(f"{name}={values[name]:g}" for name in analysis.names)
+    print(
+        f"{point}: probability {check.probability:.2f} that every response meets its target "
+        f"within {analysis.solutions.k:g} sd: {membership_word(check.probability)}"
+    )
+    for t in study.targets:
+        mean, sd = check.predicted[t.key]
+        unit = study.scenes[t.scene].responses[t.response].unit
+        print(
+            f"  {t.key}: predicted {mean:.4g} ±{sd:.2g} {unit}, target {t.value:g} "
+            f"±{check.half_width[t.key]:.2g} ({analysis.solutions.k:g} sd of spread and noise)"
+        )
     return 0
 
 
