@@ -16,7 +16,11 @@ at the answer the tool reports, whether it is at the noise level, the number
 of simulations until the running answer first reaches the noise level, the
 true objective of the best point evaluated, the worst miss of a response at
 the answer in units of its target's measurement spread, and the tool's
-seconds per proposal (wall time minus time in the simulations).
+seconds per proposal (wall time minus time in the simulations). For
+demcal, also where its stopping rules would have ended the calibration
+(``Optimizer.stop_reason``, as demcal's daemon asks it after each tell) and
+the answer's quality there; the peers are scored at the same number of
+simulations of the same seed (the stop table of RESULTS.md).
 
 Run from the repository root in the benchmark venv (README.md here):
 
@@ -41,6 +45,7 @@ import tempfile
 import time
 import traceback
 import warnings
+from collections import Counter
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -75,6 +80,10 @@ FIELDS = [
     "best_evaluated_true_objective",
     "evaluations_to_noise_level",
     "worst_miss_in_spreads",
+    "stop_evaluations",
+    "stop_reason",
+    "true_objective_trace",
+    "worst_miss_trace",
     "seconds_per_proposal",
     "wall_seconds",
     "answer",
@@ -150,6 +159,12 @@ def run_demcal(
     """demcal ask/tell, one simulation at a time; the running answer is ``opt.best()``
     after each tell.
 
+    After each tell it also asks ``opt.stop_reason`` as demcal's daemon does, and keeps
+    the first reason other than the evaluation budget: ``stop`` is (simulations told,
+    reason), None if no rule ended the search before the budget. The run goes on to the
+    full budget either way (with ``map_solutions`` 0 a stop leaves ``ask`` unchanged), so
+    the same run gives the answer at the stop and at the budget.
+
     ``strategy``: a registered name, optionally ``@precision`` for that objective form.
     """
     from demcal.study.objective import objective_value, replicate_objectives
@@ -157,7 +172,7 @@ def run_demcal(
     strategy, _, form = strategy.partition("@")
     targets = demcal_targets(problem)
     opt = make_demcal_optimizer(problem, strategy, budget, seed, form or "relative")
-    running = []
+    running, stop, started = [], None, time.perf_counter()
     while True:
         proposals = opt.ask()
         if not proposals:
@@ -177,9 +192,12 @@ def run_demcal(
             )
         best = opt.best()
         running.append(None if best is None else best.x)
+        reason = opt.stop_reason(time.perf_counter() - started) if stop is None else None
+        if reason and not reason.startswith("evaluation budget reached"):
+            stop = (len(running), reason)
     best = opt.best()
     extra = {"predicted": best.predicted, "chosen_by": best.chosen_by}
-    return {"answer": best.x, "running": running, "extra": extra}
+    return {"answer": best.x, "running": running, "extra": extra, "stop": stop}
 
 
 def run_optuna_gp(problem: Problem, evaluator: Evaluator, seed: int, budget: int) -> dict:
@@ -334,11 +352,10 @@ def one_run(tool: str, problem: Problem, budget: int, seed: int, np1_python: Pat
         return row
     running = result.get("running") or best_so_far(log)
     noise_level = problem.noise_level
-    reached = [
-        n
-        for n, x in enumerate(running, 1)
-        if x is not None and problem.true_objective(x) <= noise_level
-    ]
+    objective_trace = [math.nan if x is None else problem.true_objective(x) for x in running]
+    miss_trace = [math.nan if x is None else problem.worst_miss_in_spreads(x) for x in running]
+    reached = [n for n, value in enumerate(objective_trace, 1) if value <= noise_level]
+    stop = result.get("stop")
     true_objective = problem.true_objective(result["answer"])
     extra = dict(result.get("extra") or {})
     for key, value in list(
@@ -354,6 +371,10 @@ def one_run(tool: str, problem: Problem, budget: int, seed: int, np1_python: Pat
         best_evaluated_true_objective=min(problem.true_objective(e["x"]) for e in log),
         evaluations_to_noise_level=reached[0] if reached else "",
         worst_miss_in_spreads=problem.worst_miss_in_spreads(result["answer"]),
+        stop_evaluations="" if stop is None else stop[0],
+        stop_reason="" if stop is None else stop[1],
+        true_objective_trace=" ".join(f"{v:.4g}" for v in objective_trace),
+        worst_miss_trace=" ".join(f"{v:.3g}" for v in miss_trace),
         seconds_per_proposal=tool_seconds / max(len(log), 1),
         wall_seconds=time.perf_counter() - start,
         answer=" ".join(f"{v:.6g}" for v in result["answer"]),
@@ -371,8 +392,8 @@ def median_evaluations(values: list, budget: int) -> str:
     return f"never (> {budget})" if math.isinf(median) else f"{median:g}"
 
 
-def summarise(rows: list[dict], tools: list[str]) -> list[dict]:
-    table = []
+def cells(rows: list[dict], tools: list[str]):
+    """(problem, budget, tool, the runs of that cell) in table order, for cells with runs."""
     problems = [p for p in PROBLEMS if any(r["problem"] == p for r in rows)]
     budgets = sorted({int(r["budget"]) for r in rows})
     for problem in problems:
@@ -383,36 +404,95 @@ def summarise(rows: list[dict], tools: list[str]) -> list[dict]:
                     for r in rows
                     if r["problem"] == problem and int(r["budget"]) == budget and r["tool"] == tool
                 ]
-                if not selected:
-                    continue
-                ok = [r for r in selected if r["status"] == "ok"]
-                entry = {
-                    "problem": problem,
-                    "budget": budget,
-                    "tool": tool,
-                    "runs": len(selected),
-                    "ok": len(ok),
-                    "failure": next((r["status"] for r in selected if r["status"] != "ok"), ""),
-                }
-                if ok:
-                    values = np.array([float(r["true_objective"]) for r in ok])
-                    entry.update(
-                        median=float(np.median(values)),
-                        worst=float(np.max(values)),
-                        at_noise=sum(str(r["at_noise_level"]) == "True" for r in ok),
-                        to_noise=median_evaluations(
-                            [r["evaluations_to_noise_level"] for r in ok], budget
-                        ),
-                        best_evaluated=float(
-                            np.median([float(r["best_evaluated_true_objective"]) for r in ok])
-                        ),
-                        worst_miss=float(
-                            np.median([float(r["worst_miss_in_spreads"]) for r in ok])
-                        ),
-                        seconds=float(np.median([float(r["seconds_per_proposal"]) for r in ok])),
-                    )
-                table.append(entry)
+                if selected:
+                    yield problem, budget, tool, selected
+
+
+def summarise(rows: list[dict], tools: list[str]) -> list[dict]:
+    table = []
+    for problem, budget, tool, selected in cells(rows, tools):
+        ok = [r for r in selected if r["status"] == "ok"]
+        entry = {
+            "problem": problem,
+            "budget": budget,
+            "tool": tool,
+            "runs": len(selected),
+            "ok": len(ok),
+            "failure": next((r["status"] for r in selected if r["status"] != "ok"), ""),
+        }
+        if ok:
+            values = np.array([float(r["true_objective"]) for r in ok])
+            entry.update(
+                median=float(np.median(values)),
+                worst=float(np.max(values)),
+                at_noise=sum(str(r["at_noise_level"]) == "True" for r in ok),
+                to_noise=median_evaluations([r["evaluations_to_noise_level"] for r in ok], budget),
+                best_evaluated=float(
+                    np.median([float(r["best_evaluated_true_objective"]) for r in ok])
+                ),
+                worst_miss=float(np.median([float(r["worst_miss_in_spreads"]) for r in ok])),
+                seconds=float(np.median([float(r["seconds_per_proposal"]) for r in ok])),
+            )
+        table.append(entry)
     return table
+
+
+def trace_at(row: dict, field: str, k: int) -> float:
+    """A run's trace ``field`` (a measure of its running answer after each simulation) after
+    ``k`` simulations, or at its last simulation if it made fewer."""
+    values = row[field].split()
+    return float(values[min(k, len(values)) - 1])
+
+
+def summarise_stops(rows: list[dict], tools: list[str]) -> tuple[str, list[dict], Counter] | None:
+    """Simulations spent against the answer's quality, at the stop of the first demcal tool.
+
+    In each (problem, budget, seed) the reference tool's stop sets k (its budget
+    if no rule stopped it); every tool's running answer after k simulations is
+    scored beside its answer at the full budget. Returns the reference, one
+    entry per cell and the reference's stop reasons; None without a demcal tool.
+    """
+    reference = next((t for t in tools if t.startswith("demcal:")), None)
+    if reference is None:
+        return None
+    ok = [r for r in rows if r["status"] == "ok"]
+    stops = {(r["problem"], int(r["budget"]), r["seed"]): r for r in ok if r["tool"] == reference}
+    table = []
+    for problem, budget, tool, selected in cells(ok, tools):
+        selected = [r for r in selected if (problem, budget, r["seed"]) in stops]
+        if not selected:
+            continue
+        at = [
+            int(stops[(problem, budget, r["seed"])]["stop_evaluations"] or budget) for r in selected
+        ]
+        noise_level = PROBLEMS[problem].noise_level
+        at_stop = [trace_at(r, "true_objective_trace", k) for r, k in zip(selected, at)]
+        full = [float(r["true_objective"]) for r in selected]
+        table.append(
+            {
+                "problem": problem,
+                "budget": budget,
+                "tool": tool,
+                "runs": len(selected),
+                "stopped": sum(r["stop_evaluations"] != "" for r in selected),
+                "sims": float(np.median(at)),
+                "sims_range": (min(at), max(at)),
+                "stop_median": float(np.median(at_stop)),
+                "stop_at_noise": sum(v <= noise_level for v in at_stop),
+                "stop_miss": float(
+                    np.median([trace_at(r, "worst_miss_trace", k) for r, k in zip(selected, at)])
+                ),
+                "full_median": float(np.median(full)),
+                "full_at_noise": sum(v <= noise_level for v in full),
+                "full_miss": float(
+                    np.median([float(r["worst_miss_in_spreads"]) for r in selected])
+                ),
+            }
+        )
+    reasons = Counter(
+        r["stop_reason"].split(":")[0] for r in stops.values() if r["stop_reason"] != ""
+    )
+    return reference, table, reasons
 
 
 def package_versions() -> dict[str, str]:
@@ -476,8 +556,48 @@ def problem_lines() -> list[str]:
     return lines
 
 
+def stop_lines(reference: str, table: list[dict], reasons: Counter) -> list[str]:
+    """The section of RESULTS.md on simulations spent against the answer's quality."""
+    told = "; ".join(f"{reason} ({count})" for reason, count in reasons.most_common()) or "none"
+    lines = [
+        "## Simulations spent against answer quality",
+        "",
+        f"The stop: in each run of {reference}, the first stopping rule other than the budget "
+        "that `Optimizer.stop_reason` reports after a tell, as demcal's daemon asks it (the run "
+        "itself goes on to the budget); a run without one counts at its budget. Every tool is "
+        f"scored at {reference}'s stop in the same problem, budget and seed: its running "
+        "answer after that many simulations (demcal: `opt.best()`; the peers, which have no "
+        "such rule: the best point so far by the noisy objective), beside its answer at the "
+        "full budget (as in the table above). Stopped: runs with a stop before the budget "
+        f"(of {reference} only). Sims at stop: median (range) over the runs. At noise level: "
+        "runs with the true objective at or below the noise level. Worst miss: median, in "
+        f"measurement spreads. Stop reasons of {reference}: {told}.",
+        "",
+        "| problem | budget | tool | runs | stopped | sims at stop | median true objective at "
+        "stop | at noise level at stop | median worst miss at stop | median true objective at "
+        "budget | at noise level at budget | median worst miss at budget |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for e in table:
+        low, high = e["sims_range"]
+        stopped = f"{e['stopped']}/{e['runs']}" if e["tool"] == reference else "—"
+        lines.append(
+            f"| {e['problem']} | {e['budget']} | {e['tool']} | {e['runs']} | {stopped} | "
+            f"{e['sims']:g} ({low}–{high}) | {e['stop_median']:.3g} | "
+            f"{e['stop_at_noise']}/{e['runs']} | {e['stop_miss']:.2g} | {e['full_median']:.3g} "
+            f"| {e['full_at_noise']}/{e['runs']} | {e['full_miss']:.2g} |"
+        )
+    return lines
+
+
 def write_report(
-    table: list[dict], command: str, out: Path, elapsed: float, np1_python: Path, revision: str
+    table: list[dict],
+    stops: tuple[str, list[dict], Counter] | None,
+    command: str,
+    out: Path,
+    elapsed: float,
+    np1_python: Path,
+    revision: str,
 ) -> None:
     versions = package_versions()
     main_venv = ", ".join(f"{k} {v}" for k, v in versions.items())
@@ -540,6 +660,8 @@ def write_report(
             failures.append(
                 f"- {e['tool']} on {e['problem']}, budget {e['budget']}: {e['failure']}"
             )
+    if stops is not None:
+        lines += ["", *stop_lines(*stops)]
     if failures:
         lines += ["", "## Runs that failed", "", *failures]
     lines += [
@@ -549,8 +671,8 @@ def write_report(
         "- demcal:<strategy>: `Optimizer(lower, upper, {strategy, max_evaluations: budget}, "
         "seed)`, other settings at their defaults; one simulation at a time; told the eq. 3.3 "
         "of the replicate means and the per-replicate values (run.py: `tell_demcal`); answer "
-        '`opt.best()["x"]`. Its tool time includes the `opt.best()` call after each tell (for '
-        "the running answer).",
+        '`opt.best()["x"]`. Its tool time includes the `opt.best()` and `opt.stop_reason` '
+        "calls after each tell (for the running answer and the stop).",
         "- optuna_gp: `GPSampler(seed=seed)` defaults, objective = noisy eq. 3.3; answer "
         "`study.best_params`.",
         "- pysot_dycors: DYCORS, cubic RBF with linear tail, symmetric Latin hypercube of 2(d+1) "
@@ -671,6 +793,7 @@ def main(argv: list[str] | None = None) -> None:
     rows = [{k: ("" if v is None else v) for k, v in r.items()} for r in rows]
     write_report(
         summarise(rows, tools),
+        summarise_stops(rows, tools),
         command,
         args.out,
         time.perf_counter() - started,
