@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from demcal.cli import main
-from demcal.physics.psd import sample_diameters
+from demcal.physics.psd import sample_diameters, sampled_q3
 from demcal.physics.sieve import fit_all, ggs, logn, number_median, rrsb
 
 SHIPPED = Path(__file__).resolve().parents[1] / "config/examples/sieve_gravel_8_16.csv"
@@ -37,6 +37,19 @@ def test_number_median_matches_the_mass_median_of_spheres_sampled_by_number():
     assert np.sort(d)[np.searchsorted(mass, mass[-1] / 2)] == pytest.approx(11.16, rel=2e-3)
 
 
+@pytest.mark.parametrize("truncation", [1.5, 3.0])
+def test_sampled_q3_is_the_mass_share_of_the_spheres_the_scenes_draw(truncation):
+    d50, sigma = number_median(11.16, 0.26), 0.26
+    spheres = sample_diameters(200_000, d50, sigma, truncation, np.random.default_rng(2))
+    drawn = [(spheres[spheres < d] ** 3).sum() / (spheres**3).sum() for d in SIEVES]
+    assert sampled_q3(SIEVES, d50, sigma, truncation) == pytest.approx(drawn, abs=3e-3)
+
+
+def test_sampled_q3_without_a_cut_is_the_lognormal_of_the_mass_median():
+    q = sampled_q3(SIEVES, number_median(11.16, 0.26), 0.26, 40.0)
+    assert q == pytest.approx(logn(SIEVES, 11.16, 0.26), abs=1e-12)
+
+
 def write(tmp_path, text):
     path = tmp_path / "sieve.csv"
     path.write_text(text)
@@ -52,6 +65,9 @@ def test_cli_prints_the_ranked_fits_and_the_scene_settings(tmp_path, capsys):
     assert ranks == ["LOGN", "RRSB", "GGS"]
     assert "d50 = 11.16 mm, sigma_ln = 0.26 " in out
     assert f"d50: {number_median(11.16, 0.26) / 1000:.4g}   # m\nsigma_ln: 0.26\n" in out
+    cuts = out.split("fits the sieves\n# with R² ")[1].split(", R² ")
+    assert [cut.split(" at ")[1].split(" (")[0] for cut in cuts] == ["1.5", "2", "3"]
+    assert float(cuts[0].split()[0]) < float(cuts[1].split()[0]) < float(cuts[2].split()[0])
 
 
 def test_the_shipped_sieve_file_is_fitted_best_by_the_lognormal(capsys):

@@ -17,10 +17,13 @@ from pathlib import Path
 import numpy as np
 
 from demcal.errors import ConfigError
-from demcal.physics.sieve import Fit, fit_all, number_median
+from demcal.physics.psd import diameter_range, sampled_q3
+from demcal.physics.sieve import Fit, fit_all, number_median, r_squared
 
 SIZE = "d_mm"
 PASSING = "Q3_percent"
+#: psd_truncation values checked: the shear box's default, the other scenes', and a wide cut.
+TRUNCATIONS = (1.5, 2.0, 3.0)
 COLUMNS = f"{SIZE} (sieve aperture, mm) and {PASSING} (cumulative mass passing, %)"
 
 
@@ -123,16 +126,24 @@ def table(fits: list[Fit]) -> list[str]:
     return lines
 
 
-def snippet(path: Path, lognormal: Fit) -> list[str]:
-    """The LOGN fit as the ``d50`` [m] and ``sigma_ln`` of a study's scene settings."""
+def snippet(path: Path, lognormal: Fit, d: np.ndarray, q: np.ndarray) -> list[str]:
+    """The LOGN fit as the ``d50`` [m] and ``sigma_ln`` of a study's scene settings, and how
+    well the spheres the scenes sample from them fit the sieves at some ``psd_truncation``."""
     sigma = lognormal.shape
-    d50 = number_median(lognormal.size, sigma) / 1000.0
+    d50 = number_median(lognormal.size, sigma)
+    cuts = []
+    for k in TRUNCATIONS:
+        low, high = diameter_range(d50, sigma, k)
+        r2 = r_squared(q, sampled_q3(d, d50, sigma, k))
+        cuts.append(f"R² {r2:.4f} at {k:g} ({low:.3g}-{high:.3g} mm)")
     return [
         f"# LOGN fit of {path.name}; paste into scenes: <scene>: settings:",
         f"# d50 by number (demcal samples spheres by number) = mass median "
         f"{lognormal.size:.4g} mm x exp(-3 sigma_ln^2)",
-        f"d50: {d50:.4g}   # m",
+        f"d50: {d50 / 1000.0:.4g}   # m",
         f"sigma_ln: {sigma:.3g}",
+        "# the scenes cut it at psd_truncation sigma_ln; their spheres' Q3 then fits the sieves",
+        f"# with {', '.join(cuts)}",
     ]
 
 
@@ -145,5 +156,6 @@ def psd(args: argparse.Namespace) -> int:
     )
     print("\n".join(table(fits)))
     print()
-    print("\n".join(snippet(args.sieve, next(f for f in fits if f.function == "LOGN"))))
+    lognormal = next(f for f in fits if f.function == "LOGN")
+    print("\n".join(snippet(args.sieve, lognormal, d, q)))
     return 0

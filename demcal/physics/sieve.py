@@ -94,17 +94,22 @@ def fit(function: Function, d: np.ndarray, q: np.ndarray) -> Fit:
     (log_size, shape), _ = curve_fit(
         model, d, q, p0=start, bounds=([-np.inf, 0.0], [np.inf, np.inf])
     )
-    residual = q - model(d, log_size, shape)
-    squares = float(residual @ residual)
+    fitted = model(d, log_size, shape)
+    mse = float(np.mean((q - fitted) ** 2))
     return Fit(
         function.name,
         function.size,
         math.exp(log_size),
         function.shape,
         float(shape),
-        r2=1.0 - squares / float(((q - q.mean()) ** 2).sum()),
-        mse=squares / len(q),
+        r_squared(q, fitted),
+        mse,
     )
+
+
+def r_squared(q: np.ndarray, fitted: np.ndarray) -> float:
+    """Coefficient of determination of ``fitted`` against the measured ``q``."""
+    return 1.0 - float(((q - fitted) ** 2).sum() / ((q - q.mean()) ** 2).sum())
 
 
 def fit_all(d: np.ndarray, q: np.ndarray) -> list[Fit]:
