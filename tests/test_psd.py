@@ -102,6 +102,14 @@ def test_bad_sieve_files_are_one_line_naming_file_line_and_column(tmp_path, caps
     assert len(err.strip().splitlines()) == 1
 
 
+def test_help_names_the_columns_and_their_units(capsys):
+    with pytest.raises(SystemExit) as done:
+        main(["psd", "fit", "--help"])
+    assert done.value.code == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert "d_mm (sieve aperture, mm) and Q3_percent (cumulative mass passing, %)" in out
+
+
 def test_a_missing_sieve_file_is_one_line(tmp_path, capsys):
     assert main(["psd", "fit", str(tmp_path / "none.csv")]) == 2
     err = capsys.readouterr().err

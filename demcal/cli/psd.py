@@ -36,7 +36,9 @@ def arguments(sub: argparse.ArgumentParser) -> None:
         description=f"Fit GGS, RRSB and LOGN to a sieve analysis. SIEVE.csv: a header line "
         f"with the columns {COLUMNS}, one line per sieve; lines starting with # are comments.",
     )
-    fitting.add_argument("sieve", type=Path, metavar="SIEVE.csv", help=f"columns {COLUMNS}")
+    fitting.add_argument(
+        "sieve", type=Path, metavar="SIEVE.csv", help=f"columns {COLUMNS}".replace("%", "%%")
+    )
 
 
 def read_sieve(path: Path) -> tuple[np.ndarray, np.ndarray]:
