@@ -9,13 +9,15 @@
     demcal add-point [CONFIG] NAME=VALUE ...
     demcal solutions [CONFIG] [--k 2] [--samples 65536] [--explore N] [--point NAME=VALUE ...]
     demcal convergence [CONFIG] [--scene S] [--fractions F ...] [--sizes N ...] [--seeds 2]
+    demcal psd fit SIEVE.csv
 
 CONFIG defaults to config/config.yaml. Errors in the configuration or on
 disk are printed as one message (exit code 2), never as a traceback.
 
 This module holds the parser and ``main``; the commands live in ``run.py``
 (run, the best point), ``inspect.py`` (status, studies, watch), ``manage.py``
-(stop, add-point, rerun-failed) and ``analysis.py`` (solutions, convergence).
+(stop, add-point, rerun-failed), ``analysis.py`` (solutions, convergence) and ``psd.py``
+(fits to sieve data).
 """
 
 from __future__ import annotations
@@ -27,7 +29,7 @@ import sys
 import traceback
 from collections.abc import Callable
 
-from demcal.cli import analysis, inspect, manage, run
+from demcal.cli import analysis, inspect, manage, psd, run
 from demcal.errors import DemcalError
 from demcal.resources import DEFAULT_CONFIG
 from demcal.workflow import LOCAL_PROFILE
@@ -152,7 +154,16 @@ COMMANDS: tuple[tuple[str, str, Command, Arguments], ...] = (
         analysis.convergence,
         convergence_arguments,
     ),
+    (
+        "psd",
+        "particle-size distribution: psd fit SIEVE.csv fits GGS, RRSB and LOGN to sieve data",
+        psd.psd,
+        psd.arguments,
+    ),
 )
+
+#: Commands that take no study file (they work on every study, or on other input).
+WITHOUT_CONFIG = ("studies", "psd")
 
 
 def parser() -> argparse.ArgumentParser:
@@ -162,7 +173,7 @@ def parser() -> argparse.ArgumentParser:
     for name, text, func, arguments in COMMANDS:
         sub = commands.add_parser(name, help=text)
         sub.set_defaults(func=func)
-        if name != "studies":
+        if name not in WITHOUT_CONFIG:
             sub.add_argument(
                 "config",
                 nargs="?",

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy.special import ndtr
 
 
 def diameter_range(d50: float, sigma_ln: float, truncation: float) -> tuple[float, float]:
@@ -35,3 +36,17 @@ def sample_diameters(
     if sigma_ln == 0.0:
         return np.full(count, d50)
     return d50 * np.exp(sigma_ln * truncated_standard_normal(count, truncation, rng))
+
+
+def sampled_q3(d: np.ndarray, d50: float, sigma_ln: float, truncation: float) -> np.ndarray:
+    """Mass fraction finer than ``d`` (Q3) of the spheres :func:`sample_diameters` draws.
+
+    With z = ln(d / d50) / sigma_ln, the number density is the standard normal's
+    phi(z) on [-k, k]; weighted by d^3 ~ exp(3 sigma_ln z) it becomes phi(z - 3 sigma_ln),
+    so Q3 = (Phi(z - 3 sigma_ln) - Phi(-k - 3 sigma_ln)) / (Phi(k - 3 sigma_ln) -
+    Phi(-k - 3 sigma_ln)) with z clipped to [-k, k]. ``d`` and ``d50`` in one unit.
+    """
+    shift = 3.0 * sigma_ln
+    z = np.clip(np.log(d / d50) / sigma_ln, -truncation, truncation)
+    low, high = ndtr(-truncation - shift), ndtr(truncation - shift)
+    return np.asarray((ndtr(z - shift) - low) / (high - low))
