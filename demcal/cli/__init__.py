@@ -9,13 +9,15 @@
     demcal add-point [CONFIG] NAME=VALUE ...
     demcal solutions [CONFIG] [--k 2] [--samples 65536] [--explore N]
     demcal convergence [CONFIG] [--scene S] [--fractions F ...] [--sizes N ...] [--seeds 2]
+    demcal archive list|show|export|import|stats [--url URL | --study CONFIG]
 
 CONFIG defaults to config/config.yaml. Errors in the configuration or on
 disk are printed as one message (exit code 2), never as a traceback.
 
 This module holds the parser and ``main``; the commands live in ``run.py``
 (run, the best point), ``inspect.py`` (status, studies, watch), ``manage.py``
-(stop, add-point, rerun-failed) and ``analysis.py`` (solutions, convergence).
+(stop, add-point, rerun-failed), ``analysis.py`` (solutions, convergence) and ``archive.py``
+(the archive of simulations).
 """
 
 from __future__ import annotations
@@ -27,7 +29,7 @@ import sys
 import traceback
 from collections.abc import Callable
 
-from demcal.cli import analysis, inspect, manage, run
+from demcal.cli import analysis, archive, inspect, manage, run
 from demcal.errors import DemcalError
 from demcal.resources import DEFAULT_CONFIG
 from demcal.workflow import LOCAL_PROFILE
@@ -146,7 +148,16 @@ COMMANDS: tuple[tuple[str, str, Command, Arguments], ...] = (
         analysis.convergence,
         convergence_arguments,
     ),
+    (
+        "archive",
+        "the archive of every simulation: list, show, export, import, stats",
+        archive.archive,
+        archive.arguments,
+    ),
 )
+
+#: Commands that take no study file (they work on every study, or on the archive).
+WITHOUT_CONFIG = ("studies", "archive")
 
 
 def parser() -> argparse.ArgumentParser:
@@ -156,7 +167,7 @@ def parser() -> argparse.ArgumentParser:
     for name, text, func, arguments in COMMANDS:
         sub = commands.add_parser(name, help=text)
         sub.set_defaults(func=func)
-        if name != "studies":
+        if name not in WITHOUT_CONFIG:
             sub.add_argument(
                 "config",
                 nargs="?",
