@@ -30,7 +30,7 @@ from sqlalchemy.exc import SQLAlchemyError
 from sqlalchemy.orm import Session
 
 from demcal.archive.record import ArchivedSimulation, Quantity, digest
-from demcal.archive.schema import ParameterRow, ResponseRow, SimulationRow
+from demcal.archive.schema import Base, ParameterRow, ResponseRow, SimulationRow
 from demcal.archive.url import open_engine, shown
 from demcal.errors import DemcalError
 from demcal.results.records import Status
@@ -77,7 +77,7 @@ def upgrade(engine: Engine) -> None:
             return
     from alembic import command
     from alembic.config import Config
-    from alembic.script import ScriptDirectory
+    from alembic.util import CommandError
 
     with engine.execution_options(archive_write=True).begin() as connection:
         if connection.dialect.name == "postgresql":
@@ -85,13 +85,24 @@ def upgrade(engine: Engine) -> None:
         current = schema_revision(connection)
         if current == head_revision():
             return
-        if current is not None and ScriptDirectory(str(MIGRATIONS)).get_revision(current) is None:
-            raise ArchiveError(f"its schema {current!r} is newer than this demcal's")
         config = Config()
         config.set_main_option("script_location", str(MIGRATIONS))
         config.attributes["connection"] = connection
         config.attributes["version_table"] = VERSION_TABLE
-        command.upgrade(config, "head")
+        try:
+            command.upgrade(config, "head")
+        except CommandError:  # a schema version that none of the migrations knows
+            raise ArchiveError(f"its schema {current!r} is newer than this demcal's") from None
+
+
+def drop(url: str) -> None:
+    """Remove the archive's tables and its schema version from the database at ``url`` (the
+    tests and the load benchmark start from an empty PostgreSQL database this way)."""
+    engine = open_engine(url)
+    with engine.begin() as connection:
+        Base.metadata.drop_all(connection)
+        connection.execute(text(f"DROP TABLE IF EXISTS {VERSION_TABLE}"))
+    engine.dispose()
 
 
 def _number(value: Any) -> float | None:

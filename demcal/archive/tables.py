@@ -23,6 +23,21 @@ from demcal.errors import ConfigError
 
 #: The file types ``write`` knows, by suffix.
 FORMATS = (".csv", ".parquet")
+#: Columns of text, which CSV leaves empty where the text is (and pandas reads NaN back).
+TEXT = (
+    "key",
+    "study",
+    "evaluation",
+    "scene",
+    "engine",
+    "engine_version",
+    "settings",
+    "status",
+    "reason",
+    "free_parameters",
+    "source",
+    "demcal_version",
+)
 
 
 def frame(records: Iterable[ArchivedSimulation]) -> pd.DataFrame:
@@ -63,7 +78,13 @@ def frame(records: Iterable[ArchivedSimulation]) -> pd.DataFrame:
     table = pd.DataFrame(rows)
     fixed = [c for c in table.columns if not c.startswith(("psd.", "parameter.", "response."))]
     grouped = sorted(set(table.columns) - set(fixed), key=_group_order)
-    return table[fixed + grouped]
+    return _final_flags(table[fixed + grouped])
+
+
+def _final_flags(table: pd.DataFrame) -> pd.DataFrame:
+    """The ``.final`` columns as true/false/missing (a failed run has no responses)."""
+    flags = [c for c in table.columns if c.endswith(".final")]
+    return table.astype(dict.fromkeys(flags, "boolean"))
 
 
 def _group_order(column: str) -> tuple[int, str]:
@@ -88,4 +109,9 @@ def write(table: pd.DataFrame, path: Path) -> None:
 def read(path: Path) -> pd.DataFrame:
     """A table ``write`` wrote."""
     path = Path(path)
-    return pd.read_csv(path) if path.suffix == ".csv" else pd.read_parquet(path)
+    if path.suffix != ".csv":
+        return pd.read_parquet(path)
+    table = pd.read_csv(path)
+    for column in TEXT:
+        table[column] = table[column].fillna("")
+    return _final_flags(table)
