@@ -212,7 +212,9 @@ class Archive:
             found = self._load(select(SimulationRow.id).where(SimulationRow.id == int(identifier)))
         elif len(identifier) >= 6:
             found = self._load(
-                select(SimulationRow.id).where(SimulationRow.key.startswith(identifier.lower()))
+                select(SimulationRow.id).where(
+                    SimulationRow.key.startswith(identifier.lower(), autoescape=True)
+                )
             )
         else:
             found = []
