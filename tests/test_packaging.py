@@ -80,3 +80,6 @@ def test_wheel_install_runs_the_analytic_example(tmp_path):
     results = work / "results" / config["study"]
     assert json.loads((results / "finished.json").read_text())["evaluations"] == {"ok": 4}
     assert json.loads((results / "study.json").read_text())["demcal_version"] == "0.1.0"
+    # the archive's migrations travel in the wheel: its jobs recorded every simulation
+    stats = run(venv / "bin" / "demcal", "archive", "stats", cwd=work).stdout
+    assert f"{config['study']} cylinder_lift analytic ok: 8 " in stats

@@ -10,14 +10,15 @@
     demcal solutions [CONFIG] [--k 2] [--samples 65536] [--explore N] [--point NAME=VALUE ...]
     demcal convergence [CONFIG] [--scene S] [--fractions F ...] [--sizes N ...] [--seeds 2]
     demcal psd fit SIEVE.csv
+    demcal archive list|show|export|import|stats [--url URL | --study CONFIG]
 
 CONFIG defaults to config/config.yaml. Errors in the configuration or on
 disk are printed as one message (exit code 2), never as a traceback.
 
 This module holds the parser and ``main``; the commands live in ``run.py``
 (run, the best point), ``inspect.py`` (status, studies, watch), ``manage.py``
-(stop, add-point, rerun-failed), ``analysis.py`` (solutions, convergence) and ``psd.py``
-(fits to sieve data).
+(stop, add-point, rerun-failed), ``analysis.py`` (solutions, convergence), ``psd.py``
+(fits to sieve data) and ``archive.py`` (the archive of simulations).
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ import sys
 import traceback
 from collections.abc import Callable
 
-from demcal.cli import analysis, inspect, manage, psd, run
+from demcal.cli import analysis, archive, inspect, manage, psd, run
 from demcal.errors import DemcalError
 from demcal.resources import DEFAULT_CONFIG
 from demcal.workflow import LOCAL_PROFILE
@@ -160,10 +161,16 @@ COMMANDS: tuple[tuple[str, str, Command, Arguments], ...] = (
         psd.psd,
         psd.arguments,
     ),
+    (
+        "archive",
+        "the archive of every simulation: list, show, export, import, stats",
+        archive.archive,
+        archive.arguments,
+    ),
 )
 
-#: Commands that take no study file (they work on every study, or on other input).
-WITHOUT_CONFIG = ("studies", "psd")
+#: Commands that take no study file (they work on every study, on the archive or on other input).
+WITHOUT_CONFIG = ("studies", "archive", "psd")
 
 
 def parser() -> argparse.ArgumentParser:

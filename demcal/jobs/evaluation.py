@@ -1,5 +1,6 @@
 """The three jobs of one evaluation's DAG: simulate -> extract -> objective.
 
+The extract job also records each simulation in the study's archive (``demcal.archive``).
 Files of evaluation ``<id>`` under ``results/<study>/evals/<id>/``
 (``demcal.results.layout``): ``params.json`` (written by whoever proposes the point),
 per scene and replicate ``<scene>/rep<r>/simulation.json`` (+ ``state.npz``
@@ -137,6 +138,7 @@ def run_engine(study: Study, job: SimulationJob) -> RunResult:
 def extract(study: Study, simulation_path: Path) -> ResponsesRecord:
     """Responses of one simulation: measured by the engine or computed by the scene."""
     simulation_path = Path(simulation_path)
+    sim: SimulationRecord | None = None  # the simulation, once its file is read
     try:
         sim = SimulationRecord.read(simulation_path)
         record = ResponsesRecord(
@@ -157,8 +159,36 @@ def extract(study: Study, simulation_path: Path) -> ResponsesRecord:
             Status.FAILED,
             f"simulation.json malformed or response not measurable: {type(exc).__name__}: {exc}",
         )
-    record.write(ReplicateFiles(simulation_path.parent).responses)
+    files = ReplicateFiles(simulation_path.parent)
+    record.write(files.responses)
+    if sim is not None and study.archive is not None:
+        archive_simulation(study, study.archive, sim, record, files)
     return record
+
+
+def archive_simulation(
+    study: Study, url: str, sim: SimulationRecord, record: ResponsesRecord, files: ReplicateFiles
+) -> None:
+    """Record a finished simulation in the study's archive (demcal.archive). A failure is a
+    warning in the job's log, never the evaluation's: the results files stay, and ``demcal
+    archive import`` records them later."""
+    from demcal.archive.record import from_results
+    from demcal.archive.store import Archive
+
+    try:
+        with Archive(url) as archive:
+            archive.add([from_results(study, sim, record, files.partial)])
+    except Exception as exc:  # noqa: BLE001  (whatever the archive's fault, the evaluation stands)
+        log.warning(
+            "simulation %s %s rep%d not archived (%s: %s); 'demcal archive import %s' "
+            "records it from the results files",
+            sim.evaluation,
+            sim.scene,
+            sim.replicate,
+            type(exc).__name__,
+            exc,
+            study.files.dir,
+        )
 
 
 def _responses(study: Study, sim: SimulationRecord, workdir: Path) -> dict[str, float]:

@@ -18,6 +18,7 @@ from typing import Any
 import jsonschema
 import yaml
 
+from demcal.archive.url import check_url
 from demcal.engines import make_engine
 from demcal.errors import ConfigError
 from demcal.optimizer import OptimizerSettings
@@ -262,6 +263,16 @@ def refuse_non_finite(value: object, where: str = "") -> None:
         )
 
 
+def _archive(config: dict) -> str | None:
+    """The URL of the study's archive (``archive: {url: ...}``, checked); None for
+    ``archive: false``, the schema's default when the study names none or gives true."""
+    value = config.get("archive", True)
+    if value is False:
+        return None
+    url = default("archive")["url"] if value is True else value["url"]
+    return check_url(url, "archive.url")
+
+
 def load_study(config: dict, check_engine: bool = True) -> Study:
     """Validate a study configuration (mapping from YAML) and resolve it into a ``Study``."""
     if not isinstance(config, dict):
@@ -338,6 +349,7 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
             **config.get("calibration", {}),
         },
         warnings=[warning] if warning else [],
+        archive=_archive(config),
     )
 
 

@@ -84,6 +84,8 @@ class Study:
     rayleigh_cost_weight: float = 0.0
     calibration: dict = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+    #: URL of the archive every simulation is recorded in (demcal.archive); None: none
+    archive: str | None = None
 
     @property
     def objective(self) -> ResponseObjective:
@@ -219,6 +221,7 @@ def study_record(study: Study) -> dict:
         "optimizer": study.optimizer.to_dict(),
         "calibration": study.calibration,
         "warnings": study.warnings,
+        "archive": {"url": study.archive},
     }
 
 
@@ -246,7 +249,16 @@ def study_from_record(record: dict) -> Study:
         rayleigh_cost_weight=record["rayleigh_cost_weight"],
         calibration=record["calibration"],
         warnings=record["warnings"],
+        archive=record["archive"]["url"] if "archive" in record else _default_archive(),
     )
+
+
+def _default_archive() -> str:
+    """The archive of a study frozen before studies named one: the default archive."""
+    from demcal.study.config import default  # the schema's default (config imports this module)
+
+    url: str = default("archive")["url"]
+    return url
 
 
 def load_frozen(path: Path | str) -> Study:
@@ -267,13 +279,15 @@ def incompatible_changes(old: dict, new: dict) -> list[str]:
 
     Allowed: the budget and stopping rules (``RESUMABLE_OPTIMIZER_SETTINGS``),
     the daemon's ``calibration`` settings, warnings, the demcal version, the
-    objective's form, and target values, weights and spreads when the same
+    objective's form, the archive, and target values, weights and spreads when the same
     responses are targeted (stored simulations are then re-scored).
     """
     changed = [
         path
         for path in _differences(old, new, "")
-        if not path.startswith(("demcal_version", "warnings", "calibration", "objective"))
+        if not path.startswith(
+            ("demcal_version", "warnings", "calibration", "objective", "archive")
+        )
         and not any(
             path == f"optimizer.{name}" or path.startswith(f"optimizer.{name}.")
             for name in RESUMABLE_OPTIMIZER_SETTINGS

@@ -1,0 +1,65 @@
+"""``demcal archive import``: the simulations already in a study's results folder, archived.
+
+Every scene replicate with both its ``simulation.json`` and its ``responses.json`` becomes
+one record (:func:`demcal.archive.record.from_results`, as its job would have written it),
+so importing a folder whose simulations were archived by their jobs, or importing it twice,
+adds nothing. A replicate still running (no responses yet) or with damaged files is skipped
+and named.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from demcal.archive.record import ArchivedSimulation, from_results
+from demcal.archive.store import Archive
+from demcal.errors import ConfigError, SimulationFailed
+from demcal.results.layout import ReplicateFiles, StudyFiles
+from demcal.results.records import ResponsesRecord, SimulationRecord
+from demcal.study.model import load_frozen
+
+#: Records stored per transaction by an import.
+BATCH = 500
+
+
+@dataclass
+class ImportReport:
+    """What an import found in one results folder and how much of it was new."""
+
+    folder: Path
+    study: str = ""
+    found: int = 0
+    added: int = 0
+    skipped: list[str] = field(default_factory=list)
+
+
+def study_folders(results: Path) -> list[Path]:
+    """The study folders under a results folder (those with a study.json)."""
+    return sorted(path.parent for path in Path(results).glob("*/study.json"))
+
+
+def import_results(archive: Archive, folder: Path) -> ImportReport:
+    """Archive the simulations of one ``results/<study>/`` folder."""
+    files = StudyFiles(Path(folder))
+    if not files.study.is_file():
+        raise ConfigError(f"{folder}: no study.json here; give a results/<study>/ folder")
+    study = load_frozen(files.study)
+    report = ImportReport(Path(folder), study.name)
+    records: list[ArchivedSimulation] = []
+    for path in sorted(files.evals.glob("*/*/rep*/simulation.json")):
+        replicate = ReplicateFiles(path.parent)
+        if not replicate.responses.is_file():
+            report.skipped.append(f"{replicate.dir}: no responses.json yet")
+            continue
+        try:
+            simulation = SimulationRecord.read(replicate.simulation)
+            responses = ResponsesRecord.read(replicate.responses)
+        except SimulationFailed as exc:
+            report.skipped.append(str(exc))
+            continue
+        records.append(from_results(study, simulation, responses, replicate.partial, "import"))
+    report.found = len(records)
+    for start in range(0, len(records), BATCH):
+        report.added += archive.add(records[start : start + BATCH])
+    return report

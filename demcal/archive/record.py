@@ -1,0 +1,173 @@
+"""One archived simulation, and how it is read from the results files of a study.
+
+:func:`from_results` builds the record of one scene replicate from its ``simulation.json``
+and ``responses.json`` (and, for a stopped run, the last estimates in its ``partial.csv``);
+the extract job and ``demcal archive import`` both use it, so a simulation recorded by its
+job and imported later has the same :attr:`ArchivedSimulation.key` and is stored once.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from demcal.daemon.termination import LatestReports
+from demcal.results.records import ResponsesRecord, SimulationRecord, Status
+from demcal.study.catalogue import CATALOG
+from demcal.study.model import Study, demcal_version
+
+#: Scene settings that describe the particle-size distribution (Samuelsson 2023; Richter &
+#: Will 2021 vary d50 and sigma_ln): kept apart in each record as its ``psd``.
+PSD_SETTINGS = ("d50", "sigma_ln", "psd_truncation")
+
+
+def digest(value: object) -> str:
+    """sha256 of a JSON value in one canonical spelling (sorted keys, no spaces)."""
+    text = json.dumps(value, sort_keys=True, separators=(",", ":"), allow_nan=True)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+@dataclass(frozen=True)
+class Quantity:
+    """A parameter or response value with its unit."""
+
+    value: float
+    unit: str
+
+
+@dataclass(frozen=True)
+class ArchivedSimulation:
+    """A simulation as the archive keeps it.
+
+    ``parameters`` are every material parameter the engine was given (SI units), ``free``
+    the names among them that the study varied; ``responses`` the final values of a run
+    that ended ``ok``, or the last estimates of a ``terminated`` one (``final`` says which
+    of those could no longer change); a ``failed`` run has none. ``cost`` is the engine's
+    own figures (``cpu_s``, ``wall_s``, ``particle_steps``, ...). ``id`` is the archive's
+    row number once stored (None before).
+    """
+
+    study: str
+    evaluation: str
+    scene: str
+    replicate: int
+    engine: str
+    engine_version: str
+    settings: dict
+    timestep_fraction: float
+    status: Status
+    reason: str = ""
+    attempt: int | None = None
+    seed: int | None = None
+    parameters: dict[str, Quantity] = field(default_factory=dict)
+    free: frozenset[str] = frozenset()
+    psd: dict[str, Quantity] = field(default_factory=dict)
+    responses: dict[str, Quantity] = field(default_factory=dict)
+    final: dict[str, bool] = field(default_factory=dict)
+    cost: dict = field(default_factory=dict)
+    started_at: float | None = None
+    ended_at: float | None = None
+    demcal_version: str = ""
+    source: str = "job"
+    id: int | None = None
+    recorded_at: float | None = None
+
+    @property
+    def provenance(self) -> dict:
+        """What makes the simulation this one: study, evaluation, scene, replicate, attempt
+        and seed, and what the engine ran (the same run again is the same simulation)."""
+        return {
+            "study": self.study,
+            "evaluation": self.evaluation,
+            "scene": self.scene,
+            "replicate": self.replicate,
+            "attempt": self.attempt,
+            "seed": self.seed,
+            "engine": self.engine,
+            "engine_version": self.engine_version,
+            "settings": self.settings,
+            "timestep_fraction": self.timestep_fraction,
+            "parameters": {name: q.value for name, q in self.parameters.items()},
+        }
+
+    @property
+    def key(self) -> str:
+        """The archive's unique key of the simulation: the digest of its provenance."""
+        return digest(self.provenance)
+
+    @property
+    def settings_hash(self) -> str:
+        return digest(self.settings)
+
+    def values(self, names: list[str]) -> list[float]:
+        """The values of the named parameters, in that order (a model's inputs)."""
+        return [self.parameters[name].value for name in names]
+
+
+def partial_estimates(partial_csv: Path) -> dict[str, tuple[float, bool]]:
+    """(value, final) of each response's last estimate in a run's partial.csv (none while the
+    file is missing; damaged rows are skipped)."""
+    reports = LatestReports(partial_csv)
+    reports.read_on()
+    return dict(reports.latest)
+
+
+def from_results(
+    study: Study,
+    simulation: SimulationRecord,
+    responses: ResponsesRecord,
+    partial_csv: Path | None = None,
+    source: str = "job",
+) -> ArchivedSimulation:
+    """The archive record of one scene replicate from its results files.
+
+    ``study`` is the frozen study the job worked from (free parameters, units); the status
+    and reason are those of ``responses`` (an ok run whose responses could not be computed
+    is failed there). A terminated run keeps the last estimates of its ``partial_csv``.
+    """
+    scene = study.scenes.get(simulation.scene)
+    response_units = {} if scene is None else {n: r.unit for n, r in scene.responses.items()}
+    setting_units = {} if scene is None else {n: s.unit for n, s in scene.settings.items()}
+    status = Status(responses.status)
+    values: dict[str, tuple[float, bool]] = {}
+    if status == Status.OK:
+        values = {name: (value, True) for name, value in responses.responses.items()}
+    elif status == Status.TERMINATED and partial_csv is not None:
+        values = partial_estimates(partial_csv)
+    free = {p.name for p in study.free}
+    return ArchivedSimulation(
+        study=study.name,
+        evaluation=simulation.evaluation,
+        scene=simulation.scene,
+        replicate=simulation.replicate,
+        engine=simulation.engine,
+        engine_version=simulation.engine_version,
+        settings=simulation.settings,
+        timestep_fraction=simulation.timestep_fraction,
+        status=status,
+        reason=responses.reason,
+        attempt=simulation.attempt,
+        seed=simulation.seed,
+        parameters={
+            name: Quantity(float(value), CATALOG[name].unit if name in CATALOG else "")
+            for name, value in simulation.parameters.items()
+        },
+        free=frozenset(free & set(simulation.parameters)),
+        psd={
+            name: Quantity(float(simulation.settings[name]), setting_units.get(name, ""))
+            for name in PSD_SETTINGS
+            if name in simulation.settings
+        },
+        responses={
+            name: Quantity(value, response_units.get(name, ""))
+            for name, (value, _) in values.items()
+        },
+        final={name: final for name, (_, final) in values.items()},
+        cost=simulation.cost,
+        started_at=simulation.started_at,
+        ended_at=simulation.ended_at,
+        demcal_version=demcal_version(),
+        source=source,
+    )

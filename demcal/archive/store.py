@@ -1,0 +1,361 @@
+"""The archive: every simulation demcal runs, with its provenance, in one database.
+
+::
+
+    with Archive("sqlite:///results/archive.sqlite") as archive:
+        archive.add(records)                     # idempotent: a record already there is skipped
+        archive.records(scene="cylinder_lift")   # what is stored, oldest first
+        archive.compatible(...)                  # what a study may reuse as data
+
+Opening an archive brings its schema to this demcal's version (Alembic, ``upgrade``) under
+a lock, so the first jobs of a new archive may open it at once. Each ``add`` is one
+transaction: its records are all there afterwards, or none is. A record whose key
+(:attr:`ArchivedSimulation.key`) is stored already is skipped (``INSERT ... ON CONFLICT DO
+NOTHING``), so a retried job or a second import adds nothing, and concurrent writers never
+store a simulation twice.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Collection, Iterable, Mapping
+from functools import cache
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+from sqlalchemy import Connection, Engine, Select, exists, func, insert, select, text
+from sqlalchemy.dialects import postgresql, sqlite
+from sqlalchemy.exc import SQLAlchemyError
+from sqlalchemy.orm import Session
+
+from demcal.archive.record import ArchivedSimulation, Quantity, digest
+from demcal.archive.schema import Base, ParameterRow, ResponseRow, SimulationRow
+from demcal.archive.url import open_engine, shown
+from demcal.errors import DemcalError
+from demcal.results.records import Status
+
+#: The migration scripts shipped in the package (env.py and versions/).
+MIGRATIONS = Path(__file__).resolve().parent / "migrations"
+#: The table in which Alembic keeps the archive's schema version.
+VERSION_TABLE = "archive_version"
+#: Key of the PostgreSQL advisory lock held while a schema is migrated ("demcal" in ASCII).
+MIGRATION_LOCK = 0x64656D63616C
+
+
+class ArchiveError(DemcalError):
+    """The archive cannot be opened or read; the message names it and why."""
+
+
+@cache
+def head_revision() -> str:
+    """The schema version this demcal writes (the newest migration)."""
+    from alembic.script import ScriptDirectory
+
+    head = ScriptDirectory(str(MIGRATIONS)).get_current_head()
+    assert head is not None, "the archive's migrations have no head"
+    return head
+
+
+def schema_revision(connection: Connection) -> str | None:
+    """The schema version of the database at ``connection`` (None: no archive there yet)."""
+    from alembic.migration import MigrationContext
+
+    context = MigrationContext.configure(connection, opts={"version_table": VERSION_TABLE})
+    return context.get_current_revision()
+
+
+def upgrade(engine: Engine) -> None:
+    """Bring the archive's schema to :func:`head_revision`, once among concurrent openers.
+
+    The migration runs in one transaction that holds the database's write lock (SQLite's
+    ``BEGIN IMMEDIATE``; a PostgreSQL advisory lock), and the version is read again under
+    it, so a second opener waits and then finds nothing to do.
+    """
+    with engine.connect() as connection:
+        if schema_revision(connection) == head_revision():
+            return
+    from alembic import command
+    from alembic.config import Config
+    from alembic.util import CommandError
+
+    with engine.execution_options(archive_write=True).begin() as connection:
+        if connection.dialect.name == "postgresql":
+            connection.execute(text("SELECT pg_advisory_xact_lock(:key)"), {"key": MIGRATION_LOCK})
+        current = schema_revision(connection)
+        if current == head_revision():
+            return
+        config = Config()
+        config.set_main_option("script_location", str(MIGRATIONS))
+        config.attributes["connection"] = connection
+        config.attributes["version_table"] = VERSION_TABLE
+        try:
+            command.upgrade(config, "head")
+        except CommandError:  # a schema version that none of the migrations knows
+            raise ArchiveError(f"its schema {current!r} is newer than this demcal's") from None
+
+
+def drop(url: str) -> None:
+    """Remove the archive's tables and its schema version from the database at ``url`` (the
+    tests and the load benchmark start from an empty PostgreSQL database this way)."""
+    engine = open_engine(url)
+    with engine.begin() as connection:
+        Base.metadata.drop_all(connection)
+        connection.execute(text(f"DROP TABLE IF EXISTS {VERSION_TABLE}"))
+    engine.dispose()
+
+
+def _number(value: Any) -> float | None:
+    return float(value) if isinstance(value, int | float) and not isinstance(value, bool) else None
+
+
+class Archive:
+    """The archive at ``url`` (an SQLite file or a PostgreSQL database), opened and brought to
+    this demcal's schema. Use it as a context manager, or ``close`` it."""
+
+    def __init__(self, url: str):
+        self.url = url
+        self._engine = open_engine(url)
+        try:
+            upgrade(self._engine)
+        except SQLAlchemyError as exc:
+            self._engine.dispose()
+            raise ArchiveError(
+                f"archive {shown(url)}: cannot be opened ({_first_line(exc)})"
+            ) from exc
+        except ArchiveError as exc:
+            self._engine.dispose()
+            raise ArchiveError(f"archive {shown(url)}: {exc}; update demcal") from None
+        self._writer = self._engine.execution_options(archive_write=True)
+
+    def __enter__(self) -> Archive:
+        return self
+
+    def __exit__(
+        self,
+        kind: type[BaseException] | None,
+        value: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    def close(self) -> None:
+        self._engine.dispose()
+
+    def __repr__(self) -> str:
+        return f"Archive({shown(self.url)!r})"
+
+    # writing
+
+    def add(self, records: Iterable[ArchivedSimulation]) -> int:
+        """Store ``records`` in one transaction; those already stored are skipped. Returns how
+        many were new."""
+        dialect = sqlite if self._engine.dialect.name == "sqlite" else postgresql
+        now, added = time.time(), 0
+        with self._writer.begin() as connection:
+            for record in records:
+                new_id = connection.execute(
+                    dialect.insert(SimulationRow)
+                    .values(_row(record, now))
+                    .on_conflict_do_nothing(index_elements=["key"])
+                    .returning(SimulationRow.id)
+                ).scalar_one_or_none()
+                if new_id is None:
+                    continue
+                added += 1
+                parameters = [
+                    {"simulation_id": new_id, "name": name, "value": q.value, "unit": q.unit}
+                    | {"free": name in record.free}
+                    for name, q in record.parameters.items()
+                ]
+                responses = [
+                    {"simulation_id": new_id, "name": name, "value": q.value, "unit": q.unit}
+                    | {"final": record.final.get(name, False)}
+                    for name, q in record.responses.items()
+                ]
+                if parameters:
+                    connection.execute(insert(ParameterRow), parameters)
+                if responses:
+                    connection.execute(insert(ResponseRow), responses)
+        return added
+
+    # reading
+
+    def records(
+        self,
+        *,
+        study: str | None = None,
+        scene: str | None = None,
+        engine: str | None = None,
+        evaluation: str | None = None,
+        statuses: Collection[str] = (),
+        limit: int | None = None,
+    ) -> list[ArchivedSimulation]:
+        """The stored simulations that match every filter given, oldest first."""
+        query = select(SimulationRow.id)
+        for column, value in (
+            (SimulationRow.study, study),
+            (SimulationRow.scene, scene),
+            (SimulationRow.engine, engine),
+            (SimulationRow.evaluation, evaluation),
+        ):
+            if value is not None:
+                query = query.where(column == value)
+        if statuses:
+            query = query.where(SimulationRow.status.in_(list(statuses)))
+        return self._load(query.order_by(SimulationRow.id).limit(limit))
+
+    def get(self, identifier: str) -> ArchivedSimulation | None:
+        """The simulation with this row number, or whose key starts with ``identifier`` (at
+        least 6 characters and only one such key); None if there is none."""
+        if identifier.isdigit():
+            found = self._load(select(SimulationRow.id).where(SimulationRow.id == int(identifier)))
+        elif len(identifier) >= 6:
+            found = self._load(
+                select(SimulationRow.id).where(
+                    SimulationRow.key.startswith(identifier.lower(), autoescape=True)
+                )
+            )
+        else:
+            found = []
+        return found[0] if len(found) == 1 else None
+
+    def compatible(
+        self,
+        scene: str,
+        engine: str,
+        settings: dict,
+        fixed: Mapping[str, float],
+        inputs: Collection[str] = (),
+        engine_version: str | None = None,
+        statuses: Collection[str] = (Status.OK,),
+    ) -> list[ArchivedSimulation]:
+        """The stored simulations a study may use as data for its models of ``scene``.
+
+        Compatible means: the same scene, engine (and ``engine_version`` if given) and
+        resolved scene settings; exactly the parameters ``fixed`` and ``inputs`` (the
+        models' inputs, the free parameters and any fixed one the models take as input), with
+        every fixed parameter that is not an input at its value; a status in ``statuses``.
+        """
+        names = set(fixed) | set(inputs)
+        query = select(SimulationRow.id).where(
+            SimulationRow.scene == scene,
+            SimulationRow.engine == engine,
+            SimulationRow.settings_hash == digest(settings),
+            SimulationRow.status.in_(list(statuses)),
+        )
+        if engine_version is not None:
+            query = query.where(SimulationRow.engine_version == engine_version)
+        for name in sorted(names):
+            condition = (ParameterRow.simulation_id == SimulationRow.id) & (
+                ParameterRow.name == name
+            )
+            if name in fixed and name not in inputs:
+                condition &= ParameterRow.value == float(fixed[name])
+            query = query.where(exists().where(condition))
+        other = exists().where(
+            (ParameterRow.simulation_id == SimulationRow.id) & ParameterRow.name.not_in(names)
+        )
+        return self._load(query.where(~other).order_by(SimulationRow.id))
+
+    def count(self) -> int:
+        with self._engine.connect() as connection:
+            return int(connection.execute(select(func.count(SimulationRow.id))).scalar_one())
+
+    def stats(self) -> list[dict]:
+        """Per study, scene, engine and status: the simulations stored and their cost."""
+        columns = (
+            SimulationRow.study,
+            SimulationRow.scene,
+            SimulationRow.engine,
+            SimulationRow.status,
+        )
+        query = (
+            select(
+                *columns,
+                func.count(SimulationRow.id).label("simulations"),
+                func.sum(SimulationRow.cpu_s).label("cpu_s"),
+                func.sum(SimulationRow.particle_steps).label("particle_steps"),
+            )
+            .group_by(*columns)
+            .order_by(*columns)
+        )
+        with self._engine.connect() as connection:
+            return [dict(row._mapping) for row in connection.execute(query)]
+
+    def _load(self, ids: Select) -> list[ArchivedSimulation]:
+        """The records of the simulations whose ids ``ids`` selects, in its order."""
+        chosen = ids.subquery()
+        with Session(self._engine) as session:
+            rows = session.scalars(
+                select(SimulationRow).join(chosen, SimulationRow.id == chosen.c.id)
+            )
+            simulations = {row.id: row for row in rows}
+            parameters: dict[int, list[ParameterRow]] = {}
+            for parameter in session.scalars(
+                select(ParameterRow).where(ParameterRow.simulation_id.in_(select(chosen.c.id)))
+            ):
+                parameters.setdefault(parameter.simulation_id, []).append(parameter)
+            responses: dict[int, list[ResponseRow]] = {}
+            for response in session.scalars(
+                select(ResponseRow).where(ResponseRow.simulation_id.in_(select(chosen.c.id)))
+            ):
+                responses.setdefault(response.simulation_id, []).append(response)
+            order = list(session.scalars(ids))
+        return [_record(simulations[i], parameters.get(i, []), responses.get(i, [])) for i in order]
+
+
+#: Fields of a record that are columns of its simulations row under the same name.
+SAME_NAMED = (
+    "study",
+    "evaluation",
+    "scene",
+    "replicate",
+    "attempt",
+    "seed",
+    "engine",
+    "engine_version",
+    "settings",
+    "timestep_fraction",
+    "reason",
+    "cost",
+    "started_at",
+    "ended_at",
+    "source",
+    "demcal_version",
+)
+
+
+def _row(record: ArchivedSimulation, now: float) -> dict:
+    """The simulations row of a record."""
+    return {name: getattr(record, name) for name in SAME_NAMED} | {
+        "key": record.key,
+        "settings_hash": record.settings_hash,
+        "psd": {name: {"value": q.value, "unit": q.unit} for name, q in record.psd.items()},
+        "status": str(record.status),
+        "cpu_s": _number(record.cost.get("cpu_s")),
+        "wall_s": _number(record.cost.get("wall_s")),
+        "particle_steps": _number(record.cost.get("particle_steps")),
+        "recorded_at": now,
+    }
+
+
+def _record(
+    row: SimulationRow, parameters: list[ParameterRow], responses: list[ResponseRow]
+) -> ArchivedSimulation:
+    """The record of a stored simulation."""
+    return ArchivedSimulation(
+        **{name: getattr(row, name) for name in SAME_NAMED},
+        status=Status(row.status),
+        parameters={p.name: Quantity(p.value, p.unit) for p in parameters},
+        free=frozenset(p.name for p in parameters if p.free),
+        psd={name: Quantity(q["value"], q["unit"]) for name, q in row.psd.items()},
+        responses={r.name: Quantity(r.value, r.unit) for r in responses},
+        final={r.name: r.final for r in responses},
+        id=row.id,
+        recorded_at=row.recorded_at,
+    )
+
+
+def _first_line(exc: BaseException) -> str:
+    return str(getattr(exc, "orig", None) or exc).strip().splitlines()[0]

@@ -1,0 +1,138 @@
+"""The archive's store: idempotent writes, records read back as written, the search of
+compatible simulations, and its schema (migrations), on SQLite and PostgreSQL."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import pytest
+from alembic.autogenerate import compare_metadata
+from alembic.migration import MigrationContext
+from archive_helpers import DATABASES, SETTINGS, new_archive, record, stored
+from sqlalchemy import text
+
+from demcal.archive.schema import Base
+from demcal.archive.store import VERSION_TABLE, Archive, ArchiveError
+from demcal.archive.url import open_engine
+from demcal.results.records import Status
+
+
+@pytest.fixture(params=DATABASES)
+def archive_url(request, tmp_path) -> str:
+    return new_archive(request.param, tmp_path)
+
+
+def test_a_record_is_stored_once(archive_url):
+    with Archive(archive_url) as archive:
+        assert archive.add([record(0)]) == 1
+        assert archive.add([record(0)]) == 0  # a retried job
+        assert archive.add([record(0), record(1), record(1)]) == 1
+        assert archive.count() == 2
+    with Archive(archive_url) as archive:  # a resumed daemon opens it again
+        assert archive.add([record(1)]) == 0
+        assert archive.count() == 2
+
+
+def test_a_rerun_with_another_seed_is_another_simulation(archive_url):
+    with Archive(archive_url) as archive:
+        assert archive.add([record(0), record(0, seed=7, attempt=1)]) == 2
+
+
+def test_records_read_back_as_written(archive_url):
+    written = [
+        record(0),
+        record(1, status=Status.FAILED, reason="engine error", responses={}, final={}),
+        record(
+            2,
+            status=Status.TERMINATED,
+            reason="stopped early (STOP requested)",
+            responses={"angle_of_repose": record().responses["angle_of_repose"]},
+            final={"angle_of_repose": False},
+            seed=None,
+        ),
+    ]
+    with Archive(archive_url) as archive:
+        archive.add(written)
+        found = archive.records()
+        assert [stored(r) for r in found] == written
+        assert [r.key for r in found] == [r.key for r in written]
+        assert archive.get(found[2].key[:8]) == found[2]
+        assert archive.get(str(found[1].id)) == found[1]
+        assert archive.get("abc") is None
+        assert [r.evaluation for r in archive.records(statuses=["failed"])] == ["e0001"]
+        assert len(archive.records(limit=2)) == 2
+
+
+def test_compatible_records_share_scene_engine_settings_and_fixed_values(archive_url):
+    other_density = {**record(3).parameters, "particle_density": record().parameters["restitution"]}
+    with Archive(archive_url) as archive:
+        archive.add(
+            [
+                record(0),
+                record(1),
+                record(2, settings={**SETTINGS, "particle_count": 400}),
+                record(3, parameters=other_density),
+                record(4, engine="lammps"),
+                record(5, scene="shear_box"),
+                record(6, status=Status.FAILED, responses={}, final={}),
+                record(7, parameters={"sliding_friction_pp": record().parameters["restitution"]}),
+            ]
+        )
+        fixed = {"restitution": 0.5, "particle_density": 2500.0}
+
+        def found(**given) -> list[str]:
+            arguments = {
+                "scene": "cylinder_lift",
+                "engine": "analytic",
+                "settings": dict(SETTINGS),
+                "fixed": fixed,
+                "inputs": ["sliding_friction_pp"],
+            }
+            return [r.evaluation for r in archive.compatible(**(arguments | given))]
+
+        assert found() == ["e0000", "e0001"]
+        # a fixed parameter that varies is compatible once it is a model input
+        assert found(inputs=["sliding_friction_pp", "particle_density"]) == [
+            "e0000",
+            "e0001",
+            "e0003",
+        ]
+        assert found(fixed={"restitution": 0.6, "particle_density": 2500.0}) == []
+        assert found(engine_version="analytic-2") == []
+        assert found(statuses=["ok", "failed"]) == ["e0000", "e0001", "e0006"]
+        assert found(fixed={}, inputs=["sliding_friction_pp"]) == ["e0007"]
+
+
+def test_the_migrations_build_the_schema_of_the_models(archive_url):
+    Archive(archive_url).close()
+    engine = open_engine(archive_url)
+    with engine.connect() as connection:
+        context = MigrationContext.configure(connection, opts={"version_table": VERSION_TABLE})
+        assert compare_metadata(context, Base.metadata) == []
+    engine.dispose()
+
+
+def test_an_archive_of_a_newer_demcal_is_refused(archive_url):
+    Archive(archive_url).close()
+    engine = open_engine(archive_url)
+    with engine.begin() as connection:
+        connection.execute(text(f"UPDATE {VERSION_TABLE} SET version_num = 'ffff'"))
+    engine.dispose()
+    with pytest.raises(ArchiveError, match="newer than this demcal"):
+        Archive(archive_url)
+
+
+def test_an_unreachable_archive_is_one_message(tmp_path):
+    (tmp_path / "folder").mkdir()
+    with pytest.raises(ArchiveError, match="cannot be opened"):
+        Archive(f"sqlite:///{tmp_path / 'folder'}")
+
+
+def test_stats_count_and_cost_per_study_scene_and_status(archive_url):
+    with Archive(archive_url) as archive:
+        archive.add([record(0), record(1), replace(record(2), status=Status.FAILED)])
+        rows = archive.stats()
+    assert [(r["status"], r["simulations"], r["cpu_s"]) for r in rows] == [
+        ("failed", 1, 1.5),
+        ("ok", 2, 3.0),
+    ]
