@@ -16,6 +16,7 @@ import pytest
 from conftest import true_targets
 from test_calibration_loop import InProcessLauncher
 
+from demcal.cli.inspect import study_state
 from demcal.daemon.loop import Calibration
 from demcal.errors import ConfigError
 from demcal.reporting.headline import report_headline
@@ -212,3 +213,10 @@ def test_reuse_is_frozen_with_the_study(tmp_path, monkeypatch):
         freeze(load_study(config("frozen", SECOND_TRUTH)))
     plain = freeze(load_study(config("plain", SECOND_TRUTH)))
     assert plain.reuse is None and "reuse" not in json.loads(plain.files.study.read_text())
+
+
+def test_status_counts_the_reused_points_apart(first):
+    second = run(config("second", SECOND_TRUTH, reuse="archive"))
+    _, counts = study_state(second.study)
+    new = second.optimizer.completed_evaluations()
+    assert counts == f"{new} ok (budget 12); 10 points reused from the archive"
