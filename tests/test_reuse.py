@@ -113,10 +113,18 @@ def test_new_targets_cost_a_few_new_simulations_with_reuse(first):
 
 
 def test_a_reused_point_is_scored_by_the_new_study_and_may_be_the_answer(first):
-    """With the first study's targets again, its own best point answers, named by its source."""
-    again = run(config("again", FIRST_TRUTH, reuse="archive"))
+    """With the first study's targets again, its own best point answers, named by its source,
+    and new simulations confirm it."""
+    confirmed = config("again", FIRST_TRUTH, reuse="archive")
+    confirmed["optimizer"]["confirm_replicates"] = 2
+    again = run(confirmed)
     best = json.loads(again.files.best.read_text())
     assert best["reused"] is True and best["evaluation"].startswith("first/")
+    assert best["confirmation"]["of"] == best["evaluation"]
+    assert len(best["confirmation"]["evaluations"]) == 2
+    for name in best["confirmation"]["evaluations"]:
+        point = json.loads(again.files.evaluation(name).params.read_text())
+        assert point["proposed_by"] == f"confirmation of {best['evaluation']}"
     table = pd.read_csv(again.files.evaluations_csv).set_index("evaluation")
     assert best["objective"] == pytest.approx(table.loc[best["evaluation"], "objective"])
     assert "reused from the archive" in report_headline(again.study)

@@ -208,7 +208,10 @@ class Calibration:
 
     def write_point(self, proposal: Proposal) -> None:
         """The proposal's params.json; a confirmation run names the point it repeats."""
-        of = None if proposal.confirms is None else evaluation_id(proposal.confirms)
+        of = None
+        if proposal.confirms is not None:  # a reused point is named by its source
+            confirmed = next(r for r in self.optimizer.records if r.id == proposal.confirms)
+            of = confirmed.reused_from or evaluation_id(confirmed.id)
         PointRecord(
             dict(zip(self.names, proposal.x)),
             in_initial_design=proposal.in_initial_design,

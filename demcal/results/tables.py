@@ -172,7 +172,9 @@ def write_best(
         confirmation=None
         if confirmation is None
         else {
-            "of": evaluation_id(confirmation.confirms),
+            "of": record.evaluation
+            if confirmation.confirms == best.id
+            else evaluation_id(confirmation.confirms),
             "evaluations": [evaluation_id(i) for i in confirmation.ids],
             "pending": confirmation.pending,
             "failed": confirmation.failed,
