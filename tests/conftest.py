@@ -104,8 +104,8 @@ ROOT = Path(__file__).resolve().parents[1]
 TRUTH = {"sliding_friction_pp": 0.4, "rolling_friction_pp": 0.1}
 
 
-def true_targets():
-    """Responses of the closed form at TRUTH: the calibration's known optimum."""
+def true_targets(truth: dict = TRUTH):
+    """Responses of the closed form at ``truth``: the calibration's known optimum."""
     params = {
         "sliding_friction_pw": 0.5,
         "rolling_friction_pw": 0.1,
@@ -113,7 +113,7 @@ def true_targets():
         "youngs_modulus": 5e6,
         "poisson_ratio": 0.3,
         "particle_density": 2500.0,
-        **TRUTH,
+        **truth,
     }
     exact = SCENES.load("cylinder_lift").analytic_model(params, {})
     return [

@@ -54,9 +54,12 @@ def study_state(study: Study) -> tuple[str, str]:
         )
     confirmations = sum(r.confirms is not None for r in optimizer.records)
     extra = f", plus {confirmations} confirmation runs" if confirmations else ""
+    reused = optimizer.reused_points
+    reused_text = f"; {reused} points reused from the archive" if reused else ""
     return (
         state,
-        f"{line or 'no evaluations yet'} (budget {optimizer.settings.max_evaluations}{extra})",
+        f"{line or 'no evaluations yet'} (budget {optimizer.settings.max_evaluations}{extra})"
+        f"{reused_text}",
     )
 
 

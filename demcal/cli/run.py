@@ -17,6 +17,7 @@ from demcal.daemon.launcher import SnakemakeLauncher
 from demcal.daemon.loop import Calibration
 from demcal.daemon.progress import ProgressDisplay
 from demcal.errors import ConfigError, DemcalError
+from demcal.jobs.evaluation import reused_objectives
 from demcal.reporting.terminal import CHOSEN_BY, confirmation_summary, evaluation_summary
 from demcal.results.layout import StudyFiles
 from demcal.results.records import BestRecord, ObjectiveRecord
@@ -143,12 +144,24 @@ def print_best(study: Study) -> None:
         )
         return
     best = BestRecord.read(files.best)
-    evaluation = files.evaluation(best.evaluation)
     print(
         f"best point ({CHOSEN_BY.get(best.chosen_by or '', 'lowest objective')} among the "
         f"evaluated points):"
     )
-    print(evaluation_summary(study, ObjectiveRecord.read_latest(evaluation), evaluation.dir, best))
+    if best.reused:  # simulated by another study: read from reused.json, its folder is that study's
+        source, evaluation_name = best.evaluation.split("+")[0].split("/")
+        record = next(r for r in reused_objectives(study) if r.evaluation == best.evaluation)
+        print(
+            evaluation_summary(
+                study, record, StudyFiles.of(source).evaluation(evaluation_name).dir, best
+            )
+        )
+        print(f"(reused from the archive: simulated by {best.evaluation}; reused.json)")
+    else:
+        evaluation = files.evaluation(best.evaluation)
+        print(
+            evaluation_summary(study, ObjectiveRecord.read_latest(evaluation), evaluation.dir, best)
+        )
     if best.predicted_responses:
         print(
             "(simulated: this evaluation, ± spread of its replicates; predicted: the response "
@@ -157,6 +170,11 @@ def print_best(study: Study) -> None:
     confirmed = confirmation_summary(study, best)
     if confirmed:
         print(confirmed)
+    if best.evaluations is not None:
+        print(
+            f"evaluations: {best.evaluations['new']} new, {best.evaluations['reused']} points "
+            f"reused from the archive ({files.reused})"
+        )
     print(f"all evaluations: {files.evaluations_csv}")
 
 

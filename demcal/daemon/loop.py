@@ -33,8 +33,9 @@ from demcal.daemon.termination import (
     partial_responses,
 )
 from demcal.errors import DemcalError, SimulationFailed
-from demcal.jobs.evaluation import rescore
+from demcal.jobs.evaluation import rescore, reused_objectives
 from demcal.optimizer import Optimizer, Proposal
+from demcal.optimizer.evaluation import ReusedPoint
 from demcal.results.layout import evaluation_id, proposal_id
 from demcal.results.records import (
     FinishedRecord,
@@ -101,7 +102,34 @@ class Calibration:
             seed=self.study.seed,
             workers=self.workers,
             objective=self.study.response_objective,
+            reused=self._reused_points(),
         )
+
+    def _reused_points(self) -> list[ReusedPoint]:
+        """With ``reuse: archive``: the archive's points compatible with the study, written to
+        reused.json and scored by the study's objective, for a calibration that starts; []
+        when reuse is off."""
+        if self.study.reuse is None:
+            return []
+        from demcal.archive.reuse import reused_points
+        from demcal.archive.store import Archive
+
+        assert self.study.archive is not None, "the study's config requires an archive to reuse"
+        with Archive(self.study.archive) as archive:
+            reused_points(self.study, archive).write(self.files.reused)
+        points = [
+            ReusedPoint(
+                [record.parameters[name] for name in self.names],
+                record.replicates,
+                record.objective,
+                self._replicate_values(record),
+                record.evaluation,
+            )
+            for record in reused_objectives(self.study)
+            if record.ok and record.objective is not None
+        ]
+        log.info("reused %d points of the archive as data (reused.json)", len(points))
+        return points
 
     def _load_start_time(self) -> float:
         """Start of the calibration (calibration.json), written on the first run."""
@@ -117,12 +145,18 @@ class Calibration:
         After corrected targets (``demcal.study.model.freeze`` allows them): each
         such evaluation gets a ``rescored.json`` computed from the replicates'
         responses its objective job kept (no simulation runs), and the
-        optimizer's value is replaced.
+        optimizer's value is replaced; a reused point is scored anew from reused.json.
         """
         version = self.study.objective.version
         outcomes: dict[int, tuple[str, float | None, list[float] | None]] = {}
+        reused = {r.evaluation: r for r in reused_objectives(self.study)}
         for record in self.optimizer.records:
             if record.status == Status.PENDING:
+                continue
+            if record.reused_from is not None:  # scored from reused.json, with no files here
+                now = reused[record.reused_from]
+                if (now.status, now.objective) != (record.status, record.value):
+                    outcomes[record.id] = (now.status, now.objective, self._replicate_values(now))
                 continue
             evaluation = evaluation_id(record.id)
             files = self.files.evaluation(evaluation)
@@ -174,7 +208,10 @@ class Calibration:
 
     def write_point(self, proposal: Proposal) -> None:
         """The proposal's params.json; a confirmation run names the point it repeats."""
-        of = None if proposal.confirms is None else evaluation_id(proposal.confirms)
+        of = None
+        if proposal.confirms is not None:  # a reused point is named by its source
+            confirmed = next(r for r in self.optimizer.records if r.id == proposal.confirms)
+            of = confirmed.reused_from or evaluation_id(confirmed.id)
         PointRecord(
             dict(zip(self.names, proposal.x)),
             in_initial_design=proposal.in_initial_design,
@@ -355,13 +392,25 @@ class Calibration:
         write_evaluations_csv(self.study)
         best = self.optimizer.best()
         if best is not None:
-            write_best(self.study, best, self.optimizer.confirmation(), stop_reason)
+            write_best(
+                self.study, best, self.optimizer.confirmation(), stop_reason, self.reuse_counts()
+            )
+
+    def reuse_counts(self) -> dict[str, int] | None:
+        """With ``reuse: archive``: the evaluations simulated by this study (``new``, told)
+        and the points taken from the archive (``reused``); None when reuse is off."""
+        if self.study.reuse is None:
+            return None
+        return {
+            "new": self.optimizer.completed_evaluations(),
+            "reused": self.optimizer.reused_points,
+        }
 
     def progress(self) -> Progress:
         counts = self.optimizer.status_counts()
         failed, stopped = counts.get(Status.FAILED, 0), counts.get(Status.TERMINATED, 0)
         optimizer = self.optimizer
-        searched = sum(not r.maps_solutions for r in optimizer.records)
+        searched = sum(not (r.maps_solutions or r.reused_from) for r in optimizer.records)
         budget = (
             searched if optimizer.search_ended else optimizer.settings.max_evaluations
         ) + optimizer.mapping_budget
@@ -429,9 +478,13 @@ class Calibration:
             time.sleep(self.poll_seconds)
         self.write_tables(reason)
         show_progress(self.progress())
-        FinishedRecord(reason, time.time(), self.optimizer.status_counts()).write(
-            self.files.finished
-        )
+        counts = self.reuse_counts()
+        FinishedRecord(
+            reason,
+            time.time(),
+            self.optimizer.status_counts(),
+            None if counts is None else counts["reused"],
+        ).write(self.files.finished)
         log.info("calibration finished: %s", reason)
         return reason
 

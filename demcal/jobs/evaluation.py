@@ -32,6 +32,7 @@ from demcal.results.records import (
     ObjectiveRecord,
     PointRecord,
     ResponsesRecord,
+    ReusedRecord,
     SimulationRecord,
     Status,
 )
@@ -74,11 +75,12 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> Simul
         point = PointRecord.read(files.params)
         attempt = point.attempt
         parameters = study.parameters_for(point.parameters)
+        avoid = reused_seeds(study)
     except (ConfigError, SimulationFailed) as exc:
         result = RunResult(Status.FAILED, f"bad parameters: {exc}")
         parameters, seed, attempt = {}, None, None
     else:
-        seed = study.simulation_seed(evaluation, scene, replicate, point.attempt)
+        seed = study.simulation_seed(evaluation, scene, replicate, point.attempt, avoid)
         job = SimulationJob(
             scene=scene,
             parameters=parameters,
@@ -121,6 +123,13 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> Simul
         "simulation %s %s rep%d: %s %s", evaluation, scene, replicate, result.status, result.reason
     )
     return record
+
+
+def reused_seeds(study: Study) -> frozenset[int]:
+    """The seeds of the simulations the study reused (``reused.json``; none without reuse)."""
+    if study.reuse is None or not study.files.reused.exists():
+        return frozenset()
+    return ReusedRecord.read(study.files.reused).seeds
 
 
 def run_engine(study: Study, job: SimulationJob) -> RunResult:
@@ -321,6 +330,21 @@ def rescore(study: Study, files: EvaluationFiles, record: ObjectiveRecord) -> Ob
     rescored = score(study, replace(record, reason=""), record.replicates)
     rescored.write(files.rescored)
     return rescored
+
+
+def reused_objectives(study: Study) -> list[ObjectiveRecord]:
+    """The points the study reused (``reused.json``), each scored by the study's objective as
+    it stands now (its targets may have changed since); [] when it reused none. Each record's
+    ``evaluation`` is the point's source, ``study/evaluation``."""
+    reused = ReusedRecord.read_if_any(study.files.reused)
+    return [
+        score(
+            study,
+            ObjectiveRecord(p["source"], Status.OK, parameters=p["parameters"]),
+            p["replicates"],
+        )
+        for p in ([] if reused is None else reused.points)
+    ]
 
 
 def run_snakemake_job(smk: ScriptJob, stage: str) -> None:

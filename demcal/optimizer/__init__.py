@@ -15,13 +15,15 @@ is for adding a strategy, see below)::
     )
 
     opt = Optimizer(lower, upper, settings=None, seed=0, initial_points=None, workers=1,
-                    objective=None)
+                    objective=None, reused=())
         # lower/upper: list[float] in real units; settings: OptimizerSettings,
         # or the plain dict of the config section ``optimizer:`` (unknown keys
         # and out-of-range values raise ValueError naming key, value, range);
         # objective: a demcal.study.objective.ResponseObjective (the targets),
         # needed by the strategies that model each response (response_ei,
-        # rackl_hanley) and used by all for the best point when given
+        # rackl_hanley) and used by all for the best point when given;
+        # reused: ReusedPoint (.evaluation) of other studies, ok records from
+        # the start, outside the budget; the initial design shrinks by them
     opt.ask(n=1) -> list[Proposal]
         # Proposal.id: unique increasing int; Proposal.x: list[float] (real
         # units); Proposal.in_initial_design: bool. May be called while other
@@ -42,7 +44,8 @@ is for adding a strategy, see below)::
     opt.records  # list of Evaluation (.evaluation): id, x (unit box), status,
                  # value, variance, replicates, in_initial_design, responses
                  # ({key: ObservedResponse}), by_hand (add_point), confirms
-                 # (the id a confirmation repeats)
+                 # (the id a confirmation repeats), reused_from (a reused
+                 # point's study/evaluation; opt.reused_points counts them)
     opt.settings;  opt.objective;  opt.bounds (Bounds)
     opt.best_observed  # lowest ok value so far, or None
     opt.best() -> BestPoint | None  # id, x, value, predicted, chosen_by,

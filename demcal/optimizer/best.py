@@ -67,4 +67,5 @@ def best_point(
         chosen_by=chosen_by,
         on_bounds=on_bounds(record.x),
         responses=responses,
+        reused_from=record.reused_from,
     )

@@ -14,7 +14,7 @@ import warnings
 from collections.abc import Callable
 
 import numpy as np
-from scipy.spatial.distance import pdist
+from scipy.spatial.distance import cdist, pdist
 from scipy.stats import qmc
 
 from .registry import DESIGNS
@@ -89,6 +89,26 @@ def maximin_design(
     return best
 
 
+def fill_gaps(
+    covered: np.ndarray, size: int, dimension: int, rng: np.random.Generator
+) -> np.ndarray:
+    """``size`` points that fill the unit box around the ``covered`` ones (at least one),
+    greedy maximin.
+
+    The candidates are a scrambled Sobol set of 1024 points; each step takes the candidate
+    farthest from the covered points and from those taken before it. Simple and cheap, and
+    it puts the first new points where the covered ones left the largest holes.
+    """
+    candidates = sobol_sequence(1024, dimension, rng)
+    nearest = cdist(candidates, np.asarray(covered, float)).min(axis=1)
+    chosen = []
+    for _ in range(size):
+        pick = candidates[int(np.argmax(nearest))]
+        chosen.append(pick)
+        nearest = np.minimum(nearest, np.linalg.norm(candidates - pick, axis=1))
+    return np.array(chosen).reshape(size, dimension)
+
+
 def initial_design(
     kind: str,
     size: int,
@@ -96,6 +116,7 @@ def initial_design(
     rng: np.random.Generator,
     tries: int = 50,
     include: np.ndarray | None = None,
+    covered: np.ndarray | None = None,
 ) -> np.ndarray:
     """The initial design in the unit box, with user points first.
 
@@ -104,12 +125,21 @@ def initial_design(
     of user points) and the space filling is disturbed as little as possible.
     ``kind`` names a design in :data:`~.registry.DESIGNS`; Latin hypercubes
     are chosen by maximin, Sobol sequences are used as drawn.
+
+    Points ``covered`` already (simulated before and reused) count towards the size: only
+    the points still missing are designed, by :func:`fill_gaps` around the covered and
+    included ones instead of ``kind``.
     """
     entry = DESIGNS[kind]
     generate: Design = entry.load()
     include = (
         np.empty((0, dimension)) if include is None else np.atleast_2d(np.asarray(include, float))
     )
+    if covered is not None and len(covered):
+        missing = max(size - len(covered) - len(include), 0)
+        return np.vstack(
+            [include, fill_gaps(np.vstack([covered, include]), missing, dimension, rng)]
+        )
     generated_size = max(size, 1)
     design = (
         generate(generated_size, dimension, rng)

@@ -53,7 +53,9 @@ class Evaluation:
     ``scene.response``: the replicates' values of an ok run, or what a
     stopped run completed or estimated. ``confirms`` names the point a
     confirmation run repeats; ``by_hand`` marks a point given by hand;
-    ``maps_solutions`` one of the solution-set mapping (``map_solutions``).
+    ``maps_solutions`` one of the solution-set mapping (``map_solutions``);
+    ``reused_from`` a point another study simulated, taken from the archive
+    (its ``study/evaluation``): data, not a simulation of this study.
     """
 
     id: int
@@ -67,6 +69,7 @@ class Evaluation:
     confirms: int | None = None
     by_hand: bool = False
     maps_solutions: bool = False
+    reused_from: str | None = None
 
     @property
     def finished(self) -> bool:
@@ -74,7 +77,7 @@ class Evaluation:
         return self.status == Status.OK
 
     def to_dict(self) -> dict[str, Any]:
-        """The JSON form in the optimizer's state (``confirms`` and ``by_hand`` only when set)."""
+        """The JSON form in the optimizer's state (the optional marks only when set)."""
         record: dict[str, Any] = {
             "id": self.id,
             "x": list(self.x),
@@ -95,6 +98,8 @@ class Evaluation:
             record["by_hand"] = True
         if self.maps_solutions:
             record["maps_solutions"] = True
+        if self.reused_from is not None:
+            record["reused_from"] = self.reused_from
         return record
 
     @classmethod
@@ -116,7 +121,25 @@ class Evaluation:
             confirms=record.get("confirms"),
             by_hand=bool(record.get("by_hand", False)),
             maps_solutions=bool(record.get("maps_solutions", False)),
+            reused_from=record.get("reused_from"),
         )
+
+
+@dataclass(frozen=True)
+class ReusedPoint:
+    """A point simulated before by another study, given to the optimizer as data.
+
+    ``x`` in real units; ``responses`` each targeted response's final values, keyed
+    ``scene.response``; ``value`` the objective of this study applied to them, and
+    ``replicates`` per replicate (None when the counts differ); ``source`` the
+    ``study/evaluation`` that simulated it.
+    """
+
+    x: list[float]
+    responses: dict[str, list[float]]
+    value: float
+    replicates: list[float] | None
+    source: str
 
 
 @dataclass(frozen=True)
@@ -127,7 +150,8 @@ class BestPoint:
     replicates); ``predicted`` the objective predicted there; ``chosen_by``
     "response models" or "objective surrogate"; ``on_bounds`` the index and
     side ("lower"/"upper") of each coordinate on a bound; ``responses``,
-    with response models, each response's predicted (mean, sd).
+    with response models, each response's predicted (mean, sd); ``reused_from``
+    the archive source of a reused point (``study/evaluation``).
     """
 
     id: int
@@ -137,6 +161,7 @@ class BestPoint:
     chosen_by: str
     on_bounds: list[tuple[int, str]]
     responses: dict[str, tuple[float, float]] = field(default_factory=dict)
+    reused_from: str | None = None
 
 
 @dataclass(frozen=True)

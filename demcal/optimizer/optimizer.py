@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 from collections import Counter
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -43,7 +44,7 @@ from .bounds import Bounds
 from .confirmation import confirmation_summary
 from .designs import default_initial_size, initial_design
 from .early_termination import EarlyTerminationDecision, early_termination_decision, reference
-from .evaluation import BestPoint, Confirmation, Evaluation, ObservedResponse
+from .evaluation import BestPoint, Confirmation, Evaluation, ObservedResponse, ReusedPoint
 from .objective_surrogate import fit_surrogate, training_data
 from .registry import STRATEGIES, strategy_class
 from .responses import ResponseModels, ResponsePredictor
@@ -105,6 +106,7 @@ class Optimizer:
         initial_points: list[list[float]] | None = None,
         workers: int = 1,
         objective: ResponseObjective | None = None,
+        reused: Sequence[ReusedPoint] = (),
     ):
         self.bounds = Bounds.of(lower, upper)
         self.settings = (
@@ -123,6 +125,7 @@ class Optimizer:
             per_parameter * dimension if per_parameter else default_initial_size(dimension, workers)
         )
         include = None if not initial_points else self.bounds.to_unit(initial_points)
+        covered = self.bounds.to_unit([p.x for p in reused]) if reused else None
         design = initial_design(
             self.settings.initial_design,
             self.initial_size,
@@ -130,14 +133,26 @@ class Optimizer:
             self.rng,
             self.settings.design_tries,
             include,
+            covered,
         )
         self.initial_size = len(design)
         self.design_queue: list[list[float]] = design.tolist()
-        self.records: list[Evaluation] = []
-        self.next_id = 0
+        self.records: list[Evaluation] = [
+            Evaluation(
+                id,
+                tuple(float(v) for v in unit),
+                in_initial_design=False,
+                **_outcome(id, point.value, Status.OK, point.replicates),
+                responses={key: ObservedResponse(tuple(v)) for key, v in point.responses.items()},
+                reused_from=point.source,
+            )
+            for id, (point, unit) in enumerate(zip(reused, [] if covered is None else covered))
+        ]
+        self.next_id = len(self.records)
         self.step = st.StepSize(self.settings.sigma_max)
         self.weight_index = 0
-        self.best_observed: float | None = None
+        values = [r.value for r in self.records if r.value is not None]
+        self.best_observed: float | None = min(values) if values else None
         self.evaluations_without_improvement = 0
         #: what a strategy must remember between proposals (saved with the state)
         self.strategy_state: dict = {}
@@ -266,6 +281,7 @@ class Optimizer:
             weights=weights,
             settings=self.settings,
             initial_size=self.initial_size,
+            reused=self.reused_points,
             responses=self.response_predictor()
             if mapping or STRATEGIES[self.settings.strategy].needs_targets
             else None,
@@ -388,12 +404,19 @@ class Optimizer:
 
     # ------------------------------------------------------------ queries
     def completed_evaluations(self) -> int:
-        """Evaluations told so far (ok, failed and terminated)."""
-        return sum(1 for r in self.records if r.status != Status.PENDING)
+        """Evaluations told so far (ok, failed and terminated); reused points are not among
+        them: the budget counts new simulations."""
+        return sum(1 for r in self.records if r.status != Status.PENDING and not r.reused_from)
 
     def status_counts(self) -> dict[str, int]:
-        """How many evaluations are ok, failed, terminated and pending (only those that occur)."""
-        return dict(Counter(str(r.status) for r in self.records))
+        """How many evaluations are ok, failed, terminated and pending (only those that occur;
+        reused points not counted)."""
+        return dict(Counter(str(r.status) for r in self.records if not r.reused_from))
+
+    @property
+    def reused_points(self) -> int:
+        """Points taken from the archive (``reused`` when the optimizer was made)."""
+        return sum(1 for r in self.records if r.reused_from)
 
     def pending(self) -> list[int]:
         """Ids handed out and not yet told."""

@@ -51,8 +51,11 @@ STATUS_COLOURS = {
 
 
 def load_table(study: Study) -> pd.DataFrame:
-    """evaluations.csv with evaluation number, wall time since start and cumulative CPU time."""
+    """evaluations.csv with evaluation number, wall time since start and cumulative CPU time:
+    the study's own evaluations (the points reused from the archive have neither)."""
     table = pd.read_csv(study.files.evaluations_csv)
+    if "origin" in table:  # tables written before reuse have no origin
+        table = table[table["origin"] != "archive"].reset_index(drop=True)
     table["number"] = table["evaluation"].map(proposal_id)  # as in the files: e0007 is 7
     start = pd.Timestamp(
         read_json(study.files.calibration, "calibration.json")["started_at"], unit="s", tz="UTC"

@@ -78,10 +78,14 @@ def _ended(study: Study, finished: FinishedRecord) -> list[str]:
     if study.files.evaluations_csv.exists():
         cpu = pd.to_numeric(pd.read_csv(study.files.evaluations_csv)["cpu_s"], errors="coerce")
         spent = f"; simulation CPU time {duration(cpu.sum())}"
+    new, reused = "", ""
+    if finished.reused is not None:
+        new = " new"
+        reused = f" and {finished.reused} points reused from the archive (``reused.json``)"
     return [
-        f"**Ended:** {finished.reason}. **Evaluations:** {sum(finished.evaluations.values())} "
-        f"({finished.count(Status.OK)} ok, {finished.count(Status.FAILED)} failed, "
-        f"{finished.count(Status.TERMINATED)} stopped early){spent}.",
+        f"**Ended:** {finished.reason}. **Evaluations:** {sum(finished.evaluations.values())}"
+        f"{new} ({finished.count(Status.OK)} ok, {finished.count(Status.FAILED)} failed, "
+        f"{finished.count(Status.TERMINATED)} stopped early){reused}{spent}.",
         "",
     ]
 
@@ -96,8 +100,9 @@ def _best_parameters(study: Study, best: BestRecord) -> list[str]:
         value = f"{best.parameters[p.name]:.4g}{unit}"
         rows.append([p.name, value, f"{p.lower:g} – {p.upper:g}{unit}{note}"])
     chosen_by = CHOSEN_BY.get(best.chosen_by or "", "lowest objective")
+    source = ", reused from the archive" if best.reused else ""
     return [
-        f"**Best parameters** (evaluation ``{best.evaluation}``, "
+        f"**Best parameters** (evaluation ``{best.evaluation}``{source}, "
         f"the evaluated point with the {chosen_by}):",
         "",
         *_table(["parameter", "value", "bounds"], rows),

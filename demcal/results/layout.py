@@ -13,6 +13,7 @@ workflow's rules build their patterns from the same place::
         evaluations.csv     one row per evaluation (demcal.tables)
         best.json           the best point so far
         finished.json       written only when the calibration has ended, with its reason
+        reused.json         the archive's simulations the study started from (reuse: archive)
         early_termination.csv  estimates of running evaluations and their stopping limits
         live.html           the live view of a running calibration (demcal watch)
         daemon.log, daemon.lock, STOP_CALIBRATION, logs/, plots/, report.html
@@ -152,6 +153,10 @@ class StudyFiles:
     @property
     def finished(self) -> Path:
         return self.dir / "finished.json"
+
+    @property
+    def reused(self) -> Path:
+        return self.dir / "reused.json"
 
     @property
     def early_termination(self) -> Path:

@@ -13,6 +13,7 @@ version and ``read``/``write``:
                         targets were corrected)
 ``BestRecord``          ``best.json``: the best point so far
 ``FinishedRecord``      ``finished.json``: why the calibration ended
+``ReusedRecord``        ``reused.json``: the archive's simulations it reused
 ======================  ====================================================
 
 A file written by this version carries ``"format": 1``; older files without
@@ -342,7 +343,10 @@ class BestRecord(Record):
 
     ``predicted_responses``: ``{key: {"mean", "sd"}}`` of the response models
     there; ``on_bounds``: parameters that lie on a bound, and which;
-    ``confirmation``: the re-simulations of the point, when asked for.
+    ``confirmation``: the re-simulations of the point, when asked for. With
+    ``reuse: archive``: ``reused`` is true when the point was taken from the
+    archive (``evaluation`` is then the ``study/evaluation`` that simulated it),
+    and ``evaluations`` counts the ``new`` evaluations and the ``reused`` points.
     """
 
     FILE: ClassVar[str] = "best.json"
@@ -361,6 +365,8 @@ class BestRecord(Record):
     target_spreads: dict[str, float | None] = field(default_factory=dict)
     on_bounds: dict[str, str] = field(default_factory=dict)
     confirmation: dict | None = _optional()
+    reused: bool | None = _optional()
+    evaluations: dict[str, int] | None = _optional()
 
 
 @dataclass(frozen=True)
@@ -373,6 +379,33 @@ class FinishedRecord(Record):
     reason: str
     ended_at: float | None = None
     evaluations: dict[str, int] = field(default_factory=dict)
+    #: points taken from the archive (``reuse: archive``), not among ``evaluations``
+    reused: int | None = _optional()
 
     def count(self, status: Status) -> int:
         return int(self.evaluations.get(status, 0))
+
+
+@dataclass(frozen=True)
+class ReusedRecord(Record):
+    """``reused.json``: the archive's simulations a study took as data when it started
+    (``reuse: archive``), grouped into points; written once, before anything runs.
+
+    Each point is ``{"source", "parameters", "replicates", "simulations"}``: the
+    ``study/evaluation`` that simulated it (several joined by ``+``), its free values, each
+    targeted response's final values keyed ``scene.response``, and per archived simulation
+    its archive ``id``, ``study``, ``evaluation``, ``scene``, ``replicate`` and ``seed``.
+    ``archive`` is the archive's URL as shown (without a password).
+    """
+
+    FILE: ClassVar[str] = "reused.json"
+
+    archive: str
+    points: list[dict] = field(default_factory=list)
+
+    @property
+    def seeds(self) -> frozenset[int]:
+        """The seeds of the reused simulations (new simulations never repeat them)."""
+        return frozenset(
+            s["seed"] for point in self.points for s in point["simulations"] if s["seed"]
+        )

@@ -9,6 +9,7 @@ from datetime import UTC, datetime
 from typing import TYPE_CHECKING
 
 from demcal.errors import SimulationFailed
+from demcal.jobs.evaluation import reused_objectives
 from demcal.results.layout import evaluation_id
 from demcal.results.records import BestRecord, LaunchRecord, ObjectiveRecord, PointRecord, Status
 from demcal.results.storage import atomic_write_text
@@ -42,6 +43,12 @@ def evaluation_columns(study: Study) -> list[tuple[str, str, str]]:
     return [
         ("evaluation", "", "evaluation id (results/<study>/evals/<id>/)"),
         ("status", "", "ok, failed, terminated (stopped early) or pending (no result yet)"),
+        (
+            "origin",
+            "",
+            "new: simulated by this study; archive: reused from the archive (reused.json; "
+            "evaluation is the study/evaluation that simulated it)",
+        ),
         ("reason", "", "why it failed or was stopped"),
         (
             "objective",
@@ -72,6 +79,18 @@ def write_evaluations_csv(study: Study) -> None:
     buffer = io.StringIO()
     writer = csv.DictWriter(buffer, fieldnames=[c for c, _, _ in columns], extrasaction="ignore")
     writer.writeheader()
+    for reused in reused_objectives(study):
+        row = {
+            "evaluation": reused.evaluation,
+            "status": reused.status,
+            "origin": "archive",
+            "reason": reused.reason,
+            "objective": reused.objective,
+            **reused.parameters,
+            **reused.responses,
+            **_replicate_columns(reused),
+        }
+        writer.writerow({key: _number(value) for key, value in row.items()})
     for files in study.files.evaluations():
         try:
             point = PointRecord.read(files.params)
@@ -88,16 +107,13 @@ def write_evaluations_csv(study: Study) -> None:
         row = {
             "evaluation": files.id,
             "status": record.status,
+            "origin": "new",
             "reason": record.reason,
             "objective": record.objective,
             "attempts": point.attempt + 1,
             **point.parameters,
             **record.responses,
-            **{
-                f"{key}.rep{i}": value
-                for key, values in record.replicates.items()
-                for i, value in enumerate(values)
-            },
+            **_replicate_columns(record),
             "started_at": _iso(started),
             "ended_at": _iso(ended),
             "wall_s": ended - started if ended is not None and started is not None else None,
@@ -110,19 +126,32 @@ def write_evaluations_csv(study: Study) -> None:
     atomic_write_text(study.files.evaluations_columns, sidecar.getvalue())
 
 
+def _replicate_columns(record: ObjectiveRecord) -> dict[str, float]:
+    """The ``<response>.rep<i>`` columns of an evaluation."""
+    return {
+        f"{key}.rep{i}": value
+        for key, values in record.replicates.items()
+        for i, value in enumerate(values)
+    }
+
+
 def write_best(
     study: Study,
     best: BestPoint,
     confirmation: Confirmation | None = None,
     stop_reason: str | None = None,
+    evaluations: dict[str, int] | None = None,
 ) -> None:
     """best.json from the optimizer's best point (``Optimizer.best()``) and its records, with the
     re-simulations that confirm it (``Optimizer.confirmation()``) where there are any, the units
-    of every parameter and response, and why the calibration ended (None while it runs)."""
-    files = study.files.evaluation(evaluation_id(best.id))
-    record = ObjectiveRecord.read_latest(files)
+    of every parameter and response, why the calibration ended (None while it runs) and, with
+    reuse, the ``evaluations`` new and reused. A reused best point is read from reused.json."""
+    if best.reused_from is None:
+        record = ObjectiveRecord.read_latest(study.files.evaluation(evaluation_id(best.id)))
+    else:
+        record = next(r for r in reused_objectives(study) if r.evaluation == best.reused_from)
     BestRecord(
-        evaluation=files.id,
+        evaluation=record.evaluation,
         stop_reason=stop_reason,
         parameters=dict(zip([p.name for p in study.free], best.x)),
         units={
@@ -143,10 +172,14 @@ def write_best(
         confirmation=None
         if confirmation is None
         else {
-            "of": evaluation_id(confirmation.confirms),
+            "of": record.evaluation
+            if confirmation.confirms == best.id
+            else evaluation_id(confirmation.confirms),
             "evaluations": [evaluation_id(i) for i in confirmation.ids],
             "pending": confirmation.pending,
             "failed": confirmation.failed,
             "responses": {key: asdict(entry) for key, entry in confirmation.responses.items()},
         },
+        reused=True if best.reused_from else None,
+        evaluations=evaluations,
     ).write(study.files.best)

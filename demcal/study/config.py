@@ -273,6 +273,17 @@ def _archive(config: dict) -> str | None:
     return check_url(url, "archive.url")
 
 
+def _reuse(config: dict, archive: str | None) -> str | None:
+    """``reuse: archive`` (None when off, the default); it needs an archive to read."""
+    reuse = config.get("reuse", default("reuse")) or None
+    if reuse is not None and archive is None:
+        raise ConfigError(
+            "reuse: 'archive' reads the study's archive, but it has none (archive: false); "
+            "name one (archive: {url: ...}) or set reuse: false"
+        )
+    return reuse
+
+
 def load_study(config: dict, check_engine: bool = True) -> Study:
     """Validate a study configuration (mapping from YAML) and resolve it into a ``Study``."""
     if not isinstance(config, dict):
@@ -325,6 +336,7 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
             f"time-step cost yet; with rayleigh_cost_weight {cost_weight:g} use "
             f"dycors or kriging_ei"
         )
+    archive = _archive(config)
     engine_config = dict(config["engine"])
     engine = make_engine(engine_config.pop("name"), engine_config)
     if check_engine:
@@ -349,7 +361,8 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
             **config.get("calibration", {}),
         },
         warnings=[warning] if warning else [],
-        archive=_archive(config),
+        archive=archive,
+        reuse=_reuse(config, archive),
     )
 
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 import zlib
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
@@ -86,6 +86,8 @@ class Study:
     warnings: list[str] = field(default_factory=list)
     #: URL of the archive every simulation is recorded in (demcal.archive); None: none
     archive: str | None = None
+    #: "archive": start from the archive's compatible simulations (docs/archive.md); None: off
+    reuse: str | None = None
 
     @property
     def objective(self) -> ResponseObjective:
@@ -170,16 +172,34 @@ class Study:
                 )
         return {**self.fixed, **{k: float(v) for k, v in free_values.items()}}
 
-    def simulation_seed(self, evaluation: str, scene: str, replicate: int, attempt: int = 0) -> int:
+    def simulation_seed(
+        self,
+        evaluation: str,
+        scene: str,
+        replicate: int,
+        attempt: int = 0,
+        avoid: Collection[int] = (),
+    ) -> int:
         """Seed of one simulation, from the study seed, evaluation, scene, replicate and attempt.
 
         Different replicates, evaluations and retries get independent streams;
-        the same simulation always gets the same seed (reproducible reruns).
+        the same simulation always gets the same seed (reproducible reruns). A seed in
+        ``avoid`` (those of the simulations a study reused) moves on to the next stream: the
+        key gets one more number, counted up until the seed is new.
         """
         key = [self.seed, zlib.crc32(evaluation.encode()), zlib.crc32(scene.encode()), replicate]
         if attempt:
             key.append(attempt)
-        return int(np.random.SeedSequence(key).generate_state(1)[0] % 2_147_483_646) + 1
+        seed, skipped = _seed(key), 0
+        while seed in avoid:
+            skipped += 1
+            seed = _seed([*key, attempt, skipped])
+        return seed
+
+
+def _seed(key: list[int]) -> int:
+    """A seed in [1, 2**31 - 2] drawn from ``key``'s stream."""
+    return int(np.random.SeedSequence(key).generate_state(1)[0] % 2_147_483_646) + 1
 
 
 def demcal_version() -> str:
@@ -222,6 +242,7 @@ def study_record(study: Study) -> dict:
         "calibration": study.calibration,
         "warnings": study.warnings,
         "archive": {"url": study.archive},
+        **({"reuse": study.reuse} if study.reuse else {}),
     }
 
 
@@ -250,6 +271,7 @@ def study_from_record(record: dict) -> Study:
         calibration=record["calibration"],
         warnings=record["warnings"],
         archive=record["archive"]["url"] if "archive" in record else _default_archive(),
+        reuse=record.get("reuse"),
     )
 
 

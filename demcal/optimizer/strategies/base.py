@@ -50,7 +50,8 @@ class History:
     d + 2. ``sigma``: the current step size. ``rng`` and ``weights`` are the
     optimizer's own streams: drawing from them advances its saved state.
     ``initial_size`` and ``settings.max_evaluations`` with :attr:`evaluated`
-    and :attr:`handed_out` place the proposal in the budget.
+    and :attr:`handed_out` place the proposal in the budget; ``reused``: how
+    many of the evaluations are points reused from the archive (ok, outside the budget).
 
     ``responses``: the response models with the objective on top (a
     :class:`~demcal.optimizer.responses.ResponsePredictor`) for the response strategies;
@@ -74,6 +75,7 @@ class History:
     weights: WeightCycle
     settings: OptimizerSettings
     initial_size: int
+    reused: int = 0
     responses: ResponsePredictor | None = None
     response_means: tuple[dict | None, ...] = ()
     strategy_state: dict = field(default_factory=dict)
@@ -85,13 +87,13 @@ class History:
 
     @property
     def evaluated(self) -> int:
-        """Evaluations told (ok, failed and terminated)."""
-        return sum(1 for status in self.statuses if status != Status.PENDING)
+        """New evaluations told (ok, failed and terminated; the reused points not counted)."""
+        return sum(1 for status in self.statuses if status != Status.PENDING) - self.reused
 
     @property
     def handed_out(self) -> int:
-        """Evaluations proposed so far, told or running."""
-        return len(self.statuses)
+        """New evaluations proposed so far, told or running."""
+        return len(self.statuses) - self.reused
 
     def select(self, *statuses: str) -> np.ndarray:
         """The points with one of ``statuses``."""

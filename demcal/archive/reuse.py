@@ -1,0 +1,76 @@
+"""``reuse: archive``: the archive's simulations a new calibration may start from.
+
+A simulation is compatible with a study when it ran the same scene on the same engine with the
+same resolved settings and time-step fraction, its fixed parameters are the study's, and its
+free ones lie inside the study's bounds (:meth:`Archive.compatible` does the first part). The
+compatible simulations of every scene are grouped by their free values into points; a point
+is usable when every targeted response has at least one final value there. Replicates and
+repeated runs of one point (a confirmation) pool into one point.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+
+from demcal.archive.record import ArchivedSimulation
+from demcal.archive.store import Archive
+from demcal.archive.url import shown
+from demcal.results.records import ReusedRecord
+from demcal.study.model import Study
+
+
+def compatible_simulations(study: Study, archive: Archive) -> list[ArchivedSimulation]:
+    """The archive's ok simulations of the study's scenes that the study could have run."""
+    names = [p.name for p in study.free]
+    found = []
+    for scene in study.scenes:
+        for record in archive.compatible(
+            scene=scene,
+            engine=study.engine.name,
+            settings=study.settings[scene],
+            fixed=study.fixed,
+            inputs=names,
+        ):
+            inside = all(p.lower <= record.parameters[p.name].value <= p.upper for p in study.free)
+            if inside and record.timestep_fraction == study.timestep_fraction:
+                found.append(record)
+    return found
+
+
+def reused_points(study: Study, archive: Archive) -> ReusedRecord:
+    """The usable points of the study's compatible simulations, in archive order."""
+    names = [p.name for p in study.free]
+    groups: dict[tuple[float, ...], list[ArchivedSimulation]] = defaultdict(list)
+    for record in compatible_simulations(study, archive):
+        groups[tuple(record.values(names))].append(record)
+    points = []
+    for values, records in groups.items():
+        replicates = {
+            t.key: [
+                r.responses[t.response].value
+                for r in records
+                if r.scene == t.scene and t.response in r.responses and r.final.get(t.response)
+            ]
+            for t in study.targets
+        }
+        if not all(replicates.values()):
+            continue
+        points.append(
+            {
+                "source": "+".join(dict.fromkeys(f"{r.study}/{r.evaluation}" for r in records)),
+                "parameters": dict(zip(names, values)),
+                "replicates": replicates,
+                "simulations": [
+                    {
+                        "id": r.id,
+                        "study": r.study,
+                        "evaluation": r.evaluation,
+                        "scene": r.scene,
+                        "replicate": r.replicate,
+                        "seed": r.seed,
+                    }
+                    for r in records
+                ],
+            }
+        )
+    return ReusedRecord(shown(archive.url), points)
