@@ -228,3 +228,14 @@ def test_status_counts_the_reused_points_apart(first):
     _, counts = study_state(second.study)
     new = second.optimizer.completed_evaluations()
     assert counts == f"{new} ok (budget 12); 10 points reused from the archive"
+
+
+def test_a_study_run_again_under_another_name_is_reused_once(first):
+    """The same points with the same seeds under another study name are the same
+    simulations: the archive keeps both records, reuse counts each run once."""
+    run(config("first-again", FIRST_TRUTH, budget=4))
+    second = run(config("second", SECOND_TRUTH, budget=1, reuse="archive"))
+    points = ReusedRecord.read(second.files.reused).points
+    first_ok = pd.read_csv(first.files.evaluations_csv).query("status == 'ok'")
+    assert len(points) == len(first_ok)  # the first study's points, none twice
+    assert all(len(values) == 1 for p in points for values in p["replicates"].values())

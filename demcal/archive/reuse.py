@@ -20,9 +20,12 @@ from demcal.study.model import Study
 
 
 def compatible_simulations(study: Study, archive: Archive) -> list[ArchivedSimulation]:
-    """The archive's ok simulations of the study's scenes that the study could have run."""
+    """The archive's ok simulations of the study's scenes that the study could have run, each
+    once: two studies that differ only in name or targets run the same points with the same
+    seeds, and the archive keeps both records (its key names the study); one scene's run with
+    one seed at one point is one simulation, not two replicates."""
     names = [p.name for p in study.free]
-    found = []
+    found, seen = [], set()
     for scene in study.scenes:
         for record in archive.compatible(
             scene=scene,
@@ -32,7 +35,9 @@ def compatible_simulations(study: Study, archive: Archive) -> list[ArchivedSimul
             inputs=names,
         ):
             inside = all(p.lower <= record.parameters[p.name].value <= p.upper for p in study.free)
-            if inside and record.timestep_fraction == study.timestep_fraction:
+            run = (record.scene, record.seed, tuple(record.values(names)))
+            if inside and record.timestep_fraction == study.timestep_fraction and run not in seen:
+                seen.add(run)
                 found.append(record)
     return found
 

@@ -18,11 +18,11 @@ store a simulation twice.
 from __future__ import annotations
 
 import time
-from collections.abc import Collection, Iterable, Mapping
-from functools import cache
+from collections.abc import Callable, Collection, Iterable, Mapping
+from functools import cache, wraps
 from pathlib import Path
 from types import TracebackType
-from typing import Any
+from typing import Any, Concatenate, ParamSpec, TypeVar
 
 from sqlalchemy import Connection, Engine, Select, exists, func, insert, select, text
 from sqlalchemy.dialects import postgresql, sqlite
@@ -34,6 +34,9 @@ from demcal.archive.schema import Base, ParameterRow, ResponseRow, SimulationRow
 from demcal.archive.url import open_engine, shown
 from demcal.errors import DemcalError
 from demcal.results.records import Status
+
+P = ParamSpec("P")
+R = TypeVar("R")
 
 #: The migration scripts shipped in the package (env.py and versions/).
 MIGRATIONS = Path(__file__).resolve().parent / "migrations"
@@ -109,6 +112,20 @@ def _number(value: Any) -> float | None:
     return float(value) if isinstance(value, int | float) and not isinstance(value, bool) else None
 
 
+def _reported(method: Callable[Concatenate[Archive, P], R]) -> Callable[Concatenate[Archive, P], R]:
+    """An archive method whose database errors (a lock held too long, a lost connection, a
+    row the database refuses) end as one ArchiveError naming the archive."""
+
+    @wraps(method)
+    def reported(archive: Archive, /, *args: P.args, **kwargs: P.kwargs) -> R:
+        try:
+            return method(archive, *args, **kwargs)
+        except SQLAlchemyError as exc:
+            raise ArchiveError(f"archive {shown(archive.url)}: {_first_line(exc)}") from exc
+
+    return reported
+
+
 class Archive:
     """The archive at ``url`` (an SQLite file or a PostgreSQL database), opened and brought to
     this demcal's schema. Use it as a context manager, or ``close`` it."""
@@ -147,6 +164,7 @@ class Archive:
 
     # writing
 
+    @_reported
     def add(self, records: Iterable[ArchivedSimulation]) -> int:
         """Store ``records`` in one transaction; those already stored are skipped. Returns how
         many were new."""
@@ -181,6 +199,7 @@ class Archive:
 
     # reading
 
+    @_reported
     def records(
         self,
         *,
@@ -205,6 +224,7 @@ class Archive:
             query = query.where(SimulationRow.status.in_(list(statuses)))
         return self._load(query.order_by(SimulationRow.id).limit(limit))
 
+    @_reported
     def get(self, identifier: str) -> ArchivedSimulation | None:
         """The simulation with this row number, or whose key starts with ``identifier`` (at
         least 6 characters and only one such key); None if there is none."""
@@ -220,6 +240,7 @@ class Archive:
             found = []
         return found[0] if len(found) == 1 else None
 
+    @_reported
     def compatible(
         self,
         scene: str,
@@ -258,10 +279,12 @@ class Archive:
         )
         return self._load(query.where(~other).order_by(SimulationRow.id))
 
+    @_reported
     def count(self) -> int:
         with self._engine.connect() as connection:
             return int(connection.execute(select(func.count(SimulationRow.id))).scalar_one())
 
+    @_reported
     def stats(self) -> list[dict]:
         """Per study, scene, engine and status: the simulations stored and their cost."""
         columns = (

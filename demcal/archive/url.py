@@ -35,12 +35,17 @@ def check_url(text: object, where: str = "archive.url") -> str:
         raise ConfigError(f"{where}: {text!r} is not a database URL; give one like {EXAMPLES}")
     try:
         url = make_url(text)
-    except ArgumentError:
+        url.port  # noqa: B018  (a port that is not a number raises here)
+    except (ArgumentError, ValueError):
         raise ConfigError(
             f"{where}: {text!r} is not a database URL; give one like {EXAMPLES}"
         ) from None
     backend, driver = url.get_backend_name(), url.get_driver_name()
     if backend == "sqlite":
+        if url.drivername not in ("sqlite", "sqlite+pysqlite"):
+            raise ConfigError(
+                f"{where}: driver {driver!r} is not installed with demcal; write sqlite:///..."
+            )
         if not url.database or url.database == ":memory:":
             raise ConfigError(
                 f"{where}: {text!r} names no file; an archive in memory is gone when the job "

@@ -183,19 +183,21 @@ def archive_simulation(
     archive import`` records them later."""
     from demcal.archive.record import from_results
     from demcal.archive.store import Archive
+    from demcal.archive.url import shown
 
     try:
         with Archive(url) as archive:
             archive.add([from_results(study, sim, record, files.partial)])
     except Exception as exc:  # noqa: BLE001  (whatever the archive's fault, the evaluation stands)
         log.warning(
-            "simulation %s %s rep%d not archived (%s: %s); 'demcal archive import %s' "
-            "records it from the results files",
+            "simulation %s %s rep%d not archived (%s: %s); 'demcal archive import --url %s "
+            "%s' records it from the results files",
             sim.evaluation,
             sim.scene,
             sim.replicate,
             type(exc).__name__,
             exc,
+            shown(url),
             study.files.dir,
         )
 

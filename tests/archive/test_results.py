@@ -110,7 +110,7 @@ def test_a_failed_archive_write_leaves_the_evaluation_whole(tmp_path, monkeypatc
         ).responses
         == record_.responses
     )
-    assert "not archived" in caplog.text and "demcal archive import" in caplog.text
+    assert "not archived" in caplog.text and "demcal archive import --url " in caplog.text
 
 
 def test_archive_false_records_nothing(tmp_path, monkeypatch):
@@ -129,6 +129,8 @@ def test_archive_false_records_nothing(tmp_path, monkeypatch):
         ({"url": "sqlite://"}, "archive.url: 'sqlite://' names no file"),
         ({"url": "postgresql://host"}, "archive.url: 'postgresql://host' names no database"),
         ({"url": "postgresql+asyncpg://h/d"}, "archive.url: driver 'asyncpg' is not installed"),
+        ({"url": "sqlite+aiosqlite:///a.sqlite"}, "archive.url: driver 'aiosqlite' is not"),
+        ({"url": "postgresql://h:abc/d"}, "archive.url: 'postgresql://h:abc/d' is not a database"),
         ({"url": 5}, "archive.url: 5 is not of type string"),
         ({"path": "a.sqlite"}, "archive.path: unknown field; allowed here: url"),
         ({}, "archive: missing required field 'url'"),

@@ -128,6 +128,18 @@ def test_an_unreachable_archive_is_one_message(tmp_path):
         Archive(f"sqlite:///{tmp_path / 'folder'}")
 
 
+def test_a_database_error_while_reading_is_one_message(tmp_path):
+    url = f"sqlite:///{tmp_path / 'archive.sqlite'}"
+    with Archive(url) as archive:
+        archive.add([record(0)])
+        engine = open_engine(url)
+        with engine.begin() as connection:  # a table gone behind the archive's back
+            connection.execute(text("DROP TABLE responses"))
+        engine.dispose()
+        with pytest.raises(ArchiveError, match="archive sqlite:///.*no such table: responses"):
+            archive.records()
+
+
 def test_stats_count_and_cost_per_study_scene_and_status(archive_url):
     with Archive(archive_url) as archive:
         archive.add([record(0), record(1), replace(record(2), status=Status.FAILED)])
