@@ -74,7 +74,7 @@ TIME_KEYS = frozenset(
 
 ANALYTIC_YAML = "config/examples/analytic.yaml"
 
-COMMON_FIXED = {"youngs_modulus": 5.0e6, "poisson_ratio": 0.3, "restitution": 0.5}
+COMMON_FIXED = {"youngs_modulus": 5.0e6, "poisson_ratio": 0.3, "restitution_pp": 0.5}
 
 #: One tiny study per lab test: the scene's tiny settings (its ``TINY_SETTINGS``, those of the
 #: tests), the examples' parameters and targets.

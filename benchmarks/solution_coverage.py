@@ -106,7 +106,7 @@ LIFT_LOWER, LIFT_UPPER = (0.1, 0.02), (0.9, 0.3)
 LIFT_FIXED = {
     "sliding_friction_pw": 0.5,
     "rolling_friction_pw": 0.1,
-    "restitution": 0.5,
+    "restitution_pp": 0.5,
     "particle_density": 2500.0,
 }
 LIFT_SPREAD_REL = {"angle_of_repose": 1.5 / 17.14, "bulk_density": 4.3 / 1407.0}

@@ -314,9 +314,9 @@ FIELDS = [
     _field("quoted_replicates", ["replicates"], "2", r"replicates: '2' is text, not a number"),
     _field(
         "quoted_fixed",
-        ["fixed", "restitution"],
+        ["fixed", "restitution_pp"],
         "0.5",
-        r"fixed.restitution: '0.5' is text, not a number",
+        r"fixed.restitution_pp: '0.5' is text, not a number",
     ),
     _field("no_parameters", ["parameters"], {}, r"parameters: none given; give at least 1"),
     _field("empty_targets", ["targets"], [], r"targets: none given; give at least 1"),
@@ -350,9 +350,9 @@ NON_FINITE = [
     ),
     _field(
         "minus_inf_fixed",
-        ["fixed", "restitution"],
+        ["fixed", "restitution_pp"],
         float("-inf"),
-        r"fixed.restitution: -inf is not a finite number",
+        r"fixed.restitution_pp: -inf is not a finite number",
     ),
     _field(
         "nan_timestep",

@@ -22,7 +22,7 @@ ANALYTIC_STUDY = {
         "sliding_friction_pp": {"lower": 0.1, "upper": 0.9},
         "rolling_friction_pp": {"lower": 0.02, "upper": 0.3},
     },
-    "fixed": {"restitution": 0.5},
+    "fixed": {"restitution_pp": 0.5},
     "targets": [
         {"scene": "cylinder_lift", "response": "angle_of_repose", "value": 25.0},
         {"scene": "cylinder_lift", "response": "bulk_density", "value": 1450.0},
@@ -62,8 +62,8 @@ PARAMETER_CORNERS = {
         rolling_friction_pp=1.0,
         rolling_friction_pw=1.0,
     ),
-    "restitution_0.05": dict(restitution=0.05),
-    "restitution_0.95": dict(restitution=0.95),
+    "restitution_0.05": dict(restitution_pp=0.05, restitution_pw=0.05),
+    "restitution_0.95": dict(restitution_pp=0.95, restitution_pw=0.95),
     "stiff_5e8_Pa": dict(youngs_modulus=5.0e8),
 }
 
@@ -109,7 +109,7 @@ def true_targets(truth: dict = TRUTH):
     params = {
         "sliding_friction_pw": 0.5,
         "rolling_friction_pw": 0.1,
-        "restitution": 0.5,
+        "restitution_pp": 0.5,
         "youngs_modulus": 5e6,
         "poisson_ratio": 0.3,
         "particle_density": 2500.0,

@@ -21,16 +21,16 @@ def test_shipped_configs_are_valid(path):
 def test_defaults_fill_unlisted_parameters(analytic_config):
     study = load_study(analytic_config)
     assert study.fixed["youngs_modulus"] == 5.0e6  # catalogue default
-    assert study.fixed["restitution"] == 0.5
+    assert study.fixed["restitution_pp"] == 0.5
     assert study.responses_needed("cylinder_lift") == ["bulk_density", "angle_of_repose"]
 
 
 def test_yaml_exponent_without_sign_is_a_number_and_quoted_text_is_not(tmp_path):
     """5e6 is a number as in YAML 1.2 (PyYAML alone reads text); '5e6' in quotes stays text."""
     path = tmp_path / "study.yaml"
-    path.write_text(yaml.safe_dump(BASE).replace("restitution: 0.5", "youngs_modulus: 5e6"))
+    path.write_text(yaml.safe_dump(BASE).replace("restitution_pp: 0.5", "youngs_modulus: 5e6"))
     assert load_study(read_study_yaml(path)).fixed["youngs_modulus"] == 5e6
-    path.write_text(yaml.safe_dump(BASE).replace("restitution: 0.5", "youngs_modulus: '5e6'"))
+    path.write_text(yaml.safe_dump(BASE).replace("restitution_pp: 0.5", "youngs_modulus: '5e6'"))
     with pytest.raises(ConfigError, match="fixed.youngs_modulus: '5e6' is text, not a number"):
         load_study_file(path)
 
@@ -109,8 +109,10 @@ def test_centre_point_with_overrides_names_a_bad_one(analytic_config):
         "sliding_friction_pp": 0.5,
         "rolling_friction_pp": 0.05,
     }
-    with pytest.raises(ConfigError, match="--point restitution=0.3: 'restitution' is not a free"):
-        study.centre_point(["restitution=0.3"])
+    with pytest.raises(
+        ConfigError, match="--point restitution_pp=0.3: 'restitution_pp' is not a free"
+    ):
+        study.centre_point(["restitution_pp=0.3"])
     with pytest.raises(ConfigError, match="--point rolling_friction_pp=x: 'x' is not a number"):
         study.centre_point(["rolling_friction_pp=x"])
 
@@ -137,3 +139,20 @@ def test_rayleigh_cost_keeps_a_strategy_that_models_it(analytic_config):
         load_study(analytic_config)
     del analytic_config["rayleigh_cost_weight"]
     assert load_study(analytic_config).optimizer.strategy == "response_ei"
+
+
+@pytest.mark.parametrize("where", ["fixed", "parameters"])
+def test_the_one_restitution_of_earlier_versions_names_its_two_successors(analytic_config, where):
+    config = {**analytic_config, "fixed": {}, "parameters": dict(analytic_config["parameters"])}
+    config[where]["restitution"] = 0.5 if where == "fixed" else {"lower": 0.2, "upper": 0.8}
+    with pytest.raises(
+        ConfigError, match=rf"{where}.restitution: demcal now has restitution_pp and restitution_pw"
+    ):
+        load_study(config)
+
+
+def test_restitution_and_rolling_damping_reach_each_contact(analytic_config):
+    """Rackl & Hanley (2017), Table 1: e_pp 0.89, e_pw 0.60, rolling damping 0.25."""
+    table_1 = {"restitution_pp": 0.89, "restitution_pw": 0.6, "rolling_damping_ratio": 0.25}
+    study = load_study({**analytic_config, "fixed": table_1})
+    assert {name: study.fixed[name] for name in table_1} == table_1

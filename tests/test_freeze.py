@@ -85,7 +85,7 @@ def test_a_resumable_change_is_accepted_and_frozen(workdir):
         ),
         ({"seed": 8}, "seed", "7 -> 8"),
         ({"replicates": 3}, "replicates", "2 -> 3"),
-        ({"fixed": {"restitution": 0.6}}, "fixed.restitution", "0.5 -> 0.6"),
+        ({"fixed": {"restitution_pp": 0.6}}, "fixed.restitution_pp", "0.5 -> 0.6"),
         ({"engine": {"noise": 0.02}}, "engine.noise", "0.01 -> 0.02"),
         ({"optimizer": {"strategy": "dycors"}}, "optimizer.strategy", "'response_ei' -> 'dycors'"),
     ],

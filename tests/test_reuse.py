@@ -43,7 +43,7 @@ def config(name: str, truth: tuple[float, float], budget: int = 12, **changes) -
             "sliding_friction_pp": {"lower": 0.1, "upper": 0.9},
             "rolling_friction_pp": {"lower": 0.02, "upper": 0.3},
         },
-        "fixed": {"restitution": 0.5},
+        "fixed": {"restitution_pp": 0.5},
         "targets": targets(*truth),
         "replicates": 1,
         "seed": 3,
@@ -135,7 +135,7 @@ def test_a_reused_point_is_scored_by_the_new_study_and_may_be_the_answer(first):
 @pytest.mark.parametrize(
     "changes",
     [
-        {"fixed": {"restitution": 0.6}},
+        {"fixed": {"restitution_pp": 0.6}},
         {"scenes": {"cylinder_lift": {"settings": {"lift_speed": 0.02}}}},
         {"timestep_fraction": 0.1},
     ],

@@ -73,10 +73,53 @@ def test_hertz_secant_stiffness_round_trip():
 
 
 def test_rolling_stiffness_follows_ai_et_al():
-    k_pp, _ = sds_rolling_coefficients(0.1, 2e-3, 2500, 5e6, 0.3, wall=False)
-    k_pp2, _ = sds_rolling_coefficients(0.2, 2e-3, 2500, 5e6, 0.3, wall=False)
+    k_pp, gamma = sds_rolling_coefficients(0.1, 2e-3, 2500, 5e6, 0.3, 0.3, wall=False)
+    k_pp2, _ = sds_rolling_coefficients(0.2, 2e-3, 2500, 5e6, 0.3, 0.3, wall=False)
     assert k_pp2 / k_pp == pytest.approx(4.0)  # k_roll ~ mu_r^2
-    assert sds_rolling_coefficients(0.0, 2e-3, 2500, 5e6, 0.3, wall=True) == (0.0, 0.0)
+    assert sds_rolling_coefficients(0.0, 2e-3, 2500, 5e6, 0.3, 0.3, wall=True) == (0.0, 0.0)
+    # gamma = eta_r 2 sqrt(m* k_roll), m* half a 2 mm sphere's mass
+    half_mass = 2500 * math.pi / 6 * 2e-3**3 / 2
+    assert gamma == pytest.approx(0.3 * 2 * math.sqrt(half_mass * k_pp))
+    _, gamma_rh = sds_rolling_coefficients(0.1, 2e-3, 2500, 5e6, 0.3, 0.25, wall=False)
+    assert gamma_rh / gamma == pytest.approx(0.25 / 0.3)
+
+
+def test_contact_model_reads_each_contact_its_own_restitution_and_rolling_damping():
+    """Rackl & Hanley (2017), Table 1: e 0.89 particle-particle, 0.60 particle-wall."""
+    from demcal.engines.lammps_driver import contact_model
+
+    p = {
+        "youngs_modulus": 5e6,
+        "poisson_ratio": 0.22,
+        "restitution_pp": 0.89,
+        "restitution_pw": 0.6,
+        "sliding_friction_pp": 0.2,
+        "sliding_friction_pw": 0.3,
+        "rolling_friction_pp": 0.05,
+        "rolling_friction_pw": 0.04,
+        "rolling_damping_ratio": 0.25,
+        "particle_density": 2500.0,
+    }
+    pair, wall = contact_model(p, {"d50": 5e-3}, False), contact_model(p, {"d50": 5e-3}, True)
+    assert pair.startswith("hertz/material 5000000 0.89 0.22 tangential mindlin NULL 1.0 0.2 ")
+    assert wall.startswith("hertz/material 5000000 0.6 0.22 tangential mindlin NULL 1.0 0.3 ")
+    k_roll, gamma = sds_rolling_coefficients(0.04, 5e-3, 2500.0, 5e6, 0.22, 0.25, wall=True)
+    assert f"rolling sds {k_roll:.10g} {gamma:.10g} 0.04 " in wall
+
+
+def test_parameters_of_an_earlier_demcal_are_read_in_todays_names():
+    from demcal.study.catalogue import upgrade_parameters
+
+    earlier = {"sliding_friction_pp": 0.3, "restitution": 0.7}
+    assert upgrade_parameters(earlier) == {
+        "sliding_friction_pp": 0.3,
+        "restitution_pp": 0.7,
+        "restitution_pw": 0.7,
+        "rolling_damping_ratio": 0.3,
+    }
+    today = {"restitution_pp": 0.9, "restitution_pw": 0.6, "rolling_damping_ratio": 0.25}
+    assert upgrade_parameters(today) == today
+    assert upgrade_parameters({}) == {}
 
 
 def test_rayleigh_cost_is_zero_at_the_largest_time_step_and_the_weight_at_the_smallest():

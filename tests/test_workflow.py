@@ -57,7 +57,7 @@ def test_objective_matches_eq_3_3_of_the_closed_form(tmp_path, analytic_config):
         "rolling_friction_pp": 0.1,
         "sliding_friction_pw": 0.5,
         "rolling_friction_pw": 0.1,
-        "restitution": 0.5,
+        "restitution_pp": 0.5,
         "youngs_modulus": 5e6,
         "poisson_ratio": 0.3,
         "particle_density": 2500.0,

@@ -45,7 +45,7 @@ def contact_model(p: dict, settings: dict, wall: bool) -> str:
     suffix = "pw" if wall else "pp"
     mu_r = p[f"rolling_friction_{suffix}"]
     model = (
-        f"hertz/material {num(p['youngs_modulus'])} {num(p['restitution'])} "
+        f"hertz/material {num(p['youngs_modulus'])} {num(p[f'restitution_{suffix}'])} "
         f"{num(p['poisson_ratio'])} tangential mindlin NULL 1.0 "
         f"{num(p[f'sliding_friction_{suffix}'])}"
     )
@@ -56,6 +56,7 @@ def contact_model(p: dict, settings: dict, wall: bool) -> str:
             p["particle_density"],
             p["youngs_modulus"],
             p["poisson_ratio"],
+            p["rolling_damping_ratio"],
             wall,
         )
         model += f" rolling sds {num(k_roll)} {num(gamma_roll)} {num(mu_r)} twisting marshall"

@@ -15,8 +15,6 @@ import math
 
 #: Reference contact load, in particle weights, for the secant normal stiffness.
 REFERENCE_LOAD_WEIGHTS = 10.0
-#: Rolling damping ratio eta_r recommended by Ai et al. (2011).
-ROLLING_DAMPING_RATIO = 0.3
 GRAVITY = 9.81
 
 
@@ -40,6 +38,7 @@ def sds_rolling_coefficients(
     density: float,
     youngs_modulus: float,
     poisson_ratio: float,
+    damping_ratio: float,
     wall: bool,
 ) -> tuple[float, float]:
     """LAMMPS ``rolling sds`` stiffness [N/m] and damping [N s/m] for a rolling friction mu_r.
@@ -47,8 +46,9 @@ def sds_rolling_coefficients(
     Follows Ai et al. (2011) as used by Rackl & Hanley (2017): k_roll = 2.25 k_n mu_r^2,
     k_n the Hertz secant stiffness at ``REFERENCE_LOAD_WEIGHTS`` particle weights
     (measured: the choice of load changes results by less than the noise);
-    damping gamma = eta_r 2 sqrt(m* k_roll). A wall contact has R* = R and m* = m,
-    a particle pair R* = R/2 and m* = m/2.
+    damping gamma = eta_r 2 sqrt(m* k_roll) with eta_r the ``damping_ratio``
+    (Ai et al. recommend 0.3; Rackl & Hanley's Table 1 fixes 0.25). A wall contact has
+    R* = R and m* = m, a particle pair R* = R/2 and m* = m/2.
     """
     mass = density * math.pi / 6.0 * diameter**3
     radius_eff = diameter / 2.0 if wall else diameter / 4.0
@@ -59,4 +59,4 @@ def sds_rolling_coefficients(
         effective_modulus(youngs_modulus, poisson_ratio),
     )
     k_roll = 2.25 * k_n * rolling_friction**2
-    return k_roll, ROLLING_DAMPING_RATIO * 2.0 * math.sqrt(mass_eff * k_roll)
+    return k_roll, damping_ratio * 2.0 * math.sqrt(mass_eff * k_roll)

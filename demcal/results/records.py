@@ -39,6 +39,7 @@ from typing import Any, ClassVar, Self
 from demcal.errors import SimulationFailed
 from demcal.results.layout import EvaluationFiles
 from demcal.results.storage import read_json, write_json
+from demcal.study.catalogue import upgrade_parameters
 
 #: Format of the records this version writes (the ``"format"`` key of every file).
 FORMAT = 1
@@ -258,7 +259,11 @@ class SimulationRecord(Record):
     @classmethod
     def _from_dict(cls, data: dict, where: str) -> Self:
         record = super()._from_dict(data, where)
-        return dataclasses.replace(record, status=status_of(record.status, where))
+        return dataclasses.replace(
+            record,
+            status=status_of(record.status, where),
+            parameters=upgrade_parameters(record.parameters),
+        )
 
 
 @dataclass(frozen=True)

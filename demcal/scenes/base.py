@@ -33,6 +33,8 @@ class SettingSpec:
     upper: float | None = None
     choices: tuple | None = None
     integer: bool = False
+    #: a study may make it free, with bounds, beside the material parameters (``parameters:``)
+    variable: bool = False
 
     def allowed(self) -> str:
         if self.choices is not None:
@@ -64,18 +66,43 @@ class SettingSpec:
 
 
 #: The material parameters every scene reads (names in demcal.study.catalogue): contact
-#: friction and rolling resistance between particles (pp) and with walls (pw), restitution,
-#: stiffness and particle density.
+#: friction, rolling resistance and restitution between particles (pp) and with walls (pw),
+#: the rolling damping ratio, stiffness and particle density.
 MATERIAL_PARAMETERS = (
     "sliding_friction_pp",
     "sliding_friction_pw",
     "rolling_friction_pp",
     "rolling_friction_pw",
-    "restitution",
+    "restitution_pp",
+    "restitution_pw",
+    "rolling_damping_ratio",
     "youngs_modulus",
     "poisson_ratio",
     "particle_density",
 )
+
+
+def psd_settings(
+    d50: float, sigma_ln: float, truncation: float, sigma_upper: float = 1.0, d50_note: str = ""
+) -> dict[str, SettingSpec]:
+    """The lognormal particle-size distribution every scene reads: its median diameter d50 and
+    the sd of ln(diameter) are variable, as Richter & Will (2021) vary them; the cut is not."""
+    return {
+        "d50": SettingSpec(
+            d50, "m", f"median particle diameter{d50_note}", 1.0e-5, 0.1, variable=True
+        ),
+        "sigma_ln": SettingSpec(
+            sigma_ln,
+            "-",
+            "std. dev. of ln(diameter); 0 = monodisperse",
+            0.0,
+            sigma_upper,
+            variable=True,
+        ),
+        "psd_truncation": SettingSpec(
+            truncation, "sigma", "lognormal cut at d50 exp(+-k sigma_ln)", 0.5, 4.0
+        ),
+    }
 
 
 def settling_settings(max_settle_time: float, meaning: str) -> dict[str, SettingSpec]:

@@ -61,7 +61,28 @@ CATALOG: dict[str, ParameterSpec] = {
             "rolling_friction_pw", "-", 0.0, 1.0, 0.1, "rolling friction coefficient, particle-wall"
         ),
         ParameterSpec(
-            "restitution", "-", 0.01, 1.0, 0.5, "normal coefficient of restitution (all contacts)"
+            "restitution_pp",
+            "-",
+            0.01,
+            1.0,
+            0.5,
+            "normal coefficient of restitution, particle-particle",
+        ),
+        ParameterSpec(
+            "restitution_pw",
+            "-",
+            0.01,
+            1.0,
+            0.5,
+            "normal coefficient of restitution, particle-wall",
+        ),
+        ParameterSpec(
+            "rolling_damping_ratio",
+            "-",
+            0.0,
+            1.0,
+            0.3,
+            "viscous damping ratio eta_r of the rolling spring, all contacts (Ai et al. 2011)",
         ),
         ParameterSpec(
             "youngs_modulus",
@@ -82,3 +103,24 @@ CATALOG: dict[str, ParameterSpec] = {
         ),
     )
 }
+
+#: Parameters that earlier versions of demcal knew under one name and that are now several:
+#: one restitution for all contacts became the particle-particle and particle-wall ones.
+SPLIT_PARAMETERS: dict[str, tuple[str, ...]] = {"restitution": ("restitution_pp", "restitution_pw")}
+#: Parameters that earlier versions held at a constant rather than reading: what they used.
+EARLIER_CONSTANTS: dict[str, float] = {"rolling_damping_ratio": 0.3}
+
+
+def upgrade_parameters(values: dict[str, float]) -> dict[str, float]:
+    """The parameter values of a simulation recorded by an earlier demcal, in today's names.
+
+    A split parameter gives each of its parts its value; a parameter that was a constant
+    gets that constant. Values already in today's names, or none, are returned unchanged.
+    """
+    if not values:
+        return values
+    upgraded = {name: value for name, value in values.items() if name not in SPLIT_PARAMETERS}
+    for old, parts in SPLIT_PARAMETERS.items():
+        if old in values:
+            upgraded.update({part: values[old] for part in parts if part not in values})
+    return {**EARLIER_CONSTANTS, **upgraded}

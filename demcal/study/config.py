@@ -26,7 +26,7 @@ from demcal.optimizer.registry import STRATEGIES
 from demcal.physics.timestep import RAYLEIGH_PARAMETERS, check_fraction
 from demcal.resources import SCHEMA_PATH
 from demcal.scenes import SCENES, Scene
-from demcal.study.catalogue import CATALOG
+from demcal.study.catalogue import CATALOG, SPLIT_PARAMETERS
 from demcal.study.model import FreeParameter, Study
 from demcal.study.objective import DEFAULT_FORM, Target
 
@@ -191,16 +191,28 @@ def _target_value(target: dict, index: int) -> tuple[float, float | None]:
     return value, spread
 
 
+def _check_readable(where: str, name: str, readable: list[str], scenes: dict[str, Scene]) -> None:
+    """Raise ConfigError unless the scenes read the parameter ``name`` (given at ``where``)."""
+    if name in SPLIT_PARAMETERS:
+        parts = SPLIT_PARAMETERS[name]
+        raise ConfigError(
+            f"{where}: demcal now has {' and '.join(parts)} (particle-particle and "
+            f"particle-wall) in place of {name}; give both, e.g. "
+            f"{parts[0]}: 0.5 and {parts[1]}: 0.5 for the one value of before"
+        )
+    if name not in readable:
+        raise ConfigError(
+            f"{where}: not a parameter of the scenes "
+            f"{', '.join(scenes)}; they read {', '.join(readable)}"
+        )
+
+
 def _parameters(config: dict, scenes: dict[str, Scene]) -> tuple[list[FreeParameter], dict]:
     readable = sorted({p for s in scenes.values() for p in s.parameters})
     free = []
     for name, bounds in config["parameters"].items():
         where = f"parameters.{name}"
-        if name not in readable:
-            raise ConfigError(
-                f"{where}: not a parameter of the scenes "
-                f"{', '.join(scenes)}; they read {', '.join(readable)}"
-            )
+        _check_readable(where, name, readable, scenes)
         spec = CATALOG[name]
         if "unit" in bounds and bounds["unit"] != spec.unit:
             raise ConfigError(
@@ -222,11 +234,7 @@ def _parameters(config: dict, scenes: dict[str, Scene]) -> tuple[list[FreeParame
     fixed = {}
     for name, value in config.get("fixed", {}).items():
         where = f"fixed.{name}"
-        if name not in readable:
-            raise ConfigError(
-                f"{where}: not a parameter of the scenes "
-                f"{', '.join(scenes)}; they read {', '.join(readable)}"
-            )
+        _check_readable(where, name, readable, scenes)
         if name in config["parameters"]:
             raise ConfigError(
                 f"{where}: {name} is also a free parameter; "

@@ -30,7 +30,7 @@ from demcal.physics.timestep import RAYLEIGH_PARAMETERS, rayleigh_cost, rayleigh
 from demcal.results.layout import StudyFiles
 from demcal.results.storage import read_json, write_json_if_changed
 from demcal.scenes import SCENES, Scene
-from demcal.study.catalogue import CATALOG, ParameterSpec
+from demcal.study.catalogue import CATALOG, ParameterSpec, upgrade_parameters
 from demcal.study.objective import DEFAULT_FORM, ResponseObjective, Target
 
 #: Optimizer settings a resumed calibration takes from the current study file.
@@ -257,7 +257,7 @@ def study_from_record(record: dict) -> Study:
         free=[
             FreeParameter(CATALOG[p["name"]], p["lower"], p["upper"]) for p in record["parameters"]
         ],
-        fixed=record["fixed"],
+        fixed=upgrade_parameters(record["fixed"]),
         targets=[
             Target(t["scene"], t["response"], t["value"], t["weight"], t["spread"])
             for t in record["targets"]

@@ -32,7 +32,7 @@ def record(n: int = 0, **changes) -> ArchivedSimulation:
         seed=1000 + n,
         parameters={
             "sliding_friction_pp": Quantity(0.1 + n * 1e-3, "-"),
-            "restitution": Quantity(0.5, "-"),
+            "restitution_pp": Quantity(0.5, "-"),
             "particle_density": Quantity(2500.0, "kg/m^3"),
         },
         free=frozenset({"sliding_friction_pp"}),

@@ -64,7 +64,10 @@ def test_records_read_back_as_written(archive_url):
 
 
 def test_compatible_records_share_scene_engine_settings_and_fixed_values(archive_url):
-    other_density = {**record(3).parameters, "particle_density": record().parameters["restitution"]}
+    other_density = {
+        **record(3).parameters,
+        "particle_density": record().parameters["restitution_pp"],
+    }
     with Archive(archive_url) as archive:
         archive.add(
             [
@@ -75,10 +78,12 @@ def test_compatible_records_share_scene_engine_settings_and_fixed_values(archive
                 record(4, engine="lammps"),
                 record(5, scene="shear_box"),
                 record(6, status=Status.FAILED, responses={}, final={}),
-                record(7, parameters={"sliding_friction_pp": record().parameters["restitution"]}),
+                record(
+                    7, parameters={"sliding_friction_pp": record().parameters["restitution_pp"]}
+                ),
             ]
         )
-        fixed = {"restitution": 0.5, "particle_density": 2500.0}
+        fixed = {"restitution_pp": 0.5, "particle_density": 2500.0}
 
         def found(**given) -> list[str]:
             arguments = {
@@ -97,7 +102,7 @@ def test_compatible_records_share_scene_engine_settings_and_fixed_values(archive
             "e0001",
             "e0003",
         ]
-        assert found(fixed={"restitution": 0.6, "particle_density": 2500.0}) == []
+        assert found(fixed={"restitution_pp": 0.6, "particle_density": 2500.0}) == []
         assert found(engine_version="analytic-2") == []
         assert found(statuses=["ok", "failed"]) == ["e0000", "e0001", "e0006"]
         assert found(fixed={}, inputs=["sliding_friction_pp"]) == ["e0007"]

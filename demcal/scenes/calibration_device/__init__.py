@@ -41,6 +41,7 @@ from demcal.scenes.base import (
     ResponseSpec,
     Scene,
     SettingSpec,
+    psd_settings,
     settling_settings,
 )
 from demcal.scenes.calibration_device.analytic import analytic_model
@@ -162,11 +163,7 @@ SCENE = Scene(
     },
     settings={
         "particle_count": SettingSpec(1500, "-", "number of spheres", 10, 1_000_000, integer=True),
-        "d50": SettingSpec(2.0e-3, "m", "median particle diameter", 1.0e-5, 0.1),
-        "sigma_ln": SettingSpec(0.0, "-", "std. dev. of ln(diameter); 0 = monodisperse", 0.0, 1.0),
-        "psd_truncation": SettingSpec(
-            2.0, "sigma", "lognormal cut at d50 exp(+-k sigma_ln)", 0.5, 4.0
-        ),
+        **psd_settings(2.0e-3, 0.0, 2.0),
         "depth": SettingSpec(
             10.0e-3, "m", "depth of the periodic slice of the device", 1.0e-4, 1.0
         ),

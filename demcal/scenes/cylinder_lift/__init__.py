@@ -27,6 +27,7 @@ from demcal.scenes.base import (
     ResponseSpec,
     Scene,
     SettingSpec,
+    psd_settings,
     settling_settings,
 )
 from demcal.scenes.cylinder_lift.analytic import analytic_model
@@ -90,11 +91,7 @@ SCENE = Scene(
     },
     settings={
         "particle_count": SettingSpec(2000, "-", "number of spheres", 10, 1_000_000, integer=True),
-        "d50": SettingSpec(2.0e-3, "m", "median particle diameter", 1.0e-5, 0.1),
-        "sigma_ln": SettingSpec(0.0, "-", "std. dev. of ln(diameter); 0 = monodisperse", 0.0, 1.0),
-        "psd_truncation": SettingSpec(
-            2.0, "sigma", "lognormal cut at d50 exp(+-k sigma_ln)", 0.5, 4.0
-        ),
+        **psd_settings(2.0e-3, 0.0, 2.0),
         "cylinder_diameter": SettingSpec(
             25.0e-3, "m", "inner diameter of the cylinder", 1.0e-4, 10.0
         ),

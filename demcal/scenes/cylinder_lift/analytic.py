@@ -21,7 +21,7 @@ def analytic_model(p: dict, settings: dict) -> dict:
         + 34.0 * grip * (0.35 + 0.65 * roll)
         + 4.0 * saturating(p["sliding_friction_pw"], 0.3)
         + 3.0 * saturating(p["rolling_friction_pw"], 0.1)
-        - 2.0 * (p["restitution"] - 0.5)
+        - 2.0 * (p["restitution_pp"] - 0.5)
     )
-    solid_fraction = 0.64 - 0.02 * grip - 0.08 * roll - 0.01 * (p["restitution"] - 0.5)
+    solid_fraction = 0.64 - 0.02 * grip - 0.08 * roll - 0.01 * (p["restitution_pp"] - 0.5)
     return {"angle_of_repose": aor, "bulk_density": p["particle_density"] * solid_fraction}

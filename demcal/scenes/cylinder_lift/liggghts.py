@@ -23,7 +23,7 @@ Contact model, against the LAMMPS driver (``demcal.engines.lammps_driver``):
 - rolling: LIGGGHTS ``epsd`` is Ai et al.'s (2011) elastic-plastic
   spring-dashpot as used by Rackl & Hanley: k_r = 2.25 k_n mu_r^2 R*^2 with
   the *current* Hertz stiffness k_n, torque cap mu_r R* F_n, damping
-  eta_r 2 sqrt(I_r k_r) with eta_r = ``ROLLING_DAMPING_RATIO``. LAMMPS'
+  eta_r 2 sqrt(I_r k_r) with eta_r the ``rolling_damping_ratio``. LAMMPS'
   ``rolling sds`` uses a constant k_n (Hertz secant at a reference load), so
   the two engines agree in the cap and differ in the stiffness while the
   torque is below it. (``epsd2`` would take k_r = k_t R*^2, independent of
@@ -48,7 +48,7 @@ from demcal.engines.lammps_driver import num
 from demcal.engines.liggghts import SCRIPT, positions, write_ascii_stl
 from demcal.errors import SimulationFailed
 from demcal.physics import measure
-from demcal.physics.contact import GRAVITY, ROLLING_DAMPING_RATIO
+from demcal.physics.contact import GRAVITY
 from demcal.physics.particles import BLOWUP_FACTOR, INSERTION_SOLID_FRACTION, simulation_particles
 
 DATA, TUBE_STL, RING_STL, FILL_DUMP, HEAP_DUMP = (
@@ -313,13 +313,13 @@ class CylinderLiftInput:
             f"fix m2 all property/global poissonsRatio peratomtype "
             f"{num(p['poisson_ratio'])} {num(p['poisson_ratio'])}",
             f"fix m3 all property/global coefficientRestitution peratomtypepair 2 "
-            f"{_type_pairs(p['restitution'], p['restitution'])}",
+            f"{_type_pairs(p['restitution_pp'], p['restitution_pw'])}",
             f"fix m4 all property/global coefficientFriction peratomtypepair 2 "
             f"{_type_pairs(p['sliding_friction_pp'], p['sliding_friction_pw'])}",
             f"fix m5 all property/global coefficientRollingFriction peratomtypepair 2 "
             f"{_type_pairs(p['rolling_friction_pp'], p['rolling_friction_pw'])}",
             f"fix m6 all property/global coefficientRollingViscousDamping peratomtypepair 2 "
-            f"{_type_pairs(ROLLING_DAMPING_RATIO, ROLLING_DAMPING_RATIO)}",
+            f"{_type_pairs(p['rolling_damping_ratio'], p['rolling_damping_ratio'])}",
             f"pair_style gran {model}",
             "pair_coeff * *",
             f"timestep {num(self.dt)}",

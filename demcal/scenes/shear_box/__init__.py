@@ -43,6 +43,7 @@ from demcal.scenes.base import (
     ResponseSpec,
     Scene,
     SettingSpec,
+    psd_settings,
     settling_settings,
 )
 from demcal.scenes.shear_box.analytic import analytic_model
@@ -151,11 +152,7 @@ SCENE = Scene(
         ),
     },
     settings={
-        "d50": SettingSpec(11.16e-3, "m", "median particle diameter (by number)", 1.0e-5, 0.1),
-        "sigma_ln": SettingSpec(0.26, "-", "std. dev. of ln(diameter); 0 = monodisperse", 0.0, 1.2),
-        "psd_truncation": SettingSpec(
-            1.5, "sigma", "lognormal cut at d50 exp(+-k sigma_ln)", 0.5, 4.0
-        ),
+        **psd_settings(11.16e-3, 0.26, 1.5, sigma_upper=1.2, d50_note=" (by number)"),
         "box_size_dmax": SettingSpec(
             10.0,
             "d_max",

@@ -24,10 +24,10 @@ def analytic_model(p: dict, settings: dict) -> dict:
         + 30.0 * grip * (0.4 + 0.6 * roll)
         + 3.0 * saturating(p["sliding_friction_pw"], 0.3)
         + 2.0 * saturating(p["rolling_friction_pw"], 0.1)
-        - 2.0 * (p["restitution"] - 0.5)
+        - 2.0 * (p["restitution_pp"] - 0.5)
         + 4.0 * spread
     )
     solid_fraction = (
-        0.63 - 0.03 * grip - 0.07 * roll - 0.01 * (p["restitution"] - 0.5) + 0.04 * spread
+        0.63 - 0.03 * grip - 0.07 * roll - 0.01 * (p["restitution_pp"] - 0.5) + 0.04 * spread
     )
     return {"shear_angle": angle, "bulk_density": p["particle_density"] * solid_fraction}
