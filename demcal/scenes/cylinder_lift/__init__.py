@@ -1,8 +1,9 @@
 """Cylinder lift test (Rackl & Hanley 2017, section 2.2): bulk density and angle of repose.
 
 Particles are generated into a cylinder standing on a plate with a low rim
-ring of the cylinder's radius, settle, and the poured bulk density is taken
-from the settled fill. The cylinder is then lifted at constant speed; the
+ring of the cylinder's radius and settle; optionally the fill is trimmed to a
+height and settles again, as in Rackl & Hanley's rig. The poured bulk density
+is taken from the settled fill. The cylinder is then lifted at constant speed; the
 material flows out and forms a heap on the plate, the ring holding its
 bottom layer as in Rackl & Hanley's rig (material may flow over the ring onto
 the plate; beyond the plate's edge it leaves). When the heap has come to rest
@@ -94,6 +95,14 @@ SCENE = Scene(
         **psd_settings(2.0e-3, 0.0, 2.0),
         "cylinder_diameter": SettingSpec(
             25.0e-3, "m", "inner diameter of the cylinder", 1.0e-4, 10.0
+        ),
+        "fill_height": SettingSpec(
+            0.0,
+            "m",
+            "trim height: spheres whose centre lies above it are removed once the fill has "
+            "settled, which then settles again (Rackl & Hanley: 50 mm); 0 = no trim",
+            0.0,
+            10.0,
         ),
         "ring_height": SettingSpec(
             1.2e-3, "m", "height of the rim ring at the cylinder radius (0 = bare plate)", 0.0, 1.0

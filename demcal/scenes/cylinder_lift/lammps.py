@@ -17,6 +17,7 @@ import numpy as np
 
 from demcal.engines.base import RunMonitor, RunResult, SimulationJob
 from demcal.engines.lammps_driver import LammpsDriver, num, setup_commands
+from demcal.errors import SimulationFailed
 from demcal.physics import measure
 from demcal.physics.contact import GRAVITY
 from demcal.physics.particles import INSERTION_SOLID_FRACTION
@@ -77,10 +78,17 @@ class CylinderLift(LammpsDriver):
     def stages(self, measurements: dict[str, float], arrays: dict[str, np.ndarray]) -> None:
         wants_heap = "angle_of_repose" in self.job.responses
         fill_share = 0.25 if wants_heap else 1.0
+        trim = self.s["fill_height"]
+        poured_share = fill_share / 2.0 if trim > 0.0 else fill_share
         fall_time = math.sqrt(2.0 * self.insert_top / GRAVITY)
         measurements["fill_at_rest"] = float(
-            self.settle("fill", 0.0, fill_share, False, min_time=fall_time, container=CONTAINER)
+            self.settle("fill", 0.0, poured_share, False, min_time=fall_time, container=CONTAINER)
         )
+        if trim > 0.0:
+            self.trim(trim)
+            measurements["fill_at_rest"] = float(
+                self.settle("trimmed fill", poured_share, fill_share, False, container=CONTAINER)
+            )
         x, r, m = self.particles()
         bulk, height = measure.fill_bulk_density(x, r, m, self.radius, self.s["d50"])
         measurements["fill_height"] = height
@@ -91,7 +99,19 @@ class CylinderLift(LammpsDriver):
             measurements["heap_at_rest"] = float(self.settle("heap", 0.8, 1.0, True))
             x, r, _ = self.particles()
             arrays.update(heap_x=x, heap_r=r)
-            measurements["lost_particles"] = float(len(self.diameters) - len(x))
+            measurements["lost_particles"] = float(len(self.diameters) - self.removed - len(x))
+
+    def trim(self, height: float) -> None:
+        """Remove the spheres above ``height`` (Rackl & Hanley 2017, sec. 2.2: the fill is
+        poured above 50 mm and trimmed to it); a fill that does not reach it fails."""
+        x, _, _ = self.particles()
+        top = float(x[:, 2].max())
+        if top <= height:
+            raise SimulationFailed(
+                f"the settled fill reaches {top:g} m, below fill_height {height:g} m: "
+                f"raise particle_count to pour above the trim height"
+            )
+        self.remove_above(height)
 
     def lift(self, fill_height: float) -> None:
         """Raise the cylinder until its lower edge clears the fill by two diameters."""
