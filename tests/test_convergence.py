@@ -11,7 +11,9 @@ from demcal.study.config import load_study
 
 def test_plan_holds_both_sweeps_through_the_configured_variant(analytic_config):
     study = load_study(analytic_config)
-    variants, base = plan(study, "cylinder_lift", [0.5, 0.25, 0.125], [1000.0, 4000.0])
+    variants, base = plan(
+        study, "cylinder_lift", [0.5, 0.25, 0.125], [1000.0, 4000.0], study.centre_point()
+    )
     assert base == Variant(0.25, 2000.0)
     assert set(variants) == {
         Variant(0.5, 2000.0),
@@ -60,11 +62,11 @@ def test_each_sweep_is_compared_with_its_own_finest_run():
 def test_plan_refuses_an_unsafe_fraction_and_a_bad_size(analytic_config):
     study = load_study(analytic_config)
     with pytest.raises(Exception, match="--fractions: 0.8 is above 0.5"):
-        plan(study, "cylinder_lift", [0.8, 0.25], [2000.0])
+        plan(study, "cylinder_lift", [0.8, 0.25], [2000.0], study.centre_point())
     with pytest.raises(
         Exception, match=r"--sizes \(particle_count\).particle_count: 5.0 is outside"
     ):
-        plan(study, "cylinder_lift", [0.25], [5.0])
+        plan(study, "cylinder_lift", [0.25], [5.0], study.centre_point())
 
 
 def test_convergence_writes_table_and_plot(tmp_path, monkeypatch, analytic_config, capsys):
@@ -114,7 +116,9 @@ def test_particle_count_varies_at_constant_volume_of_material(analytic_config):
     from demcal.analysis.convergence import variant_settings
 
     study = load_study(analytic_config)
-    coarse = variant_settings(study, "cylinder_lift", Variant(0.25, 1000.0), "f")
+    coarse = variant_settings(
+        study, "cylinder_lift", Variant(0.25, 1000.0), "f", study.centre_point()
+    )
     assert coarse["particle_count"] == 1000
     assert coarse["d50"] == pytest.approx(2.0e-3 * 2.0 ** (1.0 / 3.0))
     assert coarse["particle_count"] * coarse["d50"] ** 3 == pytest.approx(2000 * 2.0e-3**3)

@@ -51,10 +51,13 @@ class Variant:
         return f"dt{self.fraction:g}_size{self.size:g}"
 
 
-def variant_settings(study: Study, scene: str, variant: Variant, field: str) -> dict:
-    """The scene's settings at ``variant``'s size, checked (errors name ``field``)."""
+def variant_settings(
+    study: Study, scene: str, variant: Variant, field: str, point: dict[str, float]
+) -> dict:
+    """The scene's settings at ``variant``'s size for the free values ``point``, checked
+    (errors name ``field``)."""
     size_setting = study.scenes[scene].size_setting
-    settings = dict(study.settings[scene])
+    settings = study.settings_for(scene, point)
     if size_setting == "particle_count":
         settings["d50"] *= (settings["particle_count"] / variant.size) ** (1.0 / 3.0)
     settings[size_setting] = variant.size
@@ -62,9 +65,10 @@ def variant_settings(study: Study, scene: str, variant: Variant, field: str) -> 
 
 
 def plan(
-    study: Study, scene: str, fractions: list[float], sizes: list[float]
+    study: Study, scene: str, fractions: list[float], sizes: list[float], point: dict[str, float]
 ) -> tuple[list[Variant], Variant]:
-    """The variants of both sweeps and the configured (base) one; each is checked like a config."""
+    """The variants of both sweeps and the configured (base) one; each is checked like a config
+    at the free values ``point``."""
     size_setting = study.scenes[scene].size_setting
     base = Variant(study.timestep_fraction, study.settings[scene][size_setting])
     variants = sorted(
@@ -77,7 +81,7 @@ def plan(
     )
     for v in variants:
         check_fraction(v.fraction, default("timestep_fraction"), "--fractions")
-        variant_settings(study, scene, v, f"--sizes ({size_setting})")
+        variant_settings(study, scene, v, f"--sizes ({size_setting})", point)
     return variants, base
 
 
@@ -92,7 +96,7 @@ def run_variant(
     """One simulation of ``variant``; returns its responses and cost (a failure
     keeps its reason)."""
     study = load_study_file(config)
-    settings = variant_settings(study, scene, variant, "settings")
+    settings = variant_settings(study, scene, variant, "settings", point)
     Path(workdir).mkdir(parents=True, exist_ok=True)
     job = SimulationJob(
         scene=scene,
@@ -258,8 +262,8 @@ def run(
         sizes = [f * base_size for f in DEFAULT_SIZE_FACTORS]
         if study.scenes[scene].settings[size_setting].integer:
             sizes = [float(round(s)) for s in sizes]
-    variants, base = plan(study, scene, list(fractions or DEFAULT_FRACTIONS), sizes)
     point = study.centre_point(point_overrides)
+    variants, base = plan(study, scene, list(fractions or DEFAULT_FRACTIONS), sizes, point)
     out = study.files.convergence
     out.mkdir(parents=True, exist_ok=True)
     tasks = [(v, k) for v in variants for k in range(seeds)]

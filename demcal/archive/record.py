@@ -41,7 +41,8 @@ class Quantity:
 class ArchivedSimulation:
     """A simulation as the archive keeps it.
 
-    ``parameters`` are every material parameter the engine was given (SI units), ``free``
+    ``parameters`` are every material parameter the engine was given and every variable scene
+    setting it ran with (d50, sigma_ln: those a study may make free), in SI units; ``free``
     the names among them that the study varied; ``responses`` the final values of a run
     that ended ``ok``, or the last estimates of a ``terminated`` one (``final`` says which
     of those could no longer change); a ``failed`` run has none. ``cost`` is the engine's
@@ -89,7 +90,9 @@ class ArchivedSimulation:
             "engine_version": self.engine_version,
             "settings": self.settings,
             "timestep_fraction": self.timestep_fraction,
-            "parameters": {name: q.value for name, q in self.parameters.items()},
+            "parameters": {
+                name: q.value for name, q in self.parameters.items() if name not in self.settings
+            },
         }
 
     @property
@@ -99,7 +102,9 @@ class ArchivedSimulation:
 
     @property
     def settings_hash(self) -> str:
-        return digest(self.settings)
+        """The digest of the settings that are not kept as parameters: what a compatible
+        simulation shares exactly (``Archive.compatible``)."""
+        return digest({n: v for n, v in self.settings.items() if n not in self.parameters})
 
     def values(self, names: list[str]) -> list[float]:
         """The values of the named parameters, in that order (a model's inputs)."""
@@ -129,7 +134,13 @@ def from_results(
     """
     scene = study.scenes.get(simulation.scene)
     response_units = {} if scene is None else {n: r.unit for n, r in scene.responses.items()}
-    setting_units = {} if scene is None else {n: s.unit for n, s in scene.settings.items()}
+    setting_specs = {} if scene is None else scene.settings
+    setting_units = {n: spec.unit for n, spec in setting_specs.items()}
+    variable = {
+        name: Quantity(float(simulation.settings[name]), spec.unit)
+        for name, spec in setting_specs.items()
+        if spec.variable and name in simulation.settings
+    }
     status = Status(responses.status)
     values: dict[str, tuple[float, bool]] = {}
     if status == Status.OK:
@@ -151,10 +162,13 @@ def from_results(
         attempt=simulation.attempt,
         seed=simulation.seed,
         parameters={
-            name: Quantity(float(value), CATALOG[name].unit if name in CATALOG else "")
-            for name, value in simulation.parameters.items()
+            **{
+                name: Quantity(float(value), CATALOG[name].unit if name in CATALOG else "")
+                for name, value in simulation.parameters.items()
+            },
+            **variable,
         },
-        free=frozenset(free & set(simulation.parameters)),
+        free=frozenset(free & (set(simulation.parameters) | set(variable))),
         psd={
             name: Quantity(float(simulation.settings[name]), setting_units.get(name, ""))
             for name in PSD_SETTINGS

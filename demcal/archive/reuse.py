@@ -1,11 +1,12 @@
 """``reuse: archive``: the archive's simulations a new calibration may start from.
 
 A simulation is compatible with a study when it ran the same scene on the same engine with the
-same resolved settings and time-step fraction, its fixed parameters are the study's, and its
-free ones lie inside the study's bounds (:meth:`Archive.compatible` does the first part). The
-compatible simulations of every scene are grouped by their free values into points; a point
-is usable when every targeted response has at least one final value there. Replicates and
-repeated runs of one point (a confirmation) pool into one point.
+same resolved settings and time-step fraction, its fixed parameters and variable settings are
+the study's, and its free ones lie inside the study's bounds (:meth:`Archive.compatible` does
+the first part, on :meth:`Study.archive_view`). The compatible simulations of every scene are
+grouped by their free values into points; a point is usable when every targeted response has
+at least one final value there. Replicates and repeated runs of one point (a confirmation) pool
+into one point.
 """
 
 from __future__ import annotations
@@ -27,12 +28,9 @@ def compatible_simulations(study: Study, archive: Archive) -> list[ArchivedSimul
     names = [p.name for p in study.free]
     found, seen = [], set()
     for scene in study.scenes:
+        settings, fixed, inputs = study.archive_view(scene)
         for record in archive.compatible(
-            scene=scene,
-            engine=study.engine.name,
-            settings=study.settings[scene],
-            fixed=study.fixed,
-            inputs=names,
+            scene=scene, engine=study.engine.name, settings=settings, fixed=fixed, inputs=inputs
         ):
             inside = all(p.lower <= record.parameters[p.name].value <= p.upper for p in study.free)
             run = (record.scene, record.seed, tuple(record.values(names)))

@@ -68,15 +68,17 @@ def schema_revision(connection: Connection) -> str | None:
     return context.get_current_revision()
 
 
-def upgrade(engine: Engine) -> None:
-    """Bring the archive's schema to :func:`head_revision`, once among concurrent openers.
+def upgrade(engine: Engine, revision: str | None = None) -> None:
+    """Bring the archive's schema to ``revision`` (default :func:`head_revision`; the tests of
+    a migration start from an earlier one), once among concurrent openers.
 
     The migration runs in one transaction that holds the database's write lock (SQLite's
     ``BEGIN IMMEDIATE``; a PostgreSQL advisory lock), and the version is read again under
     it, so a second opener waits and then finds nothing to do.
     """
+    revision = revision or head_revision()
     with engine.connect() as connection:
-        if schema_revision(connection) == head_revision():
+        if schema_revision(connection) == revision:
             return
     from alembic import command
     from alembic.config import Config
@@ -86,14 +88,14 @@ def upgrade(engine: Engine) -> None:
         if connection.dialect.name == "postgresql":
             connection.execute(text("SELECT pg_advisory_xact_lock(:key)"), {"key": MIGRATION_LOCK})
         current = schema_revision(connection)
-        if current == head_revision():
+        if current == revision:
             return
         config = Config()
         config.set_main_option("script_location", str(MIGRATIONS))
         config.attributes["connection"] = connection
         config.attributes["version_table"] = VERSION_TABLE
         try:
-            command.upgrade(config, "head")
+            command.upgrade(config, revision)
         except CommandError:  # a schema version that none of the migrations knows
             raise ArchiveError(f"its schema {current!r} is newer than this demcal's") from None
 
@@ -254,9 +256,11 @@ class Archive:
         """The stored simulations a study may use as data for its models of ``scene``.
 
         Compatible means: the same scene, engine (and ``engine_version`` if given) and
-        resolved scene settings; exactly the parameters ``fixed`` and ``inputs`` (the
-        models' inputs, the free parameters and any fixed one the models take as input), with
-        every fixed parameter that is not an input at its value; a status in ``statuses``.
+        ``settings`` (those the archive does not keep as parameters:
+        :attr:`ArchivedSimulation.settings_hash`); exactly the parameters ``fixed`` and
+        ``inputs`` (the models' inputs, the free parameters and any fixed one the models take
+        as input), with every fixed parameter that is not an input at its value; a status in
+        ``statuses``.
         """
         names = set(fixed) | set(inputs)
         query = select(SimulationRow.id).where(

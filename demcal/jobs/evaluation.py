@@ -75,16 +75,17 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> Simul
         point = PointRecord.read(files.params)
         attempt = point.attempt
         parameters = study.parameters_for(point.parameters)
+        settings = study.settings_for(scene, point.parameters)
         avoid = reused_seeds(study)
     except (ConfigError, SimulationFailed) as exc:
         result = RunResult(Status.FAILED, f"bad parameters: {exc}")
-        parameters, seed, attempt = {}, None, None
+        parameters, settings, seed, attempt = {}, study.settings[scene], None, None
     else:
         seed = study.simulation_seed(evaluation, scene, replicate, point.attempt, avoid)
         job = SimulationJob(
             scene=scene,
             parameters=parameters,
-            settings=study.settings[scene],
+            settings=settings,
             seed=seed,
             responses=study.responses_needed(scene),
             timestep_fraction=study.timestep_fraction,
@@ -104,7 +105,7 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> Simul
         replicate=replicate,
         engine=study.engine.name,
         engine_version=study.engine.version(),
-        settings=study.settings[scene],
+        settings=settings,
         timestep_fraction=study.timestep_fraction,
         responses_needed=study.responses_needed(scene),
         started_at=started_at,

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import math
 import pkgutil
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
 from demcal.errors import ConfigError
-from demcal.study.catalogue import CATALOG
+from demcal.study.catalogue import CATALOG, ParameterSpec
 
 #: Largest possible angle of a slope (repose, shear), deg.
 MAX_ANGLE = 90.0
@@ -80,6 +80,28 @@ MATERIAL_PARAMETERS = (
     "poisson_ratio",
     "particle_density",
 )
+
+
+def variable_settings(scenes: Iterable[Scene]) -> dict[str, ParameterSpec]:
+    """The settings of ``scenes`` that a study may make free, as parameters: a setting several
+    scenes declare may take the values all of them allow."""
+    found: dict[str, ParameterSpec] = {}
+    for scene in scenes:
+        for name, spec in scene.settings.items():
+            if not spec.variable:
+                continue
+            assert (
+                spec.lower is not None
+                and spec.upper is not None
+                and isinstance(spec.default, float)
+            ), f"variable setting {scene.name}.{name} needs a numeric range and default"
+            known = found.get(name)
+            lower = spec.lower if known is None else max(known.lower, spec.lower)
+            upper = spec.upper if known is None else min(known.upper, spec.upper)
+            found[name] = ParameterSpec(
+                name, spec.unit, lower, upper, spec.default, spec.description, scene_setting=True
+            )
+    return found
 
 
 def psd_settings(

@@ -13,7 +13,12 @@ from dataclasses import dataclass
 
 @dataclass(frozen=True)
 class ParameterSpec:
-    """A material parameter: SI unit, physically allowed closed range, default."""
+    """A quantity a study may make free: SI unit, physically allowed closed range, default.
+
+    A material parameter of the catalogue below, or a scene setting that the study's scenes
+    declare variable (``scene_setting``: the particle-size distribution's d50 and sigma_ln;
+    ``demcal.scenes.base.variable_settings``).
+    """
 
     name: str
     unit: str
@@ -21,6 +26,7 @@ class ParameterSpec:
     upper: float
     default: float
     description: str
+    scene_setting: bool = False
 
     def allowed(self) -> str:
         """The allowed range as text for error messages."""

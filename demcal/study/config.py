@@ -8,6 +8,7 @@ allowed, before any simulation starts.
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 import re
 import statistics
@@ -26,6 +27,7 @@ from demcal.optimizer.registry import STRATEGIES
 from demcal.physics.timestep import RAYLEIGH_PARAMETERS, check_fraction
 from demcal.resources import SCHEMA_PATH
 from demcal.scenes import SCENES, Scene
+from demcal.scenes.base import variable_settings
 from demcal.study.catalogue import CATALOG, SPLIT_PARAMETERS
 from demcal.study.model import FreeParameter, Study
 from demcal.study.objective import DEFAULT_FORM, Target
@@ -191,8 +193,9 @@ def _target_value(target: dict, index: int) -> tuple[float, float | None]:
     return value, spread
 
 
-def _check_readable(where: str, name: str, readable: list[str], scenes: dict[str, Scene]) -> None:
-    """Raise ConfigError unless the scenes read the parameter ``name`` (given at ``where``)."""
+def _check_readable(where: str, name: str, known: list[str], scenes: dict[str, Scene]) -> None:
+    """Raise ConfigError unless ``name`` (given at ``where``) is among the ``known`` names of
+    what the scenes read."""
     if name in SPLIT_PARAMETERS:
         parts = SPLIT_PARAMETERS[name]
         raise ConfigError(
@@ -200,20 +203,23 @@ def _check_readable(where: str, name: str, readable: list[str], scenes: dict[str
             f"particle-wall) in place of {name}; give both, e.g. "
             f"{parts[0]}: 0.5 and {parts[1]}: 0.5 for the one value of before"
         )
-    if name not in readable:
+    if name not in known:
         raise ConfigError(
-            f"{where}: not a parameter of the scenes "
-            f"{', '.join(scenes)}; they read {', '.join(readable)}"
+            f"{where}: not a parameter of the scenes {', '.join(scenes)}; "
+            f"they read {', '.join(known)}"
         )
 
 
 def _parameters(config: dict, scenes: dict[str, Scene]) -> tuple[list[FreeParameter], dict]:
+    """The free parameters, material or scene setting (bounds checked), and every material
+    parameter's fixed value (given, else the catalogue's default)."""
     readable = sorted({p for s in scenes.values() for p in s.parameters})
+    variable = variable_settings(scenes.values())
     free = []
     for name, bounds in config["parameters"].items():
         where = f"parameters.{name}"
-        _check_readable(where, name, readable, scenes)
-        spec = CATALOG[name]
+        _check_readable(where, name, readable + sorted(variable), scenes)
+        spec = variable.get(name) or CATALOG[name]
         if "unit" in bounds and bounds["unit"] != spec.unit:
             raise ConfigError(
                 f"{where}.unit: {bounds['unit']!r} but demcal uses SI units: "
@@ -234,6 +240,11 @@ def _parameters(config: dict, scenes: dict[str, Scene]) -> tuple[list[FreeParame
     fixed = {}
     for name, value in config.get("fixed", {}).items():
         where = f"fixed.{name}"
+        if name in variable:
+            raise ConfigError(
+                f"{where}: {name} is a scene setting; give its value under "
+                f"scenes.<scene>.settings, or bounds under parameters to make it free"
+            )
         _check_readable(where, name, readable, scenes)
         if name in config["parameters"]:
             raise ConfigError(
@@ -250,6 +261,32 @@ def _parameters(config: dict, scenes: dict[str, Scene]) -> tuple[list[FreeParame
         n: CATALOG[n].default for n in readable if n not in fixed and n not in config["parameters"]
     }
     return free, {**defaults, **fixed}
+
+
+def _settings(config: dict, scenes: dict[str, Scene], free: list[FreeParameter]) -> dict:
+    """Each scene's resolved settings. A free setting is not given among them (its default
+    stands in); the scene's cross-setting checks hold at every corner of the free settings'
+    bounds, so no point the optimizer may propose is refused later."""
+    resolved = {}
+    for name, scene in scenes.items():
+        where = f"scenes.{name}.settings"
+        given = config.get("scenes", {}).get(name, {}).get("settings") or {}
+        varied = [p for p in free if p.spec.scene_setting and p.name in scene.settings]
+        for p in varied:
+            if p.name in given:
+                raise ConfigError(
+                    f"{where}.{p.name}: {p.name} is free (parameters.{p.name}); "
+                    f"remove it here or from parameters"
+                )
+        resolved[name] = scene.resolve_settings(given, where)
+        for corner in itertools.product(*[(p.lower, p.upper) for p in varied]):
+            values = {p.name: value for p, value in zip(varied, corner)}
+            try:
+                scene.resolve_settings({**given, **values}, where)
+            except ConfigError as exc:
+                at = ", ".join(f"{n} = {v:g}" for n, v in values.items())
+                raise ConfigError(f"{exc} (at {at}, a corner of the free bounds)") from None
+    return resolved
 
 
 def refuse_non_finite(value: object, where: str = "") -> None:
@@ -301,12 +338,7 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
     scenes = _scenes_of(config)
     targets = _targets(config, scenes)
     free, fixed = _parameters(config, scenes)
-    settings = {
-        name: scene.resolve_settings(
-            config.get("scenes", {}).get(name, {}).get("settings"), f"scenes.{name}.settings"
-        )
-        for name, scene in scenes.items()
-    }
+    settings = _settings(config, scenes, free)
     fraction = float(config.get("timestep_fraction", default("timestep_fraction")))
     warning = check_fraction(fraction, default("timestep_fraction"))
     cost_weight = float(config.get("rayleigh_cost_weight", default("rayleigh_cost_weight")))

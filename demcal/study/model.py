@@ -30,6 +30,7 @@ from demcal.physics.timestep import RAYLEIGH_PARAMETERS, rayleigh_cost, rayleigh
 from demcal.results.layout import StudyFiles
 from demcal.results.storage import read_json, write_json_if_changed
 from demcal.scenes import SCENES, Scene
+from demcal.scenes.base import variable_settings
 from demcal.study.catalogue import CATALOG, ParameterSpec, upgrade_parameters
 from demcal.study.objective import DEFAULT_FORM, ResponseObjective, Target
 
@@ -150,7 +151,8 @@ class Study:
         return term * term
 
     def parameters_for(self, free_values: dict[str, float]) -> dict[str, float]:
-        """All parameters of a point: the fixed ones overlaid with the free values (checked)."""
+        """The material parameters of a point: the fixed ones overlaid with its free material
+        values; every free value, settings included, is checked."""
         missing = [p.name for p in self.free if p.name not in free_values]
         unknown = sorted(set(free_values) - {p.name for p in self.free})
         if missing or unknown:
@@ -170,7 +172,35 @@ class Study:
                     f"params.json: {p.name} = {value:g} is outside the allowed "
                     f"range {p.spec.allowed()}"
                 )
-        return {**self.fixed, **{k: float(v) for k, v in free_values.items()}}
+        material = {p.name for p in self.free if not p.spec.scene_setting}
+        return {**self.fixed, **{k: float(v) for k, v in free_values.items() if k in material}}
+
+    def settings_for(self, scene: str, free_values: dict[str, float]) -> dict:
+        """The settings ``scene`` runs a point with: its resolved settings overlaid with the
+        point's values of the free settings it declares."""
+        return {
+            **self.settings[scene],
+            **{
+                p.name: float(free_values[p.name])
+                for p in self.free
+                if p.spec.scene_setting and p.name in self.settings[scene]
+            },
+        }
+
+    def archive_view(self, scene: str) -> tuple[dict, dict[str, float], list[str]]:
+        """What an archived simulation of ``scene`` must share with this study to serve its
+        models: the settings that are not variable, the value of every fixed parameter and
+        fixed variable setting, and the models' inputs (the free parameters the scene reads).
+        The archive keeps variable settings as parameters (``demcal.archive.record``)."""
+        variable = {n for n, spec in self.scenes[scene].settings.items() if spec.variable}
+        free = {p.name for p in self.free}
+        settings = {n: v for n, v in self.settings[scene].items() if n not in variable}
+        fixed = {
+            **self.fixed,
+            **{n: self.settings[scene][n] for n in sorted(variable - free)},
+        }
+        inputs = [p.name for p in self.free if not p.spec.scene_setting or p.name in variable]
+        return settings, fixed, inputs
 
     def simulation_seed(
         self,
@@ -219,6 +249,7 @@ def study_record(study: Study) -> dict:
         "scenes": [{"name": name, "settings": study.settings[name]} for name in study.scenes],
         "parameters": [
             {"name": p.name, "lower": p.lower, "upper": p.upper, "unit": p.spec.unit}
+            | ({"scene_setting": True} if p.spec.scene_setting else {})
             for p in study.free
         ],
         "fixed": study.fixed,
@@ -249,13 +280,15 @@ def study_record(study: Study) -> dict:
 def study_from_record(record: dict) -> Study:
     """The ``Study`` of a record written by :func:`study_record` (trusted: not validated again)."""
     engine = dict(record["engine"])
+    scenes = {scene["name"]: SCENES.load(scene["name"]) for scene in record["scenes"]}
+    specs = {**CATALOG, **variable_settings(scenes.values())}
     return Study(
         name=record["study"],
         engine=make_engine(engine.pop("name"), engine),
-        scenes={scene["name"]: SCENES.load(scene["name"]) for scene in record["scenes"]},
+        scenes=scenes,
         settings={scene["name"]: scene["settings"] for scene in record["scenes"]},
         free=[
-            FreeParameter(CATALOG[p["name"]], p["lower"], p["upper"]) for p in record["parameters"]
+            FreeParameter(specs[p["name"]], p["lower"], p["upper"]) for p in record["parameters"]
         ],
         fixed=upgrade_parameters(record["fixed"]),
         targets=[

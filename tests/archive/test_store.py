@@ -9,9 +9,10 @@ import pytest
 from alembic.autogenerate import compare_metadata
 from alembic.migration import MigrationContext
 from archive_helpers import DATABASES, SETTINGS, new_archive, record, stored
-from sqlalchemy import text
+from sqlalchemy import insert, text
 
-from demcal.archive.schema import Base
+from demcal.archive.record import Quantity
+from demcal.archive.schema import Base, ParameterRow, SimulationRow
 from demcal.archive.store import VERSION_TABLE, Archive, ArchiveError
 from demcal.archive.url import open_engine
 from demcal.results.records import Status
@@ -115,6 +116,57 @@ def test_the_migrations_build_the_schema_of_the_models(archive_url):
         context = MigrationContext.configure(connection, opts={"version_table": VERSION_TABLE})
         assert compare_metadata(context, Base.metadata) == []
     engine.dispose()
+
+
+def test_the_second_schema_reads_the_first_schemas_records_in_todays_names(archive_url):
+    """Migration 0002: one restitution becomes two, the rolling damping ratio of earlier
+    versions (0.3) is recorded, d50 and sigma_ln become parameters; the key is the one the
+    same simulation gets today, so a second import of its folder adds nothing."""
+    from demcal.archive.store import _row, upgrade
+
+    earlier_parameters = {
+        "sliding_friction_pp": record(3).parameters["sliding_friction_pp"],
+        "restitution": Quantity(0.7, "-"),
+        "particle_density": record(3).parameters["particle_density"],
+    }
+    earlier = replace(record(3), parameters=earlier_parameters)
+    engine = open_engine(archive_url)
+    upgrade(engine, "0001")
+    with engine.begin() as connection:  # what demcal wrote at revision 0001
+        row = connection.execute(
+            insert(SimulationRow).values(_row(earlier, 1.0e9)).returning(SimulationRow.id)
+        ).scalar_one()
+        connection.execute(
+            insert(ParameterRow),
+            [
+                {"simulation_id": row, "name": n, "value": q.value, "unit": q.unit, "free": False}
+                for n, q in earlier_parameters.items()
+            ],
+        )
+    engine.dispose()
+    today = replace(
+        earlier,
+        parameters={
+            "sliding_friction_pp": earlier_parameters["sliding_friction_pp"],
+            "restitution_pp": Quantity(0.7, "-"),
+            "restitution_pw": Quantity(0.7, "-"),
+            "rolling_damping_ratio": Quantity(0.3, "-"),
+            "particle_density": earlier_parameters["particle_density"],
+            "d50": Quantity(SETTINGS["d50"], "m"),
+            "sigma_ln": Quantity(SETTINGS["sigma_ln"], "-"),
+        },
+        free=frozenset(),
+    )
+    with Archive(archive_url) as archive:
+        (migrated,) = archive.records()
+        assert migrated.parameters == today.parameters
+        assert migrated.key == today.key and migrated.settings_hash == today.settings_hash
+        assert archive.add([today]) == 0
+        settings = {n: v for n, v in SETTINGS.items() if n not in ("d50", "sigma_ln")}
+        fixed = {n: q.value for n, q in today.parameters.items() if n != "sliding_friction_pp"}
+        assert archive.compatible(
+            "cylinder_lift", "analytic", settings, fixed, ["sliding_friction_pp"]
+        ) == [migrated]
 
 
 def test_an_archive_of_a_newer_demcal_is_refused(archive_url):
