@@ -17,6 +17,7 @@ from conftest import true_targets
 from test_calibration_loop import InProcessLauncher
 
 from demcal.cli.inspect import study_state
+from demcal.cli.run import print_best
 from demcal.daemon.loop import Calibration
 from demcal.errors import ConfigError
 from demcal.reporting.headline import report_headline
@@ -112,7 +113,7 @@ def test_new_targets_cost_a_few_new_simulations_with_reuse(first):
     assert "reused" not in report_headline(scratch.study)
 
 
-def test_a_reused_point_is_scored_by_the_new_study_and_may_be_the_answer(first):
+def test_a_reused_point_is_scored_by_the_new_study_and_may_be_the_answer(first, capsys):
     """With the first study's targets again, its own best point answers, named by its source,
     and new simulations confirm it."""
     confirmed = config("again", FIRST_TRUTH, reuse="archive")
@@ -130,6 +131,11 @@ def test_a_reused_point_is_scored_by_the_new_study_and_may_be_the_answer(first):
     assert "reused from the archive" in report_headline(again.study)
     source = ObjectiveRecord.read(first.files.evaluation(best["evaluation"][6:]).objective)
     assert best["objective"] == pytest.approx(source.objective, rel=1e-12)
+    print_best(again.study)
+    assert f"reused from the archive: simulated by {best['evaluation']}" in capsys.readouterr().out
+    again.files.reused.unlink()
+    print_best(again.study)
+    assert "no longer holds it: run the study again" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize(

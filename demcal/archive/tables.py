@@ -40,6 +40,34 @@ TEXT = (
 )
 
 
+#: The columns every export has, in order; then psd.*, parameter.* and response.* ones.
+FIXED_COLUMNS = (
+    "id",
+    "key",
+    "study",
+    "evaluation",
+    "scene",
+    "replicate",
+    "attempt",
+    "seed",
+    "engine",
+    "engine_version",
+    "settings",
+    "timestep_fraction [-]",
+    "status",
+    "reason",
+    "free_parameters",
+    "cost.cpu [s]",
+    "cost.wall [s]",
+    "cost.particle_steps [-]",
+    "started_at [s since 1970]",
+    "ended_at [s since 1970]",
+    "recorded_at [s since 1970]",
+    "source",
+    "demcal_version",
+)
+
+
 def frame(records: Iterable[ArchivedSimulation]) -> pd.DataFrame:
     """One row per record; the columns of the module's docstring."""
     rows = []
@@ -76,9 +104,8 @@ def frame(records: Iterable[ArchivedSimulation]) -> pd.DataFrame:
             row[f"response.{name}.final"] = r.final.get(name, False)
         rows.append(row)
     table = pd.DataFrame(rows)
-    fixed = [c for c in table.columns if not c.startswith(("psd.", "parameter.", "response."))]
-    grouped = sorted(set(table.columns) - set(fixed), key=_group_order)
-    return _final_flags(table[fixed + grouped])
+    grouped = sorted(set(table.columns) - set(FIXED_COLUMNS), key=_group_order)
+    return _final_flags(table.reindex(columns=[*FIXED_COLUMNS, *grouped]))
 
 
 def _final_flags(table: pd.DataFrame) -> pd.DataFrame:

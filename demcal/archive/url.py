@@ -67,6 +67,16 @@ def check_url(text: object, where: str = "archive.url") -> str:
     return text
 
 
+def missing_file(url: str) -> Path | None:
+    """The file of an SQLite archive at ``url`` (checked) that does not exist yet; None when
+    the file exists or the archive is a PostgreSQL database."""
+    parsed = make_url(check_url(url))
+    if parsed.get_backend_name() != "sqlite" or parsed.database is None:
+        return None
+    path = Path(parsed.database)
+    return None if path.exists() else path
+
+
 def shown(url: str) -> str:
     """The URL without its password, for messages and logs."""
     return make_url(url).render_as_string(hide_password=True)

@@ -15,7 +15,7 @@ from demcal.archive import tables
 from demcal.archive.importer import ImportReport, import_results, study_folders
 from demcal.archive.record import ArchivedSimulation
 from demcal.archive.store import Archive
-from demcal.archive.url import check_url, shown
+from demcal.archive.url import check_url, missing_file, shown
 from demcal.errors import ConfigError, DemcalError
 from demcal.results.layout import RESULTS
 from demcal.results.records import Status
@@ -75,6 +75,12 @@ def archive_url(args: argparse.Namespace) -> str:
 
 def archive(args: argparse.Namespace) -> int:
     url = archive_url(args)
+    absent = missing_file(url)
+    if absent is not None and args.action != "import":  # reading must not make the file
+        raise ConfigError(
+            f"no archive at {absent} yet: the first simulation of a study with this archive "
+            f"makes it, or 'demcal archive import' of results/<study>/ folders"
+        )
     with Archive(url) as store:
         if args.action == "import":
             return import_command(store, args.folders)

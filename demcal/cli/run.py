@@ -150,7 +150,15 @@ def print_best(study: Study) -> None:
     )
     if best.reused:  # simulated by another study: read from reused.json, its folder is that study's
         source, evaluation_name = best.evaluation.split("+")[0].split("/")
-        record = next(r for r in reused_objectives(study) if r.evaluation == best.evaluation)
+        record = next(
+            (r for r in reused_objectives(study) if r.evaluation == best.evaluation), None
+        )
+        if record is None:
+            print(
+                f"{best.evaluation}, reused from the archive; {files.reused} no longer holds it: "
+                f"run the study again to rebuild it"
+            )
+            return
         print(
             evaluation_summary(
                 study, record, StudyFiles.of(source).evaluation(evaluation_name).dir, best

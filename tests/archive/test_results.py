@@ -168,6 +168,18 @@ def test_export_round_trip(tmp_path):
         back = tables.read(path)
         assert list(back.columns) == list(table.columns)
         pd.testing.assert_frame_equal(back, table, check_dtype=False)
+    assert list(table.columns[: len(tables.FIXED_COLUMNS)]) == list(tables.FIXED_COLUMNS)
+    empty = tables.frame([])
+    tables.write(empty, tmp_path / "empty.csv")
+    assert (tmp_path / "empty.csv").read_text().startswith("id,key,study,evaluation,")
+
+
+def test_reading_an_archive_that_is_not_there_names_it_and_makes_no_file(tmp_path, capsys):
+    url = f"sqlite:///{tmp_path / 'none' / 'archive.sqlite'}"
+    for action in (["list"], ["show", "1"], ["stats"], ["export", str(tmp_path / "x.csv")]):
+        assert main(["archive", *action, "--url", url]) == 2
+        assert "no archive at" in capsys.readouterr().err
+    assert not (tmp_path / "none").exists()
 
 
 def test_the_commands(study, tmp_path, capsys):
