@@ -10,6 +10,7 @@
     demcal solutions [CONFIG] [--k 2] [--samples 65536] [--explore N] [--point NAME=VALUE ...]
     demcal convergence [CONFIG] [--scene S] [--fractions F ...] [--sizes N ...] [--seeds 2]
     demcal psd fit SIEVE.csv
+    demcal sample [CONFIG] --n N [--design fssf_f] [--profile profiles/local]
     demcal archive list|show|export|import|stats [--url URL | --study CONFIG]
 
 CONFIG defaults to config/config.yaml. Errors in the configuration or on
@@ -18,7 +19,8 @@ disk are printed as one message (exit code 2), never as a traceback.
 This module holds the parser and ``main``; the commands live in ``run.py``
 (run, the best point), ``inspect.py`` (status, studies, watch), ``manage.py``
 (stop, add-point, rerun-failed), ``analysis.py`` (solutions, convergence), ``psd.py``
-(fits to sieve data) and ``archive.py`` (the archive of simulations).
+(fits to sieve data), ``archive.py`` (the archive of simulations) and ``sample.py``
+(sampling campaigns).
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ import sys
 import traceback
 from collections.abc import Callable
 
-from demcal.cli import analysis, archive, inspect, manage, psd, run
+from demcal.cli import analysis, archive, inspect, manage, psd, run, sample
 from demcal.errors import DemcalError
 from demcal.resources import DEFAULT_CONFIG
 from demcal.workflow import LOCAL_PROFILE
@@ -160,6 +162,12 @@ COMMANDS: tuple[tuple[str, str, Command, Arguments], ...] = (
         "particle-size distribution: psd fit SIEVE.csv fits GGS, RRSB and LOGN to sieve data",
         psd.psd,
         psd.arguments,
+    ),
+    (
+        "sample",
+        "a sampling campaign: a space-filling design over the study's box, into the archive",
+        sample.sample,
+        sample.arguments,
     ),
     (
         "archive",

@@ -5,7 +5,10 @@ point in each of n equal-probability slices of every axis; the symmetric
 variant of Ye et al. (SLHD) pairs every row with its mirror image
 n+1-x; among several random designs the maximin criterion keeps the one
 whose closest pair of points is farthest apart. Rackl & Hanley (2017) start
-from a plain LHS. Sobol sequences come from scipy.stats.qmc.
+from a plain LHS. Sobol and Halton sequences come from scipy.stats.qmc.
+Richter & Will (2021, sec. 2.3) sample their material domain with FSSF-f
+(Shang & Apley 2020) and judge a design by its minimum inter-site distance
+and cover measure (their eqs. 7-8).
 """
 
 from __future__ import annotations
@@ -67,6 +70,42 @@ def sobol_sequence(size: int, dimension: int, rng: np.random.Generator) -> np.nd
     return points
 
 
+def halton_sequence(size: int, dimension: int, rng: np.random.Generator) -> np.ndarray:
+    """The first ``size`` points of a scrambled Halton sequence."""
+    points: np.ndarray = qmc.Halton(dimension, scramble=True, seed=rng).random(size)
+    return points
+
+
+def forward_maximin(candidates: np.ndarray, taken: np.ndarray, size: int) -> np.ndarray:
+    """``size`` of the ``candidates``, each the one farthest from the points ``taken`` and
+    those chosen before it; with nothing taken the first is the candidate nearest the
+    centre of the box (the forward step of Shang & Apley's FSSF-f)."""
+    if len(taken):
+        nearest = cdist(candidates, np.asarray(taken, float)).min(axis=1)
+    else:
+        nearest = np.full(len(candidates), np.inf)
+        nearest[int(np.argmin(np.linalg.norm(candidates - 0.5, axis=1)))] = np.finfo(float).max
+    chosen = []
+    for _ in range(size):
+        pick = candidates[int(np.argmax(nearest))]
+        chosen.append(pick)
+        nearest = np.minimum(nearest, np.linalg.norm(candidates - pick, axis=1))
+    return np.array(chosen).reshape(size, candidates.shape[1])
+
+
+def fssf_candidates(size: int, dimension: int, rng: np.random.Generator) -> np.ndarray:
+    """The candidate set of FSSF-f for a design of ``size``: 1000 d + 2 n scrambled Sobol
+    points (the size Shang & Apley 2020 recommend)."""
+    return sobol_sequence(1000 * dimension + 2 * size, dimension, rng)
+
+
+def fssf_f(size: int, dimension: int, rng: np.random.Generator) -> np.ndarray:
+    """FSSF-f (Shang & Apley 2020), Richter & Will's (2021) design: greedy maximin over a
+    large candidate set, started at the centre. Every prefix of it is space-filling, so a
+    campaign can stop and be extended (:func:`extend_design`)."""
+    return forward_maximin(fssf_candidates(size, dimension, rng), np.empty((0, dimension)), size)
+
+
 def minimum_pairwise_distance(points: np.ndarray) -> float:
     """The maximin criterion: the smallest distance between two design points."""
     if len(points) < 2:
@@ -99,14 +138,37 @@ def fill_gaps(
     farthest from the covered points and from those taken before it. Simple and cheap, and
     it puts the first new points where the covered ones left the largest holes.
     """
-    candidates = sobol_sequence(1024, dimension, rng)
-    nearest = cdist(candidates, np.asarray(covered, float)).min(axis=1)
-    chosen = []
-    for _ in range(size):
-        pick = candidates[int(np.argmax(nearest))]
-        chosen.append(pick)
-        nearest = np.minimum(nearest, np.linalg.norm(candidates - pick, axis=1))
-    return np.array(chosen).reshape(size, dimension)
+    return forward_maximin(sobol_sequence(1024, dimension, rng), np.asarray(covered, float), size)
+
+
+#: Designs whose every prefix is the design of its size: a campaign on them can be extended.
+EXTENSIBLE = ("fssf_f", "sobol", "halton")
+
+
+def extend_design(
+    kind: str, taken: np.ndarray, size: int, dimension: int, rng: np.random.Generator
+) -> np.ndarray:
+    """The points that take a design of ``kind`` from the points ``taken`` (drawn from the same
+    ``rng`` stream) to ``size``: a sequence's next points, or FSSF-f's next forward steps."""
+    if kind not in EXTENSIBLE:
+        raise ValueError(f"a {kind} design cannot be extended; use {', '.join(EXTENSIBLE)}")
+    missing = max(size - len(taken), 0)
+    if kind == "fssf_f":
+        return forward_maximin(fssf_candidates(size, dimension, rng), taken, missing)
+    generate: Design = DESIGNS[kind].load()
+    return generate(size, dimension, rng)[len(taken) :]
+
+
+def cover_measure(points: np.ndarray) -> float:
+    """Cover measure (Richter & Will 2021, eq. 8, after Gunzburger & Burkardt): the
+    coefficient of variation of each point's distance to its nearest neighbour; 0 for a
+    regular grid, larger the more unevenly the points fill the box."""
+    if len(points) < 2:
+        return np.nan
+    distances = cdist(points, points)
+    np.fill_diagonal(distances, np.inf)
+    nearest = distances.min(axis=1)
+    return float(nearest.std() / nearest.mean())
 
 
 def initial_design(

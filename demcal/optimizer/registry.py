@@ -106,6 +106,8 @@ DESIGNS: Registry[DesignEntry] = Registry(
         ),
         "latin_hypercube": DesignEntry("demcal.optimizer.designs:latin_hypercube"),
         "sobol": DesignEntry("demcal.optimizer.designs:sobol_sequence", maximin=False),
+        "halton": DesignEntry("demcal.optimizer.designs:halton_sequence", maximin=False),
+        "fssf_f": DesignEntry("demcal.optimizer.designs:fssf_f", maximin=False),
     },
 )
 

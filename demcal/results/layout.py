@@ -14,6 +14,7 @@ workflow's rules build their patterns from the same place::
         best.json           the best point so far
         finished.json       written only when the calibration has ended, with its reason
         reused.json         the archive's simulations the study started from (reuse: archive)
+        campaign.json, campaign.log  a sampling campaign's design and its Snakemake's output
         early_termination.csv  estimates of running evaluations and their stopping limits
         live.html           the live view of a running calibration (demcal watch)
         daemon.log, daemon.lock, STOP_CALIBRATION, logs/, plots/, report.html
@@ -157,6 +158,14 @@ class StudyFiles:
     @property
     def reused(self) -> Path:
         return self.dir / "reused.json"
+
+    @property
+    def campaign(self) -> Path:
+        return self.dir / "campaign.json"
+
+    @property
+    def campaign_log(self) -> Path:
+        return self.dir / "campaign.log"
 
     @property
     def early_termination(self) -> Path:

@@ -173,6 +173,22 @@ def _optional(default: Any = None) -> Any:
 
 
 @dataclass(frozen=True)
+class CampaignRecord(Record):
+    """``campaign.json``: a sampling campaign's design (``demcal sample``).
+
+    ``design`` names the design (an entry of the optimizer's DESIGNS), ``seed`` the stream it
+    was drawn from, ``unit_points`` its points in the unit box of the free parameters, in
+    order (evaluation ``e0000`` is the first); an extension appends to them.
+    """
+
+    FILE: ClassVar[str] = "campaign.json"
+
+    design: str
+    seed: int
+    unit_points: list[list[float]]
+
+
+@dataclass(frozen=True)
 class PointRecord(Record):
     """``params.json``: the free-parameter values of a point and how often it was run.
 

@@ -1,0 +1,90 @@
+"""``demcal sample CONFIG --n N``: a sampling campaign over the study's box, into the archive
+(:mod:`demcal.campaign`)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from tqdm import tqdm
+
+from demcal.campaign import (
+    CAMPAIGN_DESIGNS,
+    FAIL_FAST,
+    Tally,
+    design_quality,
+    plan,
+    run,
+    write_points,
+)
+from demcal.cli.run import locked_study
+from demcal.errors import ConfigError
+from demcal.workflow import LOCAL_PROFILE, check_profile
+
+
+def arguments(sub: argparse.ArgumentParser) -> None:
+    sub.add_argument("--n", type=int, required=True, help="points of the design (the total)")
+    sub.add_argument(
+        "--design",
+        default="fssf_f",
+        choices=CAMPAIGN_DESIGNS,
+        help="space-filling design (default fssf_f, Richter & Will's choice)",
+    )
+    sub.add_argument(
+        "--profile",
+        default=str(LOCAL_PROFILE),
+        help="Snakemake profile of the simulations (default: demcal's profiles/local)",
+    )
+
+
+def sample(args: argparse.Namespace) -> int:
+    profile = Path(args.profile)
+    check_profile(profile)
+    with locked_study(args.config) as study:
+        if study.archive is None:
+            raise ConfigError(
+                "archive: false: a campaign is for the archive; give the study an archive"
+            )
+        campaign = plan(study, args.n, args.design)
+        names = write_points(study, campaign)
+        distance, cover = design_quality(campaign)
+        print(
+            f"demcal sample: {study.name}, {campaign.design} design of {len(names)} points in "
+            f"{len(study.free)} parameters ({', '.join(p.name for p in study.free)}); "
+            f"minimum inter-site distance {distance:.3g}, cover measure {cover:.3g} (unit box)",
+            flush=True,
+        )
+        bar = tqdm(
+            total=len(names) * study.replicates * len(study.scenes),
+            unit="sim",
+            file=sys.stderr,
+            mininterval=1.0 if sys.stderr.isatty() else 30.0,
+        )
+
+        def show(state: Tally) -> None:
+            counts = ", ".join(f"{n} {s}" for s, n in sorted(state.statuses.items()))
+            bar.set_postfix_str(counts, refresh=False)
+            bar.update(state.finished - bar.n)
+
+        try:
+            state = run(study, names, profile, None, show)
+        finally:
+            bar.close()
+        print(f"demcal sample: {state.line()}; each is in the archive {study.archive}")
+        if state.hopeless():
+            reason = state.reasons.most_common(1)[0][0] if state.reasons else "unknown"
+            print(
+                f"demcal sample: stopped: the first {FAIL_FAST} simulations all failed "
+                f"(commonest: {reason}); see {study.files.campaign_log} and the evaluations' logs",
+                file=sys.stderr,
+            )
+            return 1
+        if state.finished < state.total:
+            print(
+                f"demcal sample: {state.total - state.finished} simulations did not finish; run "
+                f"the same command again to resume (see {study.files.campaign_log})",
+                file=sys.stderr,
+            )
+            return 1
+    return 0
