@@ -46,8 +46,8 @@ def test_box_is_scaled_to_ten_largest_particles_by_default():
 
 
 def test_particle_count_fills_the_box_at_dense_packing():
-    # monodisperse: box 10 d x 10 d x 15 d = 1500 d^3; 0.64 * 1500 / (pi / 6) = 1833.5
-    assert fill_particle_count(settings(sigma_ln=0.0)) == 1834
+    # monodisperse: box 10 d x 10 d x 15 d = 1500 d^3; 0.70 * 1500 / (pi / 6) = 2005.4
+    assert fill_particle_count(settings(sigma_ln=0.0)) == 2006
 
 
 def test_mean_sphere_volume_of_the_truncated_lognormal():
@@ -77,7 +77,7 @@ def test_mean_sphere_volume_of_the_truncated_lognormal():
         ),
         (
             {"sigma_ln": 1.2, "psd_truncation": 4.0},
-            "s.sigma_ln: the box (smallest side 10 largest particles) needs 7697268 spheres of "
+            "s.sigma_ln: the box (smallest side 10 largest particles) needs 8418886 spheres of "
             "this PSD, more than 100000; narrow the PSD (sigma_ln, psd_truncation) or lower "
             "box_size_dmax",
         ),

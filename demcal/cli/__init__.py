@@ -10,7 +10,8 @@
     demcal solutions [CONFIG] [--k 2] [--samples 65536] [--explore N] [--point NAME=VALUE ...]
     demcal convergence [CONFIG] [--scene S] [--fractions F ...] [--sizes N ...] [--seeds 2]
     demcal psd fit SIEVE.csv
-    demcal sample [CONFIG] --n N [--design fssf_f] [--profile profiles/local]
+    demcal sample [CONFIG] --n N [--design fssf_f] [--name STUDY] [--profile profiles/local]
+    demcal metamodel build|validate|show [CONFIG] [--model kriging symbolic] [--holdout STUDY]
     demcal archive list|show|export|import|stats [--url URL | --study CONFIG]
 
 CONFIG defaults to config/config.yaml. Errors in the configuration or on
@@ -19,8 +20,8 @@ disk are printed as one message (exit code 2), never as a traceback.
 This module holds the parser and ``main``; the commands live in ``run.py``
 (run, the best point), ``inspect.py`` (status, studies, watch), ``manage.py``
 (stop, add-point, rerun-failed), ``analysis.py`` (solutions, convergence), ``psd.py``
-(fits to sieve data), ``archive.py`` (the archive of simulations) and ``sample.py``
-(sampling campaigns).
+(fits to sieve data), ``archive.py`` (the archive of simulations), ``sample.py``
+(sampling campaigns) and ``metamodel.py`` (global metamodels of a domain).
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ import sys
 import traceback
 from collections.abc import Callable
 
-from demcal.cli import analysis, archive, inspect, manage, psd, run, sample
+from demcal.cli import analysis, archive, inspect, manage, metamodel, psd, run, sample
 from demcal.errors import DemcalError
 from demcal.resources import DEFAULT_CONFIG
 from demcal.workflow import LOCAL_PROFILE
@@ -170,6 +171,12 @@ COMMANDS: tuple[tuple[str, str, Command, Arguments], ...] = (
         sample.arguments,
     ),
     (
+        "metamodel",
+        "global metamodels of a sampled domain: build, validate (held-out R²), show",
+        metamodel.metamodel_command,
+        metamodel.arguments,
+    ),
+    (
         "archive",
         "the archive of every simulation: list, show, export, import, stats",
         archive.archive,
@@ -177,8 +184,9 @@ COMMANDS: tuple[tuple[str, str, Command, Arguments], ...] = (
     ),
 )
 
-#: Commands that take no study file (they work on every study, on the archive or on other input).
-WITHOUT_CONFIG = ("studies", "archive", "psd")
+#: Commands that take no study file first (they work on every study, on the archive or on other
+#: input, or take an action before it).
+WITHOUT_CONFIG = ("studies", "archive", "psd", "metamodel")
 
 
 def parser() -> argparse.ArgumentParser:

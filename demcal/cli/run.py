@@ -21,7 +21,7 @@ from demcal.jobs.evaluation import reused_objectives
 from demcal.reporting.terminal import CHOSEN_BY, confirmation_summary, evaluation_summary
 from demcal.results.layout import StudyFiles
 from demcal.results.records import BestRecord, ObjectiveRecord
-from demcal.study.config import load_study_file
+from demcal.study.config import check_study_name, load_study_file
 from demcal.study.model import Study, freeze, load_frozen
 from demcal.workflow import check_profile, child_cores
 
@@ -73,11 +73,15 @@ def locked_study(
     frozen: bool = False,
     watch_pid: int | None = None,
     log: TextIO | None = None,
+    name: str | None = None,
 ) -> Iterator[Study]:
     """The study of ``config`` as its jobs will read it, with the study's daemon lock held
     inside the block. A YAML is validated, its warnings said, and frozen under the lock; with
-    ``frozen`` (the workflow's calibrate rule), ``config`` is the study.json it froze."""
+    ``frozen`` (the workflow's calibrate rule), ``config`` is the study.json it froze. ``name``
+    renames the study of a YAML (``demcal sample --name``)."""
     study = load_frozen(config) if frozen else load_study_file(config)
+    if name is not None:
+        study.name = check_study_name(name, "--name")
     with contextlib.closing(lock_study(study, watch_pid)):
         if not frozen:
             for warning in study.warnings:

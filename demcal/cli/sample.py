@@ -32,6 +32,11 @@ def arguments(sub: argparse.ArgumentParser) -> None:
         help="space-filling design (default fssf_f, Richter & Will's choice)",
     )
     sub.add_argument(
+        "--name",
+        help="run the campaign as this study (same box, its own folder and design), e.g. a "
+        "held-out set for demcal metamodel validate",
+    )
+    sub.add_argument(
         "--profile",
         default=str(LOCAL_PROFILE),
         help="Snakemake profile of the simulations (default: demcal's profiles/local)",
@@ -41,7 +46,7 @@ def arguments(sub: argparse.ArgumentParser) -> None:
 def sample(args: argparse.Namespace) -> int:
     profile = Path(args.profile)
     check_profile(profile)
-    with locked_study(args.config) as study:
+    with locked_study(args.config, name=args.name) as study:
         if study.archive is None:
             raise ConfigError(
                 "archive: false: a campaign is for the archive; give the study an archive"

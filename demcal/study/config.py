@@ -289,6 +289,17 @@ def _settings(config: dict, scenes: dict[str, Scene], free: list[FreeParameter])
     return resolved
 
 
+def check_study_name(name: str, where: str) -> str:
+    """``name`` if the schema allows it as a study's name, else a ConfigError naming ``where``."""
+    identifier = load_schema()["$defs"]["identifier"]
+    if len(name) > identifier["maxLength"] or not re.fullmatch(identifier["pattern"], name):
+        raise ConfigError(
+            f"{where} {name!r}: not a study name (a letter, then letters, digits, '_' and '-'; "
+            f"at most {identifier['maxLength']} characters)"
+        )
+    return name
+
+
 def refuse_non_finite(value: object, where: str = "") -> None:
     """Raise ConfigError naming the first NaN or infinite number in a config mapping.
 

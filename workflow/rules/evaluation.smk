@@ -45,6 +45,9 @@ rule objective:
         "../scripts/objective.py"
 
 
+# A finished simulation is extracted (and archived) before the next one starts: with many
+# evaluations under one Snakemake (demcal sample) the simulations would otherwise take every
+# core first.
 rule extract:
     input:
         str(REPLICATE.simulation),
@@ -52,6 +55,7 @@ rule extract:
         str(REPLICATE.responses),
     log:
         str(EVAL.job_log("extract", "{scene}", "{replicate}")),
+    priority: 10
     params:
         study_file=STUDY_FILE,
     script:

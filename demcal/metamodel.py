@@ -1,0 +1,307 @@
+"""Global metamodels (Richter & Will 2021, secs. 2.4 and 3): one model per response over a
+material domain, trained once on the archive's simulations of that domain.
+
+The domain is a study's box (its free parameters, material ones and free scene settings);
+its data are the archive's simulations compatible with the study (same scene, engine,
+settings and fixed values; :meth:`demcal.study.model.Study.archive_view`), usually those of a
+sampling campaign (``demcal sample``). Each targeted response gets
+
+- ``kriging``: the per-response Kriging of the optimizer (SMT, Matérn 5/2, linear trend,
+  nugget), on the unit box;
+- ``symbolic``: symbolic regression by genetic programming (gplearn, as Richter & Will: the
+  function set +, -, *, /, sqrt, log, exp, tanh; parsimony 0.001, population 5000), on the
+  unit box and the standardised response, so its equation reads
+  ``response = mean + sd * f(x_name, ...)`` with ``x_name`` the parameter scaled to [0, 1].
+
+The models are saved under ``results/<study>/metamodels/`` with the fingerprint of the data
+they were trained on, so a later command knows when the archive has moved on.
+"""
+
+from __future__ import annotations
+
+import math
+import pickle
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+
+from demcal.archive.record import digest
+from demcal.archive.store import Archive
+from demcal.errors import ConfigError
+from demcal.study.model import Study
+
+MODEL_KINDS = ("kriging", "symbolic")
+#: Richter & Will's genetic-programming settings (sec. 2.4): population and parsimony.
+POPULATION = 5000
+PARSIMONY = 0.001
+GENERATIONS = 20
+
+
+@dataclass
+class ResponseData:
+    """The simulations of one response over the domain: inputs in SI units, one row each."""
+
+    key: str
+    x: np.ndarray
+    y: np.ndarray
+    sources: list[str]
+
+
+@dataclass
+class DomainData:
+    """A domain's data: its inputs (names and bounds) and each targeted response's rows.
+
+    ``fingerprint`` digests the archive keys of every simulation used, so models built on it
+    know when the archive holds other data."""
+
+    names: list[str]
+    lower: np.ndarray
+    upper: np.ndarray
+    responses: dict[str, ResponseData]
+    fingerprint: str
+
+    def to_unit(self, x: np.ndarray) -> np.ndarray:
+        """SI inputs to the unit box of the domain."""
+        unit: np.ndarray = (np.atleast_2d(x) - self.lower) / (self.upper - self.lower)
+        return unit
+
+
+def domain_data(
+    study: Study,
+    archive: Archive,
+    exclude: tuple[str, ...] = (),
+    only: tuple[str, ...] | None = None,
+) -> DomainData:
+    """The study's domain and its compatible simulations: without those of the studies
+    ``exclude`` names (a held-out validation campaign), or those of the studies ``only``
+    names alone."""
+    names = [p.name for p in study.free]
+    rows: dict[str, tuple[list, list, list]] = {t.key: ([], [], []) for t in study.targets}
+    keys = []
+    for scene in study.scenes:
+        settings, fixed, inputs = study.archive_view(scene)
+        for record in archive.compatible(
+            scene=scene, engine=study.engine.name, settings=settings, fixed=fixed, inputs=inputs
+        ):
+            if record.study in exclude or (only is not None and record.study not in only):
+                continue
+            if record.timestep_fraction != study.timestep_fraction:
+                continue
+            if not all(p.lower <= record.parameters[p.name].value <= p.upper for p in study.free):
+                continue
+            keys.append(record.key)
+            for target in study.targets:
+                if target.scene == scene and record.final.get(target.response):
+                    x, y, sources = rows[target.key]
+                    x.append(record.values(names))
+                    y.append(record.responses[target.response].value)
+                    sources.append(f"{record.study}/{record.evaluation}")
+    return DomainData(
+        names,
+        np.array([p.lower for p in study.free]),
+        np.array([p.upper for p in study.free]),
+        {
+            key: ResponseData(key, np.array(x, float).reshape(-1, len(names)), np.array(y), s)
+            for key, (x, y, s) in rows.items()
+        },
+        digest(sorted(keys)),
+    )
+
+
+class Model(Protocol):
+    """A fitted global model of one response, on the domain's unit box."""
+
+    def predict(self, x_unit: np.ndarray) -> np.ndarray: ...
+
+    def describe(self) -> str: ...
+
+
+@dataclass
+class KrigingModel:
+    """The optimizer's per-response Kriging (demcal.optimizer.surrogates.kriging)."""
+
+    model: Any
+
+    @classmethod
+    def fit(
+        cls, x_unit: np.ndarray, y: np.ndarray, names: list[str], seed: int, key: str
+    ) -> KrigingModel:
+        from demcal.optimizer.surrogates.kriging import KrigingSurrogate
+
+        return cls(KrigingSurrogate(restarts=5, seed=seed).fit(x_unit, y))
+
+    def predict(self, x_unit: np.ndarray) -> np.ndarray:
+        return np.asarray(self.model.predict(np.atleast_2d(x_unit)), float)
+
+    def describe(self) -> str:
+        return f"Kriging (Matérn 5/2, linear trend), noise sd {self.model.noise_sd:.3g}"
+
+
+def _protected_exp(x: np.ndarray) -> np.ndarray:
+    """exp, capped so that an evolved program never overflows (gplearn protects its own
+    functions the same way)."""
+    values: np.ndarray = np.exp(np.clip(x, -50.0, 50.0))
+    return values
+
+
+@dataclass
+class SymbolicModel:
+    """Symbolic regression (gplearn) on the unit box and the standardised response."""
+
+    program: Any
+    mean: float
+    sd: float
+    key: str
+
+    @classmethod
+    def fit(
+        cls, x_unit: np.ndarray, y: np.ndarray, names: list[str], seed: int, key: str
+    ) -> SymbolicModel:
+        from gplearn.functions import make_function
+        from gplearn.genetic import SymbolicRegressor
+
+        functions = (
+            "add",
+            "sub",
+            "mul",
+            "div",
+            "sqrt",
+            "log",
+            make_function(function=_protected_exp, name="exp", arity=1),
+            make_function(function=np.tanh, name="tanh", arity=1),
+        )
+        mean, sd = float(np.mean(y)), float(np.std(y)) or 1.0
+        regressor = SymbolicRegressor(
+            population_size=POPULATION,
+            generations=GENERATIONS,
+            function_set=functions,
+            parsimony_coefficient=PARSIMONY,
+            feature_names=[f"x_{name}" for name in names],
+            random_state=seed,
+            n_jobs=1,
+        )
+        regressor.fit(x_unit, (y - mean) / sd)
+        return cls(regressor, mean, sd, key)
+
+    def predict(self, x_unit: np.ndarray) -> np.ndarray:
+        return self.mean + self.sd * np.asarray(self.program.predict(np.atleast_2d(x_unit)))
+
+    def describe(self) -> str:
+        return f"{self.key} = {self.mean:.6g} + {self.sd:.6g} * {self.program._program}"
+
+
+#: How each kind of model is fitted: (x in the unit box, y, input names, seed, response key).
+FITTERS: dict[str, Callable[[np.ndarray, np.ndarray, list[str], int, str], Model]] = {
+    "kriging": KrigingModel.fit,
+    "symbolic": SymbolicModel.fit,
+}
+
+
+@dataclass
+class Metamodels:
+    """The fitted models of a domain, each response's by kind, and what they were fitted on."""
+
+    names: list[str]
+    lower: np.ndarray
+    upper: np.ndarray
+    models: dict[str, dict[str, Model]]
+    training_size: dict[str, int]
+    fingerprint: str
+    exclude: tuple[str, ...] = ()
+    notes: list[str] = field(default_factory=list)
+
+    def predict(self, key: str, kind: str, x: np.ndarray) -> np.ndarray:
+        """The model's prediction at SI inputs ``x`` (rows)."""
+        unit = (np.atleast_2d(x) - self.lower) / (self.upper - self.lower)
+        return self.models[key][kind].predict(unit)
+
+
+def build(
+    data: DomainData, kinds: tuple[str, ...], seed: int, exclude: tuple[str, ...]
+) -> Metamodels:
+    """One model of each kind per response of ``data``."""
+    unknown = [k for k in kinds if k not in MODEL_KINDS]
+    if unknown:
+        raise ConfigError(f"--model {unknown[0]}: use one of {', '.join(MODEL_KINDS)}")
+    models: dict[str, dict[str, Model]] = {}
+    sizes = {}
+    for key, rows in data.responses.items():
+        if len(rows.y) < len(data.names) + 2:
+            raise ConfigError(
+                f"{key}: {len(rows.y)} simulations in the archive for {len(data.names)} inputs; "
+                f"a global model needs many more: run demcal sample first"
+            )
+        unit = data.to_unit(rows.x)
+        models[key] = {}
+        for kind in kinds:
+            models[key][kind] = FITTERS[kind](unit, rows.y, data.names, seed, key)
+        sizes[key] = len(rows.y)
+    return Metamodels(data.names, data.lower, data.upper, models, sizes, data.fingerprint, exclude)
+
+
+@dataclass(frozen=True)
+class Validation:
+    """How a model predicts held-out simulations: R², RMSE, the largest errors."""
+
+    key: str
+    kind: str
+    count: int
+    r2: float
+    rmse: float
+    residuals: np.ndarray
+    worst: list[tuple[str, float, float]]
+
+
+def validate(models: Metamodels, held_out: DomainData, worst: int = 5) -> list[Validation]:
+    """Each model against the held-out simulations of its response."""
+    results = []
+    for key, by_kind in models.models.items():
+        rows = held_out.responses.get(key)
+        if rows is None or len(rows.y) < 2:
+            continue
+        for kind in by_kind:
+            predicted = models.predict(key, kind, rows.x)
+            residuals = rows.y - predicted
+            total = float(np.sum((rows.y - rows.y.mean()) ** 2))
+            order = np.argsort(-np.abs(residuals))[:worst]
+            results.append(
+                Validation(
+                    key,
+                    kind,
+                    len(rows.y),
+                    1.0 - float(np.sum(residuals**2)) / total if total > 0 else math.nan,
+                    float(np.sqrt(np.mean(residuals**2))),
+                    residuals,
+                    [(rows.sources[i], float(rows.y[i]), float(predicted[i])) for i in order],
+                )
+            )
+    return results
+
+
+def models_file(study: Study) -> Path:
+    return study.files.dir / "metamodels" / "models.pkl"
+
+
+def save(study: Study, models: Metamodels) -> Path:
+    path = models_file(study)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    temporary = path.with_suffix(".tmp")
+    temporary.write_bytes(pickle.dumps(models))
+    temporary.replace(path)
+    return path
+
+
+def load(study: Study) -> Metamodels:
+    path = models_file(study)
+    if not path.is_file():
+        raise ConfigError(f"{path}: no metamodels yet; run demcal metamodel build first")
+    try:
+        models = pickle.loads(path.read_bytes())
+    except (pickle.UnpicklingError, AttributeError, EOFError, ImportError) as exc:
+        raise ConfigError(f"{path}: unreadable ({exc}); run demcal metamodel build again") from None
+    if not isinstance(models, Metamodels):
+        raise ConfigError(f"{path}: not demcal's metamodels; run demcal metamodel build again")
+    return models
