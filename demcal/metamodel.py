@@ -38,6 +38,8 @@ MODEL_KINDS = ("kriging", "symbolic")
 POPULATION = 5000
 PARSIMONY = 0.001
 GENERATIONS = 20
+#: Starts of the Kriging hyperparameter search.
+KRIGING_RESTARTS = 5
 
 
 @dataclass
@@ -131,7 +133,7 @@ class KrigingModel:
     ) -> KrigingModel:
         from demcal.optimizer.surrogates.kriging import KrigingSurrogate
 
-        return cls(KrigingSurrogate(restarts=5, seed=seed).fit(x_unit, y))
+        return cls(KrigingSurrogate(restarts=KRIGING_RESTARTS, seed=seed).fit(x_unit, y))
 
     def predict(self, x_unit: np.ndarray) -> np.ndarray:
         return np.asarray(self.model.predict(np.atleast_2d(x_unit)), float)
@@ -305,3 +307,152 @@ def load(study: Study) -> Metamodels:
     if not isinstance(models, Metamodels):
         raise ConfigError(f"{path}: not demcal's metamodels; run demcal metamodel build again")
     return models
+
+
+@dataclass(frozen=True)
+class Optimum:
+    """A local optimum of the objective on the metamodels: free values, objective, the
+    predicted responses, and how many starts ended there."""
+
+    values: dict[str, float]
+    objective: float
+    predicted: dict[str, float]
+    starts: int
+
+
+@dataclass(frozen=True)
+class MetamodelCalibration:
+    """A material calibrated on a domain's metamodels (Richter & Will 2021, sec. 4): every
+    distinct optimum, best first, the inputs held at the material's values, and the share of
+    the free box whose predicted responses all lie within the targets' spreads."""
+
+    optima: list[Optimum]
+    held: dict[str, float]
+    within_spreads: float
+    within_ranges: dict[str, tuple[float, float]]
+
+
+def material_inputs(domain: Study, material: Study) -> tuple[list[str], dict[str, float]]:
+    """The domain's inputs the material frees, and the value it holds each other one at (a
+    fixed parameter or a scene setting such as the d50 of ``demcal psd fit``).
+
+    Refused, naming the field: a material of another scene or engine, a free parameter that
+    is not an input of the models, a held value or bound outside the domain, and a fixed
+    parameter of the domain the material gives another value (the models know only one)."""
+    if set(material.scenes) != set(domain.scenes) or material.engine.name != domain.engine.name:
+        raise ConfigError(
+            f"the material's scenes {', '.join(material.scenes)} on {material.engine.name} are "
+            f"not the domain's ({', '.join(domain.scenes)} on {domain.engine.name})"
+        )
+    bounds = {p.name: (p.lower, p.upper) for p in domain.free}
+    free = []
+    for p in material.free:
+        if p.name not in bounds:
+            raise ConfigError(
+                f"parameters.{p.name}: not an input of the domain's models "
+                f"({', '.join(bounds)}); fix it at the domain's value"
+            )
+        lower, upper = bounds[p.name]
+        if p.lower < lower or p.upper > upper:
+            raise ConfigError(
+                f"parameters.{p.name}: [{p.lower:g}, {p.upper:g}] leaves the domain "
+                f"[{lower:g}, {upper:g}]; the models would extrapolate"
+            )
+        free.append(p.name)
+    scene = next(iter(domain.scenes))
+    held = {}
+    for name, (lower, upper) in bounds.items():
+        if name in free:
+            continue
+        value = material.fixed.get(name, material.settings[scene].get(name))
+        where = "fixed" if name in material.fixed else f"scenes.{scene}.settings"
+        if value is None or not lower <= value <= upper:
+            raise ConfigError(
+                f"{where}.{name}: {value} is outside the domain [{lower:g}, {upper:g}] of the "
+                f"models; give a value inside it or make it free"
+            )
+        held[name] = float(value)
+    for name, value in domain.fixed.items():
+        if name not in bounds and material.fixed.get(name) != value:
+            raise ConfigError(
+                f"fixed.{name}: the domain's models were trained at {value:g}, the material "
+                f"gives {material.fixed.get(name)}; they do not know another value"
+            )
+    return free, held
+
+
+def calibrate(
+    models: Metamodels,
+    kind: str,
+    material: Study,
+    free: list[str],
+    held: dict[str, float],
+    starts: int,
+    seed: int,
+) -> MetamodelCalibration:
+    """L-BFGS-B on the material's objective of the predicted responses, from ``starts``
+    Sobol points of its free box; optima closer than 0.02 of the box are one."""
+    from scipy.optimize import minimize
+
+    from demcal.optimizer.designs import sobol_sequence
+
+    objective = material.objective
+    bounds = {p.name: (p.lower, p.upper) for p in material.free}
+    low = np.array([bounds[n][0] for n in free])
+    high = np.array([bounds[n][1] for n in free])
+
+    def inputs(unit: np.ndarray) -> np.ndarray:
+        unit = np.atleast_2d(unit)
+        values = {n: low[i] + unit[:, i] * (high[i] - low[i]) for i, n in enumerate(free)}
+        values |= {n: np.full(len(unit), v) for n, v in held.items()}
+        return np.column_stack([values[n] for n in models.names])
+
+    def predicted(unit: np.ndarray) -> dict[str, np.ndarray]:
+        x = inputs(unit)
+        return {key: models.predict(key, kind, x) for key in objective.keys}
+
+    def value(unit: np.ndarray) -> float:
+        return float(np.ravel(objective(predicted(unit)))[0])
+
+    rng = np.random.default_rng(seed)
+    ends = []
+    for start in sobol_sequence(starts, len(free), rng):
+        result = minimize(value, start, method="L-BFGS-B", bounds=[(0.0, 1.0)] * len(free))
+        ends.append((float(result.fun), np.clip(result.x, 0.0, 1.0)))
+    ends.sort(key=lambda end: end[0])
+    optima: list[tuple[np.ndarray, float, int]] = []
+    for fun, unit in ends:
+        for i, (kept, kept_fun, count) in enumerate(optima):
+            if np.linalg.norm(unit - kept) < 0.02 * math.sqrt(len(free)):
+                optima[i] = (kept, kept_fun, count + 1)
+                break
+        else:
+            optima.append((unit, fun, 1))
+    samples = sobol_sequence(4096, len(free), rng)
+    responses = predicted(samples)
+    inside = np.ones(len(samples), bool)
+    for target in objective.targets:
+        spread = target.spread if target.spread else 0.01 * abs(target.value)
+        inside &= np.abs(responses[target.key] - target.value) <= spread
+    ranges = {
+        n: (
+            float(low[i] + samples[inside, i].min() * (high[i] - low[i])),
+            float(low[i] + samples[inside, i].max() * (high[i] - low[i])),
+        )
+        for i, n in enumerate(free)
+        if inside.any()
+    }
+    return MetamodelCalibration(
+        [
+            Optimum(
+                {n: float(low[i] + unit[i] * (high[i] - low[i])) for i, n in enumerate(free)},
+                fun,
+                {k: float(v[0]) for k, v in predicted(unit).items()},
+                count,
+            )
+            for unit, fun, count in optima
+        ],
+        held,
+        float(inside.mean()),
+        ranges,
+    )

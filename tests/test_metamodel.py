@@ -4,11 +4,12 @@ on one campaign's archived simulations, validated on another's."""
 from __future__ import annotations
 
 import copy
+import re
 
 import numpy as np
 import pytest
 import yaml
-from conftest import ANALYTIC_STUDY
+from conftest import ANALYTIC_STUDY, demcal, finish
 
 from demcal import metamodel
 from demcal.archive.record import ArchivedSimulation, Quantity
@@ -67,10 +68,12 @@ def simulated(study: Study, name: str, unit: np.ndarray) -> list[ArchivedSimulat
 @pytest.fixture
 def domain(tmp_path, monkeypatch) -> Study:
     """The domain's study with a training campaign (60 FSSF-f points) and a held-out one (20
-    random LHS points) in its archive; gplearn kept small so that the test is quick."""
+    random LHS points) in its archive; gplearn and the Kriging search kept small so that the
+    test is quick."""
     monkeypatch.chdir(tmp_path)
     monkeypatch.setattr(metamodel, "POPULATION", 400)
     monkeypatch.setattr(metamodel, "GENERATIONS", 8)
+    monkeypatch.setattr(metamodel, "KRIGING_RESTARTS", 1)
     study = freeze(load_study(copy.deepcopy(DOMAIN)))
     with Archive(study.archive) as archive:
         archive.add(simulated(study, "domain", fssf_f(60, 4, np.random.default_rng(1))))
@@ -123,3 +126,102 @@ def test_validating_on_trained_simulations_or_without_any_is_refused(domain, cap
     assert "the models were trained on its simulations" in capsys.readouterr().err
     assert main(["metamodel", "validate", "domain.yaml"]) == 2
     assert "give --holdout STUDY" in capsys.readouterr().err
+
+
+TRUTH = {"sliding_friction_pp": 0.45, "rolling_friction_pp": 0.12, "particle_density": 2500.0}
+
+
+def material(**changes) -> dict:
+    """Gravel-like material of the domain: density measured (held), sigma_ln from a sieve
+    analysis (held), the two frictions free; targets the closed form's responses at TRUTH."""
+    config = copy.deepcopy(DOMAIN)
+    config["study"] = "material"
+    config["parameters"] = {
+        "sliding_friction_pp": {"lower": 0.1, "upper": 0.9},
+        "rolling_friction_pp": {"lower": 0.02, "upper": 0.3},
+    }
+    config["fixed"] = {**config["fixed"], "particle_density": 2500.0}
+    config["scenes"] = {"cylinder_lift": {"settings": {"sigma_ln": 0.05}}}
+    study = load_study(config)
+    settings = study.settings_for("cylinder_lift", {})
+    responses = study.scenes["cylinder_lift"].analytic_model({**study.fixed, **TRUTH}, settings)
+    config["targets"] = [
+        {"scene": "cylinder_lift", "response": r, "value": v, "spread": 0.005 * v}
+        for r, v in responses.items()
+    ]
+    for key, value in changes.items():
+        config[key] = {**config[key], **value}
+    return config
+
+
+def test_a_material_is_calibrated_on_the_models_without_simulating(domain, tmp_path, capsys):
+    assert main(["metamodel", "build", "domain.yaml", "--model", "kriging"]) == 0
+    (tmp_path / "material.yaml").write_text(yaml.safe_dump(material()))
+    capsys.readouterr()
+    assert (
+        main(["calibrate-metamodel", "material.yaml", "--domain", "domain.yaml", "--starts", "8"])
+        == 0
+    )
+    out = capsys.readouterr().out
+    assert "no simulation" in out and "held: particle_density = 2500, sigma_ln = 0.05" in out
+    best = out.split("optimum 1 (")[1].splitlines()[0]
+    found = {
+        name: float(value)
+        for name, value in (part.split(" = ") for part in best.split("): ")[1].split(", "))
+    }
+    assert found["sliding_friction_pp"] == pytest.approx(TRUTH["sliding_friction_pp"], abs=0.03)
+    assert found["rolling_friction_pp"] == pytest.approx(TRUTH["rolling_friction_pp"], abs=0.015)
+    assert not (tmp_path / "results" / "material").exists()  # nothing simulated
+
+
+@pytest.mark.parametrize(
+    "changes, message",
+    [
+        (
+            {"parameters": {"sliding_friction_pw": {"lower": 0.2, "upper": 0.4}}},
+            r"parameters.sliding_friction_pw: not an input of the domain's models",
+        ),
+        (
+            {"scenes": {"cylinder_lift": {"settings": {"sigma_ln": 0.3}}}},
+            r"scenes.cylinder_lift.settings.sigma_ln: 0.3 is outside the domain \[0, 0.1\]",
+        ),
+        (
+            {"fixed": {"restitution_pp": 0.6}},
+            r"fixed.restitution_pp: the domain's models were trained at 0.5, the material "
+            r"gives 0.6",
+        ),
+    ],
+    ids=["not_an_input", "outside", "other_fixed"],
+)
+def test_a_material_the_models_do_not_cover_is_refused(domain, tmp_path, capsys, changes, message):
+    (tmp_path / "material.yaml").write_text(yaml.safe_dump(material(**changes)))
+    capsys.readouterr()
+    assert main(["calibrate-metamodel", "material.yaml", "--domain", "domain.yaml"]) == 2
+    assert re.search(message, capsys.readouterr().err)
+
+
+@pytest.mark.slow
+def test_the_answer_is_validated_by_simulation(domain, tmp_path):
+    """--validate 2: two simulations at the answer (Snakemake, analytic engine), their errors
+    against the targets and the models' predictions."""
+    assert main(["metamodel", "build", "domain.yaml", "--model", "kriging"]) == 0
+    config = material()
+    config["engine"] = {"name": "analytic", "noise": 0.0}
+    (tmp_path / "material.yaml").write_text(yaml.safe_dump(config))
+    out = finish(
+        demcal(
+            tmp_path,
+            "calibrate-metamodel",
+            "material.yaml",
+            "--domain",
+            "domain.yaml",
+            "--starts",
+            "8",
+            "--validate",
+            "2",
+        )
+    )
+    assert "validation: 4 of 4 simulations finished (4 ok)" in out  # 2 replicates each
+    for line in [line for line in out.splitlines() if "% against the target" in line]:
+        error = float(line.split("runs), ")[1].split(" %")[0])
+        assert abs(error) < 1.0, line

@@ -12,6 +12,7 @@
     demcal psd fit SIEVE.csv
     demcal sample [CONFIG] --n N [--design fssf_f] [--name STUDY] [--profile profiles/local]
     demcal metamodel build|validate|show [CONFIG] [--model kriging symbolic] [--holdout STUDY]
+    demcal calibrate-metamodel [MATERIAL] --domain CONFIG [--model kriging] [--validate N]
     demcal archive list|show|export|import|stats [--url URL | --study CONFIG]
 
 CONFIG defaults to config/config.yaml. Errors in the configuration or on
@@ -175,6 +176,12 @@ COMMANDS: tuple[tuple[str, str, Command, Arguments], ...] = (
         "global metamodels of a sampled domain: build, validate (held-out R²), show",
         metamodel.metamodel_command,
         metamodel.arguments,
+    ),
+    (
+        "calibrate-metamodel",
+        "calibrate a material on a domain's metamodels, no simulation (then --validate N)",
+        metamodel.calibrate_command,
+        metamodel.calibrate_arguments,
     ),
     (
         "archive",

@@ -8,6 +8,9 @@ import base64
 import html
 import io
 import time
+from pathlib import Path
+
+import numpy as np
 
 from demcal import metamodel
 from demcal.archive.store import Archive
@@ -15,6 +18,7 @@ from demcal.errors import ConfigError
 from demcal.resources import DEFAULT_CONFIG
 from demcal.study.config import load_study_file
 from demcal.study.model import Study, load_frozen
+from demcal.workflow import LOCAL_PROFILE, check_profile
 
 
 def arguments(sub: argparse.ArgumentParser) -> None:
@@ -156,3 +160,110 @@ def validation_page(
         )
     body = "\n".join(parts)
     return f"<!doctype html><html><head><meta charset='utf-8'></head><body>{body}</body></html>"
+
+
+def calibrate_arguments(sub: argparse.ArgumentParser) -> None:
+    sub.add_argument(
+        "--domain",
+        required=True,
+        help="the domain's study file (whose metamodels demcal metamodel build made)",
+    )
+    sub.add_argument(
+        "--model",
+        default="kriging",
+        choices=metamodel.MODEL_KINDS,
+        help="the metamodels to calibrate on (default kriging)",
+    )
+    sub.add_argument("--starts", type=int, default=32, help="L-BFGS-B starts (default 32)")
+    sub.add_argument(
+        "--validate",
+        type=int,
+        default=0,
+        metavar="N",
+        help="then simulate the answer N times (seeds of their own) and compare",
+    )
+    sub.add_argument(
+        "--profile",
+        default=str(LOCAL_PROFILE),
+        help="Snakemake profile of the validation simulations (default: profiles/local)",
+    )
+
+
+def calibrate_command(args: argparse.Namespace) -> int:
+    """``demcal calibrate-metamodel MATERIAL --domain DOMAIN``: a material calibrated on the
+    domain's metamodels with no simulation, then optionally validated by simulation."""
+    if args.starts < 1 or args.validate < 0:
+        raise ConfigError("--starts: give at least 1; --validate: give 0 or more simulations")
+    material = load_study_file(args.config)
+    domain = domain_study(args.domain)
+    free, held = metamodel.material_inputs(domain, material)
+    models = metamodel.load(domain)
+    if args.model not in next(iter(models.models.values())):
+        raise ConfigError(f"--model {args.model}: not built; run demcal metamodel build --model")
+    start = time.monotonic()
+    result = metamodel.calibrate(models, args.model, material, free, held, args.starts, 1)
+    best = result.optima[0]
+    print(
+        f"demcal calibrate-metamodel: {material.name} on the {args.model} models of "
+        f"{domain.name}, {args.starts} L-BFGS-B starts, {time.monotonic() - start:.1f} s, "
+        f"no simulation"
+    )
+    print("held: " + ", ".join(f"{n} = {v:g}" for n, v in held.items()))
+    for rank, optimum in enumerate(result.optima[:5], 1):
+        values = ", ".join(f"{n} = {v:.4g}" for n, v in optimum.values.items())
+        print(
+            f"optimum {rank} ({optimum.starts} starts, objective {optimum.objective:.3g}): {values}"
+        )
+    for target in material.targets:
+        print(
+            f"  {target.key}: predicted {best.predicted[target.key]:.4g}, target "
+            f"{target.value:g}" + (f" ± {target.spread:g}" if target.spread else "")
+        )
+    share = f"{100 * result.within_spreads:.1f} %"
+    print(f"predicted within every target's spread: {share} of the free box")
+    for name, (low, high) in result.within_ranges.items():
+        print(f"  {name}: {low:.4g} to {high:.4g}")
+    if args.validate:
+        validate_answer(args, material, best)
+    return 0
+
+
+def validate_answer(args: argparse.Namespace, material: Study, best: metamodel.Optimum) -> None:
+    """Simulate the answer ``args.validate`` times; each response's relative error against the
+    target and against the metamodels' prediction."""
+    from demcal.campaign import run
+    from demcal.cli.run import locked_study
+    from demcal.jobs.evaluation import response_paths
+    from demcal.results.records import PointRecord, ResponsesRecord, Status
+
+    profile = Path(args.profile)
+    check_profile(profile)
+    with locked_study(args.config) as study:
+        names = [f"validate-{i}" for i in range(args.validate)]
+        for name in names:
+            params = study.files.evaluation(name).params
+            point = PointRecord(best.values, proposed_by="calibrate-metamodel")
+            if not params.exists() or PointRecord.read(params).parameters != best.values:
+                point.write(params)
+        state = run(study, names, profile, None, lambda tally: None)
+        values: dict[str, list[float]] = {t.key: [] for t in study.targets}
+        for name in names:
+            for path in response_paths(study, name):
+                record = ResponsesRecord.read(path)
+                if record.status == Status.OK:
+                    scene = path.parent.parent.name
+                    for response, value in record.responses.items():
+                        values.setdefault(f"{scene}.{response}", []).append(value)
+    print(f"validation: {state.line()}")
+    for target in study.targets:
+        simulated = values[target.key]
+        if not simulated:
+            print(f"  {target.key}: no simulation succeeded")
+            continue
+        mean = float(np.mean(simulated))
+        print(
+            f"  {target.key}: simulated {mean:.4g} ({len(simulated)} runs), "
+            f"{100 * (mean - target.value) / target.value:+.2f} % against the target, "
+            f"{100 * (mean - best.predicted[target.key]) / best.predicted[target.key]:+.2f} % "
+            f"against the metamodel"
+        )
