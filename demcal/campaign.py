@@ -6,7 +6,8 @@ A campaign is a study folder whose evaluations are the points of one design
 (``campaign.json``): ``e0000`` is its first point. Each point runs through the same
 simulate -> extract jobs as a calibration, all of them under one Snakemake with the chosen
 profile (SLURM included), and every simulation lands in the study's archive. Run the same
-command again to resume it (finished simulations are not run again); give a larger ``--n``
+command again to resume it (finished simulations are not run again, failed ones are, with a
+new seed); give a larger ``--n``
 to extend it: the design's next points follow (:func:`demcal.optimizer.designs.extend_design`),
 so the whole stays space-filling.
 """
@@ -17,6 +18,7 @@ import os
 import signal
 import subprocess
 import time
+import zlib
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -54,21 +56,40 @@ def unit_to_box(study: Study, unit: np.ndarray) -> list[dict[str, float]]:
     return [{p.name: float(v) for p, v in zip(study.free, row)} for row in values]
 
 
-def plan(study: Study, size: int, design: str) -> CampaignRecord:
-    """The campaign of ``size`` points: the one on disk, extended if ``size`` is larger, or a
-    new design. A ConfigError says why a campaign cannot become what was asked."""
+def check_request(size: int, design: str) -> None:
+    """A ConfigError for a design size or kind no campaign can have."""
     if design not in CAMPAIGN_DESIGNS:
         raise ConfigError(f"--design {design}: use one of {', '.join(CAMPAIGN_DESIGNS)}")
     if size < 2:
         raise ConfigError(f"--n {size}: give at least 2 points")
+
+
+def design_seed(study: Study) -> int:
+    """The seed of a new campaign's design: the study's seed and its name, so that a campaign
+    run under another name (``--name``, a held-out set) gets other points."""
+    key = [study.seed, zlib.crc32(study.name.encode())]
+    return int(np.random.SeedSequence(key).generate_state(1)[0])
+
+
+def plan(study: Study, size: int, design: str) -> CampaignRecord:
+    """The campaign of ``size`` points: the one on disk, extended if ``size`` is larger, or a
+    new design. A ConfigError says why a campaign cannot become what was asked, and refuses a
+    study folder that holds evaluations of something else (a calibration)."""
+    check_request(size, design)
     dimension, existing = len(study.free), CampaignRecord.read_if_any(study.files.campaign)
+    if existing is None and study.files.evals.is_dir() and any(study.files.evals.iterdir()):
+        raise ConfigError(
+            f"{study.files.dir} holds evaluations that are not a campaign's (a calibration?); "
+            f"run the campaign as another study: --name"
+        )
     if existing is None:
-        rng = np.random.default_rng(study.seed)
+        seed = design_seed(study)
+        rng = np.random.default_rng(seed)
         if design in EXTENSIBLE:
             unit = extend_design(design, np.empty((0, dimension)), size, dimension, rng)
         else:
             unit = DESIGNS[design].load()(size, dimension, rng)
-        return CampaignRecord(design, study.seed, np.asarray(unit).tolist())
+        return CampaignRecord(design, seed, np.asarray(unit).tolist())
     if existing.design != design:
         raise ConfigError(
             f"--design {design}: the campaign in {study.files.dir} is a {existing.design} design; "
@@ -87,16 +108,46 @@ def plan(study: Study, size: int, design: str) -> CampaignRecord:
 
 
 def write_points(study: Study, campaign: CampaignRecord) -> list[str]:
-    """params.json of every point not written yet; returns every evaluation's name."""
+    """params.json of every point not written yet, and of every point whose simulation failed
+    (its next attempt: a new seed, so the archive keeps both runs); returns every
+    evaluation's name."""
     names = []
     for index, point in enumerate(unit_to_box(study, np.asarray(campaign.unit_points))):
         name = evaluation_id(index)
-        params = study.files.evaluation(name).params
-        if not params.exists():
-            PointRecord(point, proposed_by=f"campaign ({campaign.design})").write(params)
+        files = study.files.evaluation(name)
+        if not files.params.exists():
+            PointRecord(point, proposed_by=f"campaign ({campaign.design})").write(files.params)
+        else:
+            retry_failed(study, name)
         names.append(name)
     campaign.write(study.files.campaign)
     return names
+
+
+def retry_failed(study: Study, name: str) -> None:
+    """When a simulation of evaluation ``name`` failed: the point's next attempt in its
+    params.json, and the failed outputs removed, so that Snakemake runs it again."""
+    failed = []
+    for path in response_paths(study, name):
+        try:
+            record = ResponsesRecord.read(path)
+        except SimulationFailed:
+            continue
+        if record.status == Status.FAILED:
+            failed.append((path, record.reason))
+    if not failed:
+        return
+    files = study.files.evaluation(name)
+    point = PointRecord.read(files.params)
+    PointRecord(
+        point.parameters,
+        attempt=point.attempt + 1,
+        previous_failures=[*point.previous_failures, *(reason for _, reason in failed)],
+        proposed_by=point.proposed_by,
+    ).write(files.params)
+    for path, _ in failed:
+        path.unlink()
+        path.with_name("simulation.json").unlink(missing_ok=True)
 
 
 @dataclass
@@ -106,14 +157,19 @@ class Tally:
     total: int
     statuses: Counter
     reasons: Counter
+    #: the campaign was stopped because its first simulations all failed
+    stopped: bool = False
 
     @property
     def finished(self) -> int:
         return sum(self.statuses.values())
 
-    def hopeless(self) -> bool:
-        """True when the first FAIL_FAST simulations that finished all failed."""
-        return self.finished >= FAIL_FAST and self.statuses[Status.OK] == 0
+    def hopeless(self, before: Tally | None = None) -> bool:
+        """True when the first FAIL_FAST simulations that finished (since ``before``) all
+        failed."""
+        done = self.finished - (before.finished if before else 0)
+        ok = self.statuses[Status.OK] - (before.statuses[Status.OK] if before else 0)
+        return done >= FAIL_FAST and ok == 0
 
     def line(self) -> str:
         counts = ", ".join(f"{n} {s}" for s, n in sorted(self.statuses.items()))
@@ -143,20 +199,14 @@ def design_quality(campaign: CampaignRecord) -> tuple[float, float]:
     return minimum_pairwise_distance(points), cover_measure(points)
 
 
-def run(
-    study: Study,
-    names: list[str],
-    profile: Path,
-    cores: int | None,
-    show: Callable[[Tally], None],
-) -> Tally:
+def run(study: Study, names: list[str], profile: Path, show: Callable[[Tally], None]) -> Tally:
     """Build every evaluation's responses under one Snakemake (``profile``), showing the tally
-    as simulations finish; stop it when the first simulations all failed (the tally is then
-    the one that decided it: Snakemake removes what its killed jobs were writing)."""
+    as simulations finish; stop it when the first simulations of this run all failed (the
+    tally is then the one that decided it: Snakemake removes what its killed jobs were
+    writing). An interrupt (Ctrl-C) ends the Snakemake and is raised again."""
     targets = [str(path) for name in names for path in response_paths(study, name)]
-    command = snakemake_command(
-        study.files.study, "--keep-going", *targets, profile=profile, cores=cores
-    )
+    command = snakemake_command(study.files.study, "--keep-going", *targets, profile=profile)
+    before = tally(study, names)
     with open(study.files.campaign_log, "a") as log:
         process = subprocess.Popen(
             command, stdout=log, stderr=subprocess.STDOUT, start_new_session=True
@@ -166,9 +216,10 @@ def run(
             time.sleep(POLL_S)
             state = tally(study, names)
             show(state)
-            if state.hopeless():
+            if state.hopeless(before):
                 os.killpg(process.pid, signal.SIGTERM)
                 process.wait()
+                state.stopped = True
                 return state
     except KeyboardInterrupt:
         os.killpg(process.pid, signal.SIGTERM)

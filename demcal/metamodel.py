@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 import pickle
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -213,7 +213,6 @@ class Metamodels:
     training_size: dict[str, int]
     fingerprint: str
     exclude: tuple[str, ...] = ()
-    notes: list[str] = field(default_factory=list)
 
     def predict(self, key: str, kind: str, x: np.ndarray) -> np.ndarray:
         """The model's prediction at SI inputs ``x`` (rows)."""
@@ -337,8 +336,9 @@ def material_inputs(domain: Study, material: Study) -> tuple[list[str], dict[str
     fixed parameter or a scene setting such as the d50 of ``demcal psd fit``).
 
     Refused, naming the field: a material of another scene or engine, a free parameter that
-    is not an input of the models, a held value or bound outside the domain, and a fixed
-    parameter of the domain the material gives another value (the models know only one)."""
+    is not an input of the models, a held value or bound outside the domain, and a setting,
+    fixed parameter or time-step fraction of the domain the material gives another value (the
+    models know only one)."""
     if set(material.scenes) != set(domain.scenes) or material.engine.name != domain.engine.name:
         raise ConfigError(
             f"the material's scenes {', '.join(material.scenes)} on {material.engine.name} are "
@@ -360,23 +360,37 @@ def material_inputs(domain: Study, material: Study) -> tuple[list[str], dict[str
             )
         free.append(p.name)
     scene = next(iter(domain.scenes))
+    domain_settings, domain_fixed, _ = domain.archive_view(scene)
+    settings, fixed, _ = material.archive_view(scene)
+    for name, value in domain_settings.items():
+        if settings.get(name) != value:
+            raise ConfigError(
+                f"scenes.{scene}.settings.{name}: the domain's models were trained at {value}, "
+                f"the material gives {settings.get(name)}; they do not know another value"
+            )
+    if material.timestep_fraction != domain.timestep_fraction:
+        raise ConfigError(
+            f"timestep_fraction: the domain's models were trained at {domain.timestep_fraction:g}, "
+            f"the material gives {material.timestep_fraction:g}"
+        )
     held = {}
     for name, (lower, upper) in bounds.items():
         if name in free:
             continue
-        value = material.fixed.get(name, material.settings[scene].get(name))
-        where = "fixed" if name in material.fixed else f"scenes.{scene}.settings"
+        value = fixed.get(name)
+        where = f"scenes.{scene}.settings" if name in material.settings[scene] else "fixed"
         if value is None or not lower <= value <= upper:
             raise ConfigError(
                 f"{where}.{name}: {value} is outside the domain [{lower:g}, {upper:g}] of the "
                 f"models; give a value inside it or make it free"
             )
         held[name] = float(value)
-    for name, value in domain.fixed.items():
-        if name not in bounds and material.fixed.get(name) != value:
+    for name, value in domain_fixed.items():
+        if name not in bounds and fixed.get(name) != value:
+            where = f"scenes.{scene}.settings" if name in material.settings[scene] else "fixed"
             raise ConfigError(
-                f"fixed.{name}: the domain's models were trained at {value:g}, the material "
-                f"gives {material.fixed.get(name)}; they do not know another value"
+                f"{where}.{name}: the domain's models were trained at {value:g}, the material "
+                f"gives {fixed.get(name)}; they do not know another value"
             )
     return free, held
 

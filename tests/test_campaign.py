@@ -10,7 +10,7 @@ import pytest
 import yaml
 from conftest import ANALYTIC_STUDY, demcal, finish
 
-from demcal.campaign import plan
+from demcal.campaign import plan, tally, write_points
 from demcal.errors import ConfigError
 from demcal.optimizer.designs import (
     cover_measure,
@@ -20,7 +20,7 @@ from demcal.optimizer.designs import (
     minimum_pairwise_distance,
     sobol_sequence,
 )
-from demcal.results.records import CampaignRecord
+from demcal.results.records import CampaignRecord, PointRecord, ResponsesRecord, Status
 from demcal.study.config import load_study
 from demcal.study.model import freeze
 
@@ -47,6 +47,12 @@ def test_fssf_f_fills_space_better_than_latin_hypercubes(dimension):
         [minimum_pairwise_distance(h) for h in hypercubes]
     )
     assert cover_measure(design) < np.mean([cover_measure(h) for h in hypercubes])
+
+
+def test_fssf_f_starts_at_the_centre():
+    design = fssf_f(5, 3, np.random.default_rng(4))
+    assert np.linalg.norm(design[0] - 0.5) < 0.05
+    assert minimum_pairwise_distance(design) > 0.4
 
 
 def test_an_extension_keeps_the_points_and_the_space_filling():
@@ -79,6 +85,38 @@ def test_a_campaign_grows_by_its_next_points_and_refuses_another_design(tmp_path
         plan(study, 10, "latin_hypercube")
     with pytest.raises(ConfigError, match="--n 1: give at least 2 points"):
         plan(study, 1, "sobol")
+    renamed = freeze(load_study({**copy.deepcopy(ANALYTIC_STUDY), "study": "held-out"}))
+    assert plan(renamed, 6, "fssf_f").unit_points != first.unit_points  # a design of its own
+
+
+def test_a_calibration_folder_is_not_taken_for_a_campaign(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    study = freeze(load_study(copy.deepcopy(ANALYTIC_STUDY)))
+    PointRecord({"sliding_friction_pp": 0.5, "rolling_friction_pp": 0.1}).write(
+        study.files.evaluation("e0000").params
+    )
+    with pytest.raises(ConfigError, match="holds evaluations that are not a campaign's"):
+        plan(study, 6, "fssf_f")
+
+
+def test_a_failed_point_is_retried_with_its_next_attempt(tmp_path, monkeypatch):
+    """A rerun of the campaign runs a failed simulation again under a new seed (the archive
+    keeps both runs); ok ones stay."""
+    monkeypatch.chdir(tmp_path)
+    study = freeze(load_study({**copy.deepcopy(ANALYTIC_STUDY), "replicates": 1}))
+    campaign = plan(study, 2, "sobol")
+    names = write_points(study, campaign)
+    failed = study.files.evaluation(names[0]).replicate("cylinder_lift", 0)
+    ok = study.files.evaluation(names[1]).replicate("cylinder_lift", 0)
+    ResponsesRecord(Status.FAILED, "node lost").write(failed.responses)
+    ResponsesRecord(Status.OK, responses={"angle_of_repose": 20.0}).write(ok.responses)
+    assert tally(study, names).statuses == {"failed": 1, "ok": 1}
+    write_points(study, campaign)
+    point = PointRecord.read(study.files.evaluation(names[0]).params)
+    assert point.attempt == 1 and point.previous_failures == ["node lost"]
+    assert not failed.responses.exists() and ok.responses.exists()
+    before = tally(study, names)
+    assert not before.hopeless()
 
 
 @pytest.mark.slow

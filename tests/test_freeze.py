@@ -154,3 +154,21 @@ def test_a_target_correction_is_accepted_and_rescores_the_stored_evaluations(wor
         assert new["objective"] == pytest.approx(expected, rel=1e-12)
         assert new["objective"] != pytest.approx(old["objective"], rel=1e-3)
         assert told.value == pytest.approx(expected, rel=1e-12)
+
+
+def test_a_study_frozen_with_one_restitution_is_read_with_both(tmp_path, monkeypatch):
+    """study.json of an earlier demcal: restitution free and fixed become the two of today."""
+    import copy
+
+    from conftest import ANALYTIC_STUDY
+
+    from demcal.study.config import load_study
+    from demcal.study.model import study_from_record, study_record
+
+    monkeypatch.chdir(tmp_path)
+    record = study_record(load_study(copy.deepcopy(ANALYTIC_STUDY)))
+    record["parameters"].append({"name": "restitution", "lower": 0.2, "upper": 0.8, "unit": "-"})
+    record["fixed"] = {n: v for n, v in record["fixed"].items() if not n.startswith("restitution")}
+    study = study_from_record(record)
+    assert [p.name for p in study.free][-2:] == ["restitution_pp", "restitution_pw"]
+    assert (study.free[-1].lower, study.free[-1].upper) == (0.2, 0.8)

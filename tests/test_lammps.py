@@ -92,7 +92,7 @@ def test_a_trimmed_fill_ends_at_the_trim_height_and_loses_nothing_else(tmp_path)
     job = tiny_job(tmp_path)
     whole, _ = simulate(tiny_job(tmp_path / "whole", responses=("bulk_density",)))
     trim = 0.7 * whole.measurements["fill_height"]
-    job.settings = {**job.settings, "fill_height": trim}
+    job.settings = {**job.settings, "trim_height": trim}
     result, responses = simulate(job)
     assert result.status == Status.OK, result.reason
     stages = {row["stage"] for row in read_partial(job.partial_file)}
@@ -104,7 +104,7 @@ def test_a_trimmed_fill_ends_at_the_trim_height_and_loses_nothing_else(tmp_path)
     too_high = tiny_job(tmp_path / "high", responses=("bulk_density",))
     too_high.settings = {
         **too_high.settings,
-        "fill_height": 2.0 * whole.measurements["fill_height"],
+        "trim_height": 2.0 * whole.measurements["fill_height"],
     }
     failed, _ = simulate(too_high)
     assert failed.status == Status.FAILED and "raise particle_count" in failed.reason

@@ -123,7 +123,7 @@ def test_show_says_when_the_archive_has_moved_on(domain, capsys):
 def test_validating_on_trained_simulations_or_without_any_is_refused(domain, capsys):
     assert main(["metamodel", "build", "domain.yaml", "--model", "kriging"]) == 0
     assert main(["metamodel", "validate", "domain.yaml", "--holdout", "check"]) == 2
-    assert "the models were trained on its simulations" in capsys.readouterr().err
+    assert "the models were not built with it held out" in capsys.readouterr().err
     assert main(["metamodel", "validate", "domain.yaml"]) == 2
     assert "give --holdout STUDY" in capsys.readouterr().err
 
@@ -150,7 +150,7 @@ def material(**changes) -> dict:
         for r, v in responses.items()
     ]
     for key, value in changes.items():
-        config[key] = {**config[key], **value}
+        config[key] = {**config[key], **value} if isinstance(value, dict) else value
     return config
 
 
@@ -172,6 +172,14 @@ def test_a_material_is_calibrated_on_the_models_without_simulating(domain, tmp_p
     assert found["sliding_friction_pp"] == pytest.approx(TRUTH["sliding_friction_pp"], abs=0.03)
     assert found["rolling_friction_pp"] == pytest.approx(TRUTH["rolling_friction_pp"], abs=0.015)
     assert not (tmp_path / "results" / "material").exists()  # nothing simulated
+    other = material()
+    other["targets"] = [{"scene": "cylinder_lift", "response": "angle_of_repose", "value": 20.0}]
+    other["scenes"]["cylinder_lift"]["settings"]["aor_method"] = "height_radius"
+    (tmp_path / "other.yaml").write_text(yaml.safe_dump(other))
+    assert main(["calibrate-metamodel", "other.yaml", "--domain", "domain.yaml"]) == 2
+    assert "settings.aor_method: the domain's models were trained at flank_fit" in (
+        capsys.readouterr().err
+    )
 
 
 @pytest.mark.parametrize(
@@ -190,8 +198,17 @@ def test_a_material_is_calibrated_on_the_models_without_simulating(domain, tmp_p
             r"fixed.restitution_pp: the domain's models were trained at 0.5, the material "
             r"gives 0.6",
         ),
+        (
+            {"scenes": {"cylinder_lift": {"settings": {"sigma_ln": 0.05, "lift_speed": 0.02}}}},
+            r"scenes.cylinder_lift.settings.lift_speed: the domain's models were trained at "
+            r"0.01, the material gives 0.02",
+        ),
+        (
+            {"timestep_fraction": 0.2},
+            r"timestep_fraction: the domain's models were trained at 0.25, the material gives 0.2",
+        ),
     ],
-    ids=["not_an_input", "outside", "other_fixed"],
+    ids=["not_an_input", "outside", "other_fixed", "other_setting", "other_time_step"],
 )
 def test_a_material_the_models_do_not_cover_is_refused(domain, tmp_path, capsys, changes, message):
     (tmp_path / "material.yaml").write_text(yaml.safe_dump(material(**changes)))

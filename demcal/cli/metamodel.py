@@ -7,6 +7,7 @@ import argparse
 import base64
 import html
 import io
+import sys
 import time
 from pathlib import Path
 
@@ -14,6 +15,7 @@ import numpy as np
 
 from demcal import metamodel
 from demcal.archive.store import Archive
+from demcal.archive.url import missing_file
 from demcal.errors import ConfigError
 from demcal.resources import DEFAULT_CONFIG
 from demcal.study.config import load_study_file
@@ -47,19 +49,24 @@ def arguments(sub: argparse.ArgumentParser) -> None:
     sub.add_argument("--seed", type=int, default=1, help="build: seed of the model fits")
 
 
-def domain_study(config: str) -> Study:
-    """The domain's study: its frozen copy once a campaign has run, else the YAML."""
+def domain_study(config: str) -> tuple[Study, str]:
+    """The domain's study (its frozen copy once a campaign has run, else the YAML) and its
+    archive; refused without an archive, or when its SQLite file does not exist yet."""
     study = load_study_file(config)
-    return load_frozen(study.files.study) if study.files.study.is_file() else study
+    study = load_frozen(study.files.study) if study.files.study.is_file() else study
+    if study.archive is None:
+        raise ConfigError("archive: false: the metamodels are trained on the archive; give one")
+    absent = missing_file(study.archive)
+    if absent is not None:
+        raise ConfigError(f"no archive at {absent} yet: run demcal sample {config} first")
+    return study, study.archive
 
 
 def metamodel_command(args: argparse.Namespace) -> int:
-    study = domain_study(args.config)
-    if study.archive is None:
-        raise ConfigError("archive: false: the metamodels are trained on the archive; give one")
+    study, url = domain_study(args.config)
     holdout = tuple(args.holdout)
     if args.action == "build":
-        with Archive(study.archive) as archive:
+        with Archive(url) as archive:
             data = metamodel.domain_data(study, archive, exclude=holdout)
         start = time.monotonic()
         models = metamodel.build(data, tuple(args.model), args.seed, holdout)
@@ -73,7 +80,7 @@ def metamodel_command(args: argparse.Namespace) -> int:
         return 0
     models = metamodel.load(study)
     if args.action == "show":
-        with Archive(study.archive) as archive:
+        with Archive(url) as archive:
             now = metamodel.domain_data(study, archive, exclude=models.exclude).fingerprint
         print(describe(models))
         if now != models.fingerprint:
@@ -87,10 +94,11 @@ def metamodel_command(args: argparse.Namespace) -> int:
     overlap = [name for name in holdout if name not in models.exclude]
     if overlap:
         raise ConfigError(
-            f"--holdout {overlap[0]}: the models were trained on its simulations (built with "
-            f"--holdout {' '.join(models.exclude) or '(none)'}); build them without it first"
+            f"--holdout {overlap[0]}: the models were not built with it held out (built with "
+            f"--holdout {' '.join(models.exclude) or '(none)'}); build them with "
+            f"--holdout {overlap[0]} first"
         )
-    with Archive(study.archive) as archive:
+    with Archive(url) as archive:
         held_out = metamodel.domain_data(study, archive, only=holdout)
     results = metamodel.validate(models, held_out)
     if not results:
@@ -195,11 +203,18 @@ def calibrate_command(args: argparse.Namespace) -> int:
     if args.starts < 1 or args.validate < 0:
         raise ConfigError("--starts: give at least 1; --validate: give 0 or more simulations")
     material = load_study_file(args.config)
-    domain = domain_study(args.domain)
+    domain, _ = domain_study(args.domain)
     free, held = metamodel.material_inputs(domain, material)
     models = metamodel.load(domain)
     if args.model not in next(iter(models.models.values())):
         raise ConfigError(f"--model {args.model}: not built; run demcal metamodel build --model")
+    unmodelled = [t.key for t in material.targets if t.key not in models.models]
+    if unmodelled:
+        raise ConfigError(
+            f"targets: the domain's models predict {', '.join(models.models)}, not "
+            f"{unmodelled[0]}; target those responses, or add it to the domain's targets and "
+            f"build the models again"
+        )
     start = time.monotonic()
     result = metamodel.calibrate(models, args.model, material, free, held, args.starts, 1)
     best = result.optima[0]
@@ -245,7 +260,11 @@ def validate_answer(args: argparse.Namespace, material: Study, best: metamodel.O
             point = PointRecord(best.values, proposed_by="calibrate-metamodel")
             if not params.exists() or PointRecord.read(params).parameters != best.values:
                 point.write(params)
-        state = run(study, names, profile, None, lambda tally: None)
+        try:
+            state = run(study, names, profile, lambda tally: None)
+        except KeyboardInterrupt:
+            print("demcal: validation interrupted; run the same command again", file=sys.stderr)
+            raise SystemExit(130) from None
         values: dict[str, list[float]] = {t.key: [] for t in study.targets}
         for name in names:
             for path in response_paths(study, name):

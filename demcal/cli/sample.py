@@ -13,6 +13,7 @@ from demcal.campaign import (
     CAMPAIGN_DESIGNS,
     FAIL_FAST,
     Tally,
+    check_request,
     design_quality,
     plan,
     run,
@@ -20,6 +21,7 @@ from demcal.campaign import (
 )
 from demcal.cli.run import locked_study
 from demcal.errors import ConfigError
+from demcal.study.config import load_study_file
 from demcal.workflow import LOCAL_PROFILE, check_profile
 
 
@@ -46,11 +48,12 @@ def arguments(sub: argparse.ArgumentParser) -> None:
 def sample(args: argparse.Namespace) -> int:
     profile = Path(args.profile)
     check_profile(profile)
+    check_request(args.n, args.design)
+    if load_study_file(args.config).archive is None:
+        raise ConfigError(
+            "archive: false: a campaign is for the archive; give the study an archive"
+        )
     with locked_study(args.config, name=args.name) as study:
-        if study.archive is None:
-            raise ConfigError(
-                "archive: false: a campaign is for the archive; give the study an archive"
-            )
         campaign = plan(study, args.n, args.design)
         names = write_points(study, campaign)
         distance, cover = design_quality(campaign)
@@ -73,11 +76,17 @@ def sample(args: argparse.Namespace) -> int:
             bar.update(state.finished - bar.n)
 
         try:
-            state = run(study, names, profile, None, show)
-        finally:
+            state = run(study, names, profile, show)
+        except KeyboardInterrupt:
             bar.close()
+            print(
+                "demcal sample: interrupted; run the same command again to resume",
+                file=sys.stderr,
+            )
+            return 130
+        bar.close()
         print(f"demcal sample: {state.line()}; each is in the archive {study.archive}")
-        if state.hopeless():
+        if state.stopped:
             reason = state.reasons.most_common(1)[0][0] if state.reasons else "unknown"
             print(
                 f"demcal sample: stopped: the first {FAIL_FAST} simulations all failed "

@@ -79,14 +79,16 @@ def halton_sequence(size: int, dimension: int, rng: np.random.Generator) -> np.n
 def forward_maximin(candidates: np.ndarray, taken: np.ndarray, size: int) -> np.ndarray:
     """``size`` of the ``candidates``, each the one farthest from the points ``taken`` and
     those chosen before it; with nothing taken the first is the candidate nearest the
-    centre of the box (the forward step of Shang & Apley's FSSF-f)."""
-    if len(taken):
-        nearest = cdist(candidates, np.asarray(taken, float)).min(axis=1)
-    else:
-        nearest = np.full(len(candidates), np.inf)
-        nearest[int(np.argmin(np.linalg.norm(candidates - 0.5, axis=1)))] = np.finfo(float).max
+    centre of the box (Kennard & Stone's greedy maximin, the forward step of FSSF-f)."""
+    taken = np.asarray(taken, float).reshape(-1, candidates.shape[1])
     chosen = []
-    for _ in range(size):
+    if not len(taken) and size > 0:
+        chosen.append(candidates[int(np.argmin(np.linalg.norm(candidates - 0.5, axis=1)))])
+        taken = np.array(chosen)
+    nearest = (
+        cdist(candidates, taken).min(axis=1) if len(taken) else np.full(len(candidates), np.inf)
+    )
+    while len(chosen) < size:
         pick = candidates[int(np.argmax(nearest))]
         chosen.append(pick)
         nearest = np.minimum(nearest, np.linalg.norm(candidates - pick, axis=1))
@@ -100,9 +102,10 @@ def fssf_candidates(size: int, dimension: int, rng: np.random.Generator) -> np.n
 
 
 def fssf_f(size: int, dimension: int, rng: np.random.Generator) -> np.ndarray:
-    """FSSF-f (Shang & Apley 2020), Richter & Will's (2021) design: greedy maximin over a
-    large candidate set, started at the centre. Every prefix of it is space-filling, so a
-    campaign can stop and be extended (:func:`extend_design`)."""
+    """FSSF-f after Shang & Apley (2020), Richter & Will's (2021) design: greedy maximin over
+    a large candidate set, started at the centre (the refinements of their implementation are
+    not reproduced). Every prefix of it is space-filling, so a campaign can stop and be
+    extended (:func:`extend_design`)."""
     return forward_maximin(fssf_candidates(size, dimension, rng), np.empty((0, dimension)), size)
 
 

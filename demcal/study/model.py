@@ -31,7 +31,12 @@ from demcal.results.layout import StudyFiles
 from demcal.results.storage import read_json, write_json_if_changed
 from demcal.scenes import SCENES, Scene
 from demcal.scenes.base import variable_settings
-from demcal.study.catalogue import CATALOG, ParameterSpec, upgrade_parameters
+from demcal.study.catalogue import (
+    CATALOG,
+    SPLIT_PARAMETERS,
+    ParameterSpec,
+    upgrade_parameters,
+)
 from demcal.study.objective import DEFAULT_FORM, ResponseObjective, Target
 
 #: Optimizer settings a resumed calibration takes from the current study file.
@@ -288,7 +293,9 @@ def study_from_record(record: dict) -> Study:
         scenes=scenes,
         settings={scene["name"]: scene["settings"] for scene in record["scenes"]},
         free=[
-            FreeParameter(specs[p["name"]], p["lower"], p["upper"]) for p in record["parameters"]
+            FreeParameter(specs[name], p["lower"], p["upper"])
+            for p in record["parameters"]
+            for name in SPLIT_PARAMETERS.get(p["name"], (p["name"],))
         ],
         fixed=upgrade_parameters(record["fixed"]),
         targets=[

@@ -130,9 +130,13 @@ def test_the_second_schema_reads_the_first_schemas_records_in_todays_names(archi
         "particle_density": record(3).parameters["particle_density"],
     }
     earlier = replace(record(3), parameters=earlier_parameters)
+    bad_parameters = replace(
+        record(4), status=Status.FAILED, parameters={}, responses={}, final={}, free=frozenset()
+    )
     engine = open_engine(archive_url)
     upgrade(engine, "0001")
     with engine.begin() as connection:  # what demcal wrote at revision 0001
+        connection.execute(insert(SimulationRow).values(_row(bad_parameters, 1.0e9)))
         row = connection.execute(
             insert(SimulationRow).values(_row(earlier, 1.0e9)).returning(SimulationRow.id)
         ).scalar_one()
@@ -157,16 +161,25 @@ def test_the_second_schema_reads_the_first_schemas_records_in_todays_names(archi
         },
         free=frozenset(),
     )
+    failed_today = replace(
+        bad_parameters,
+        parameters={
+            "d50": Quantity(SETTINGS["d50"], "m"),
+            "sigma_ln": Quantity(SETTINGS["sigma_ln"], "-"),
+        },
+    )
     with Archive(archive_url) as archive:
-        (migrated,) = archive.records()
+        failed, migrated = archive.records()
         assert migrated.parameters == today.parameters
         assert migrated.key == today.key and migrated.settings_hash == today.settings_hash
-        assert archive.add([today]) == 0
+        assert failed.key == failed_today.key and "rolling_damping_ratio" not in failed.parameters
+        assert archive.add([today, failed_today]) == 0
         settings = {n: v for n, v in SETTINGS.items() if n not in ("d50", "sigma_ln")}
         fixed = {n: q.value for n, q in today.parameters.items() if n != "sliding_friction_pp"}
         assert archive.compatible(
             "cylinder_lift", "analytic", settings, fixed, ["sliding_friction_pp"]
         ) == [migrated]
+    assert today.key != earlier.key  # the key was spelled again
 
 
 def test_an_archive_of_a_newer_demcal_is_refused(archive_url):

@@ -96,7 +96,7 @@ SCENE = Scene(
         "cylinder_diameter": SettingSpec(
             25.0e-3, "m", "inner diameter of the cylinder", 1.0e-4, 10.0
         ),
-        "fill_height": SettingSpec(
+        "trim_height": SettingSpec(
             0.0,
             "m",
             "trim height: spheres whose centre lies above it are removed once the fill has "

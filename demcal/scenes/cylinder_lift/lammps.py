@@ -78,7 +78,7 @@ class CylinderLift(LammpsDriver):
     def stages(self, measurements: dict[str, float], arrays: dict[str, np.ndarray]) -> None:
         wants_heap = "angle_of_repose" in self.job.responses
         fill_share = 0.25 if wants_heap else 1.0
-        trim = self.s["fill_height"]
+        trim = self.s["trim_height"]
         poured_share = fill_share / 2.0 if trim > 0.0 else fill_share
         fall_time = math.sqrt(2.0 * self.insert_top / GRAVITY)
         measurements["fill_at_rest"] = float(
@@ -108,7 +108,7 @@ class CylinderLift(LammpsDriver):
         top = float(x[:, 2].max())
         if top <= height:
             raise SimulationFailed(
-                f"the settled fill reaches {top:g} m, below fill_height {height:g} m: "
+                f"the settled fill reaches {top:g} m, below trim_height {height:g} m: "
                 f"raise particle_count to pour above the trim height"
             )
         self.remove_above(height)

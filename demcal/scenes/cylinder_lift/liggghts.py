@@ -240,9 +240,9 @@ class CylinderLiftInput:
 
     def write(self, workdir: Path) -> None:
         """Write the data file, the meshes and the script into ``workdir``."""
-        if self.s["fill_height"] > 0.0:
+        if self.s["trim_height"] > 0.0:
             raise SimulationFailed(
-                "fill_height (trimming the fill) runs on LAMMPS only; set it to 0 for LIGGGHTS"
+                "trim_height (trimming the fill) runs on LAMMPS only; set it to 0 for LIGGGHTS"
             )
         half = self.s["plate_width"] / 2.0
         ring = self.s["ring_height"]

@@ -4,7 +4,8 @@ The tables keep their columns; the rows change to what demcal records from this 
 
 - a ``restitution`` row becomes ``restitution_pp`` and ``restitution_pw`` of its value (earlier
   versions used one coefficient for every contact);
-- a simulation without ``rolling_damping_ratio`` gets 0.3, the constant earlier versions ran;
+- a simulation without ``rolling_damping_ratio`` gets 0.3, the constant earlier versions ran
+  (one that failed on its parameters, and recorded none, stays without);
 - the variable scene settings (``d50``, ``sigma_ln``) get parameter rows from the settings;
 - ``settings_hash`` then covers the other settings only, and ``key`` is spelled again over
   the renamed parameters (``demcal.archive.record.ArchivedSimulation``), so a study folder
@@ -73,7 +74,8 @@ def upgrade() -> None:
         for name, parts in SPLIT.items():
             if name in old:
                 new.update({part: old[name] for part in parts if part not in old})
-        new.setdefault("rolling_damping_ratio", (EARLIER_ROLLING_DAMPING_RATIO, "-", False))
+        if old:  # a run that failed on its parameters recorded none, then as now
+            new.setdefault("rolling_damping_ratio", (EARLIER_ROLLING_DAMPING_RATIO, "-", False))
         settings = sim.settings
         for name, unit in VARIABLE_SETTINGS.items():
             if name in settings and name not in new:
