@@ -236,6 +236,12 @@ def calibrate_command(args: argparse.Namespace) -> int:
         )
     share = f"{100 * result.within_spreads:.1f} %"
     print(f"predicted within every target's spread: {share} of the free box")
+    if not result.within_spreads:
+        print(
+            "no point of the free box is predicted within every spread: the targets lie "
+            "outside what the domain gives for this material's held values; the optimum is "
+            "the nearest the models reach"
+        )
     for name, (low, high) in result.within_ranges.items():
         print(f"  {name}: {low:.4g} to {high:.4g}")
     if args.validate:
