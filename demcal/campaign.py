@@ -110,7 +110,9 @@ def plan(study: Study, size: int, design: str) -> CampaignRecord:
 def write_points(study: Study, campaign: CampaignRecord) -> list[str]:
     """params.json of every point not written yet, and of every point whose simulation failed
     (its next attempt: a new seed, so the archive keeps both runs); returns every
-    evaluation's name."""
+    evaluation's name. campaign.json is written first, so that a run killed while writing the
+    points is still taken for a campaign when it is run again."""
+    campaign.write(study.files.campaign)
     names = []
     for index, point in enumerate(unit_to_box(study, np.asarray(campaign.unit_points))):
         name = evaluation_id(index)
@@ -120,7 +122,6 @@ def write_points(study: Study, campaign: CampaignRecord) -> list[str]:
         else:
             retry_failed(study, name)
         names.append(name)
-    campaign.write(study.files.campaign)
     return names
 
 
