@@ -129,6 +129,23 @@ def gravel_config(domain: dict, log: list[str], sd: dict[str, float]) -> dict:
     return config
 
 
+def calibrate_on_both(material: Path, domain: str, log: list[str]) -> None:
+    """The material calibrated on the Kriging and on the symbolic models, each answer checked
+    by one simulation."""
+    for kind in ("kriging", "symbolic"):
+        demcal(
+            "calibrate-metamodel",
+            str(material),
+            "--domain",
+            domain,
+            "--model",
+            kind,
+            "--validate",
+            "1",
+            log=log,
+        )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--domain", default=str(ROOT / "config/examples/shear_box_domain.yaml"))
@@ -154,32 +171,10 @@ def main() -> None:
         truth = {n: record.parameters[n].value for n in CALIBRATED}
         print(f"{name}: {record.study}/{record.evaluation}, truth {truth}", flush=True)
         log.append(f"{name}: {record.study}/{record.evaluation}, truth {truth}\n")
-        for kind in ("kriging", "symbolic"):
-            demcal(
-                "calibrate-metamodel",
-                str(path),
-                "--domain",
-                args.domain,
-                "--model",
-                kind,
-                "--validate",
-                "1",
-                log=log,
-            )
+        calibrate_on_both(path, args.domain, log)
     gravel = folder / "gravel-8-16.yaml"
     gravel.write_text(yaml.safe_dump(gravel_config(domain_yaml, log, sd)))
-    for kind in ("kriging", "symbolic"):
-        demcal(
-            "calibrate-metamodel",
-            str(gravel),
-            "--domain",
-            args.domain,
-            "--model",
-            kind,
-            "--validate",
-            "1",
-            log=log,
-        )
+    calibrate_on_both(gravel, args.domain, log)
     out = ROOT / "benchmarks" / "results" / "global_calibration_output.txt"
     out.write_text("\n".join(log))
     print(f"output: {out.relative_to(ROOT)}")

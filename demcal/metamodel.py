@@ -29,6 +29,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from demcal.archive.record import digest
+from demcal.archive.reuse import compatible_simulations
 from demcal.archive.store import Archive
 from demcal.errors import ConfigError
 from demcal.study.model import Study
@@ -77,30 +78,24 @@ def domain_data(
     exclude: tuple[str, ...] = (),
     only: tuple[str, ...] | None = None,
 ) -> DomainData:
-    """The study's domain and its compatible simulations: without those of the studies
+    """The study's domain and its compatible simulations (as for reuse:
+    :func:`demcal.archive.reuse.compatible_simulations`): without those of the studies
     ``exclude`` names (a held-out validation campaign), or those of the studies ``only``
     names alone."""
     names = [p.name for p in study.free]
     rows: dict[str, tuple[list, list, list]] = {t.key: ([], [], []) for t in study.targets}
-    keys = []
-    for scene in study.scenes:
-        settings, fixed, inputs = study.archive_view(scene)
-        for record in archive.compatible(
-            scene=scene, engine=study.engine.name, settings=settings, fixed=fixed, inputs=inputs
-        ):
-            if record.study in exclude or (only is not None and record.study not in only):
-                continue
-            if record.timestep_fraction != study.timestep_fraction:
-                continue
-            if not all(p.lower <= record.parameters[p.name].value <= p.upper for p in study.free):
-                continue
-            keys.append(record.key)
-            for target in study.targets:
-                if target.scene == scene and record.final.get(target.response):
-                    x, y, sources = rows[target.key]
-                    x.append(record.values(names))
-                    y.append(record.responses[target.response].value)
-                    sources.append(f"{record.study}/{record.evaluation}")
+    records = compatible_simulations(
+        study,
+        archive,
+        lambda name: name not in exclude and (only is None or name in only),
+    )
+    for record in records:
+        for target in study.targets:
+            if target.scene == record.scene and record.final.get(target.response):
+                x, y, sources = rows[target.key]
+                x.append(record.values(names))
+                y.append(record.responses[target.response].value)
+                sources.append(f"{record.study}/{record.evaluation}")
     return DomainData(
         names,
         np.array([p.lower for p in study.free]),
@@ -109,7 +104,7 @@ def domain_data(
             key: ResponseData(key, np.array(x, float).reshape(-1, len(names)), np.array(y), s)
             for key, (x, y, s) in rows.items()
         },
-        digest(sorted(keys)),
+        digest(sorted(record.key for record in records)),
     )
 
 

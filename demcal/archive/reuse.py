@@ -12,6 +12,7 @@ into one point.
 from __future__ import annotations
 
 from collections import defaultdict
+from collections.abc import Callable
 
 from demcal.archive.record import ArchivedSimulation
 from demcal.archive.store import Archive
@@ -20,11 +21,14 @@ from demcal.results.records import ReusedRecord
 from demcal.study.model import Study
 
 
-def compatible_simulations(study: Study, archive: Archive) -> list[ArchivedSimulation]:
+def compatible_simulations(
+    study: Study, archive: Archive, from_study: Callable[[str], bool] = lambda name: True
+) -> list[ArchivedSimulation]:
     """The archive's ok simulations of the study's scenes that the study could have run, each
     once: two studies that differ only in name or targets run the same points with the same
     seeds, and the archive keeps both records (its key names the study); one scene's run with
-    one seed at one point is one simulation, not two replicates."""
+    one seed at one point is one simulation, not two replicates. ``from_study`` picks the
+    studies whose simulations count (the metamodels hold a validation campaign out)."""
     names = [p.name for p in study.free]
     found, seen = [], set()
     for scene in study.scenes:
@@ -34,7 +38,8 @@ def compatible_simulations(study: Study, archive: Archive) -> list[ArchivedSimul
         ):
             inside = all(p.lower <= record.parameters[p.name].value <= p.upper for p in study.free)
             run = (record.scene, record.seed, tuple(record.values(names)))
-            if inside and record.timestep_fraction == study.timestep_fraction and run not in seen:
+            counts = inside and from_study(record.study)
+            if counts and record.timestep_fraction == study.timestep_fraction and run not in seen:
                 seen.add(run)
                 found.append(record)
     return found
