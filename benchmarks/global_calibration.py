@@ -1,9 +1,11 @@
 """Richter & Will's (2021) metamodel-based global calibration on the shear box, at this
-machine's scale: validation R² of the global models, then three materials calibrated with no
-simulation and checked by one.
+machine's scale: validation R² of the global models, three materials calibrated with no
+simulation and checked by simulation, the same materials calibrated from scratch, and the
+break-even.
 
     python benchmarks/global_calibration.py [--domain config/examples/shear_box_domain.yaml]
-        [--holdout shear-box-domain-check] [--materials 3]
+        [--holdout shear-box-domain-check] [--materials 3] [--repeats 3] [--validate 3]
+        [--scratch-budget 20] [--steps repeats scratch global]
 
 Run it in the folder where the campaigns ran (their archive, results/archive.sqlite):
 
@@ -11,30 +13,37 @@ Run it in the folder where the campaigns ran (their archive, results/archive.sql
     demcal sample config/examples/shear_box_domain.yaml --n 30 --design latin_hypercube \\
         --name shear-box-domain-check
 
-Steps, each a demcal command:
+Steps (each finished step is kept and not run again):
 
-1. ``demcal metamodel build`` (Kriging and symbolic regression) without the held-out campaign,
-   and ``demcal metamodel validate`` on it: R² per response and model.
-2. Materials: points of the held-out campaign (parameters known, responses simulated), taken
-   in order. Each is given only its two responses as targets (spreads: the seed-to-seed sd of
-   the shear box, benchmarks/results/noise_shear-box_shear_box.json) and its PSD (d50,
-   sigma_ln), with the other parameters fixed at its values as if measured, except sliding
-   friction particle-particle and particle density, which are free (Richter & Will, Tables 4
-   and 5). ``demcal calibrate-metamodel --validate 1`` calibrates each on each model kind and
-   simulates the answer once.
-3. Gravel 8/16 as Richter & Will calibrate it: its PSD from ``demcal psd fit`` of the shipped
-   sieve file, their measured wall friction (0.363) and targets (35.53 deg, 1478.8 kg/m^3,
-   Table 3), restitution 0.6 (Table 4), rolling friction 0.1 (the shear box example's: LAMMPS'
-   rolling model is not theirs); sliding friction and density free.
+1. ``repeats``: materials are points of the held-out campaign (parameters known, responses
+   simulated), taken in order. Each truth is simulated ``--repeats`` more times
+   (benchmarks/scene_noise.py); its targets are the means of all its runs, their spreads the
+   seed-to-seed sd of the shear box (benchmarks/results/noise_shear-box_shear_box.json). Its
+   PSD (d50, sigma_ln) is given, the other parameters are fixed at its values as if measured,
+   except sliding friction particle-particle and particle density, which are free (Richter &
+   Will, Tables 4 and 5).
+2. ``scratch``: each material calibrated from scratch by ``demcal run`` (the default
+   strategy, 2 workers, ``--scratch-budget`` evaluations): the simulations and CPU until the
+   first one within both spreads.
+3. ``global``: ``demcal metamodel build`` (Kriging and symbolic regression) without the
+   held-out campaign and the materials' own simulations, ``demcal metamodel validate`` on the
+   campaign; then ``demcal calibrate-metamodel --validate N`` of each material on each model
+   kind, and of gravel 8/16 as Richter & Will calibrate it: its PSD from ``demcal psd fit`` of
+   the shipped sieve file, their measured wall friction (0.363) and targets (35.53 deg, 1478.8
+   kg/m^3, Table 3), restitution 0.6 (Table 4), rolling friction 0.1 (the shear box example's:
+   LAMMPS' rolling model is not theirs); sliding friction and density free.
 
 Prints the tables of benchmarks/README.md, "Global calibration (issue 22)"; writes the
-commands' output to benchmarks/results/global_calibration_output.txt.
+commands' output to benchmarks/results/global_calibration_output.txt and the figures to
+benchmarks/results/global_calibration.json.
 """
 
 from __future__ import annotations
 
 import argparse
+import csv
 import json
+import statistics
 import subprocess
 import sys
 from pathlib import Path
@@ -73,9 +82,11 @@ def spreads() -> dict[str, float]:
     return out
 
 
-def material_config(domain: dict, record, name: str, sd: dict[str, float]) -> dict:
-    """The study file of one material: its truth's responses as targets, its PSD and the
-    parameters not in CALIBRATED held at the truth."""
+def material_config(
+    domain: dict, record, name: str, targets: dict[str, float], sd: dict[str, float]
+) -> dict:
+    """The study file of one material: ``targets`` (its truth's mean responses) with the
+    shear box's spreads, its PSD, and the parameters not in CALIBRATED held at the truth."""
     config = {key: value for key, value in domain.items() if key != "parameters"}
     config["study"] = name
     scene = next(iter(domain["scenes"]))
@@ -92,13 +103,8 @@ def material_config(domain: dict, record, name: str, sd: dict[str, float]) -> di
     }
     config["fixed"] = {**domain.get("fixed", {}), **held}
     config["targets"] = [
-        {
-            "scene": scene,
-            "response": response,
-            "value": record.responses[response].value,
-            "spread": sd[response],
-        }
-        for response in ("shear_angle", "bulk_density")
+        {"scene": scene, "response": response, "value": value, "spread": sd[response]}
+        for response, value in targets.items()
     ]
     return config
 
@@ -129,9 +135,70 @@ def gravel_config(domain: dict, log: list[str], sd: dict[str, float]) -> dict:
     return config
 
 
-def calibrate_on_both(material: Path, domain: str, log: list[str]) -> None:
+def truth_runs(path: Path, record, repeats: int) -> list[dict[str, float]]:
+    """The responses of every run of a material's truth: its campaign run and ``repeats``
+    more with seeds of their own (benchmarks/scene_noise.py, run once and kept)."""
+    config = yaml.safe_load(path.read_text())
+    out = ROOT / "benchmarks" / "results" / f"noise_{config['study']}_shear_box_truth.json"
+    if not out.exists():
+        point = [f"{n}={record.parameters[n].value!r}" for n in CALIBRATED]
+        subprocess.run(
+            [
+                sys.executable,
+                str(ROOT / "benchmarks" / "scene_noise.py"),
+                str(path),
+                "--seeds",
+                str(repeats),
+                "--jobs",
+                "1",
+                "--point",
+                *point,
+                "--tag",
+                "truth",
+            ],
+            check=True,
+        )
+    runs = [r for r in json.loads(out.read_text())["runs"] if r["status"] == "ok"]
+    first = {name: quantity.value for name, quantity in record.responses.items()}
+    return [first, *({name: r[name] for name in first} for r in runs)]
+
+
+def within(row: dict, targets: dict[str, float], sd: dict[str, float]) -> bool:
+    return row["status"] == "ok" and all(
+        abs(float(row[f"shear_box.{name}"]) - value) <= sd[name] for name, value in targets.items()
+    )
+
+
+def scratch(config: dict, path: Path, budget: int, log: list[str]) -> dict:
+    """A material calibrated from scratch by demcal's optimizer (default strategy, 2 workers):
+    evaluations and CPU in all, and until the first evaluation within both spreads."""
+    study = config["study"]
+    config = {**config, "optimizer": {"max_evaluations": budget}, "calibration": {"workers": 2}}
+    path.write_text(yaml.safe_dump(config))
+    folder = Path("results") / study
+    if not (folder / "finished.json").exists():
+        demcal("run", str(path), log=log)
+    with open(folder / "evaluations.csv", newline="") as handle:
+        rows = sorted(csv.DictReader(handle), key=lambda row: row["evaluation"])
+    targets = {t["response"]: t["value"] for t in config["targets"]}
+    sd = {t["response"]: t["spread"] for t in config["targets"]}
+    cpu = [float(row["cpu_s"] or 0.0) for row in rows]
+    first = next((i for i, row in enumerate(rows) if within(row, targets, sd)), None)
+    return {
+        "evaluations": len(rows),
+        "cpu_s": sum(cpu),
+        "first_within": None if first is None else first + 1,
+        "cpu_to_first_within_s": None if first is None else sum(cpu[: first + 1]),
+    }
+
+
+def calibrate_on_both(
+    material: Path, domain: str, validate: int, log: list[str]
+) -> dict[str, dict]:
     """The material calibrated on the Kriging and on the symbolic models, each answer checked
-    by one simulation."""
+    by ``validate`` simulations; each command's summary (metamodel_calibration.json)."""
+    name = yaml.safe_load(material.read_text())["study"]
+    out = {}
     for kind in ("kriging", "symbolic"):
         demcal(
             "calibrate-metamodel",
@@ -141,9 +208,42 @@ def calibrate_on_both(material: Path, domain: str, log: list[str]) -> None:
             "--model",
             kind,
             "--validate",
-            "1",
+            str(validate),
             log=log,
         )
+        out[kind] = json.loads((Path("results") / name / "metamodel_calibration.json").read_text())
+    return out
+
+
+def campaign_cpu(url: str, study: str) -> tuple[int, float]:
+    """Simulations and CPU seconds of a campaign, from the archive."""
+    with Archive(url) as archive:
+        records = archive.records(study=study)
+    return len(records), sum(float(r.cost.get("cpu_s", 0.0)) for r in records)
+
+
+def material_rows(name: str, truth: dict, result: dict) -> list[str]:
+    """The README table's rows of one material: per model kind, the answer, whether the
+    solution set holds the truth, and the validation's errors against the targets."""
+    rows = []
+    for kind, summary in result["global"].items():
+        answer = summary["optima"][0]["values"]
+        spans = {v["name"]: v for v in summary["solution_set"]["verdicts"]}
+        held = all(
+            spans[n]["low"] <= truth[n] <= spans[n]["high"] for n in CALIBRATED if n in spans
+        )
+        words = "; ".join(f"{n}: {spans[n]['verdict']}" for n in CALIBRATED if n in spans)
+        errors = summary["validation"] or {}
+        cells = [
+            f"{100 * errors[k]['error_against_target']:+.2f} %" if k in errors else "-"
+            for k in ("shear_box.shear_angle", "shear_box.bulk_density")
+        ]
+        rows.append(
+            f"| {name} | {kind} | {answer['sliding_friction_pp']:.3f}, "
+            f"{answer['particle_density']:.0f} | {words} | {'yes' if held else 'no'} | "
+            f"{cells[0]} | {cells[1]} |"
+        )
+    return rows
 
 
 def main() -> None:
@@ -151,33 +251,95 @@ def main() -> None:
     parser.add_argument("--domain", default=str(ROOT / "config/examples/shear_box_domain.yaml"))
     parser.add_argument("--holdout", default="shear-box-domain-check")
     parser.add_argument("--materials", type=int, default=3)
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--validate", type=int, default=3)
+    parser.add_argument("--scratch-budget", type=int, default=20)
+    parser.add_argument(
+        "--steps", nargs="+", default=["repeats", "scratch", "global"], choices=STEPS
+    )
     args = parser.parse_args()
     log: list[str] = []
     domain = load_study_file(args.domain)
-    demcal("metamodel", "build", args.domain, "--holdout", args.holdout, log=log)
-    demcal("metamodel", "validate", args.domain, "--holdout", args.holdout, log=log)
     with Archive(domain.archive) as archive:
         held_out = [
             r for r in archive.records(study=args.holdout, statuses=["ok"]) if len(r.responses) == 2
-        ]
+        ][: args.materials]
     sd = spreads()
     domain_yaml = read_study_yaml(args.domain)
     folder = ROOT / "benchmarks" / "results" / "global_materials"
     folder.mkdir(exist_ok=True)
-    for index, record in enumerate(held_out[: args.materials]):
+    figures_path = ROOT / "benchmarks" / "results" / "global_calibration.json"
+    figures = json.loads(figures_path.read_text()) if figures_path.exists() else {}
+    materials = {}
+    for index, record in enumerate(held_out):
         name = f"material-{index + 1}"
         path = folder / f"{name}.yaml"
-        path.write_text(yaml.safe_dump(material_config(domain_yaml, record, name, sd)))
+        single = {n: q.value for n, q in record.responses.items()}
+        path.write_text(yaml.safe_dump(material_config(domain_yaml, record, name, single, sd)))
+        runs = truth_runs(path, record, args.repeats)
+        targets = {n: statistics.fmean(run[n] for run in runs) for n in single}
+        config = material_config(domain_yaml, record, name, targets, sd)
+        path.write_text(yaml.safe_dump(config))
         truth = {n: record.parameters[n].value for n in CALIBRATED}
-        print(f"{name}: {record.study}/{record.evaluation}, truth {truth}", flush=True)
-        log.append(f"{name}: {record.study}/{record.evaluation}, truth {truth}\n")
-        calibrate_on_both(path, args.domain, log)
-    gravel = folder / "gravel-8-16.yaml"
-    gravel.write_text(yaml.safe_dump(gravel_config(domain_yaml, log, sd)))
-    calibrate_on_both(gravel, args.domain, log)
-    out = ROOT / "benchmarks" / "results" / "global_calibration_output.txt"
-    out.write_text("\n".join(log))
-    print(f"output: {out.relative_to(ROOT)}")
+        entry = figures.setdefault(name, {})
+        entry |= {"truth": truth, "source": f"{record.study}/{record.evaluation}", "runs": runs}
+        materials[name] = (path, config)
+        if "scratch" in args.steps:
+            scratch_config = {**config, "study": f"{name}-scratch"}
+            entry["scratch"] = scratch(
+                scratch_config, folder / f"{name}-scratch.yaml", args.scratch_budget, log
+            )
+        figures_path.write_text(json.dumps(figures, indent=2))
+    if "global" in args.steps:
+        own = [n for name in materials for n in (name, f"{name}-scratch")]
+        demcal("metamodel", "build", args.domain, "--holdout", args.holdout, *own, log=log)
+        demcal("metamodel", "validate", args.domain, "--holdout", args.holdout, log=log)
+        for name, (path, _) in materials.items():
+            figures[name]["global"] = calibrate_on_both(path, args.domain, args.validate, log)
+            figures_path.write_text(json.dumps(figures, indent=2))
+        gravel = folder / "gravel-8-16.yaml"
+        gravel.write_text(yaml.safe_dump(gravel_config(domain_yaml, log, sd)))
+        figures["gravel-8-16"] = {"global": calibrate_on_both(gravel, args.domain, 1, log)}
+        figures["campaign"] = dict(
+            zip(("simulations", "cpu_s"), campaign_cpu(domain.archive, domain.name))
+        )
+        figures_path.write_text(json.dumps(figures, indent=2))
+        out = ROOT / "benchmarks" / "results" / "global_calibration_output.txt"
+        out.write_text("\n".join(log))
+        print(f"output: {out.relative_to(ROOT)}")
+    print(tables(figures))
+
+
+def tables(figures: dict) -> str:
+    """The README's tables from the figures kept so far."""
+    lines = [
+        "| material | model | answer μ_pp, density | verdicts | truth in the set | shear angle "
+        "error | bulk density error |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    scratch_lines = [
+        "| material | evaluations to the first within both spreads | CPU to it | evaluations, "
+        "CPU in all |",
+        "|---|---|---|---|",
+    ]
+    for name, entry in figures.items():
+        if "truth" in entry and "global" in entry:
+            lines += material_rows(name, entry["truth"], entry)
+        if "scratch" in entry:
+            s = entry["scratch"]
+            first = s["first_within"] or f"none in {s['evaluations']}"
+            to_first = (
+                "-"
+                if s["cpu_to_first_within_s"] is None
+                else f"{s['cpu_to_first_within_s'] / 60:.1f} min"
+            )
+            scratch_lines.append(
+                f"| {name} | {first} | {to_first} | {s['evaluations']}, {s['cpu_s'] / 60:.1f} min |"
+            )
+    return "\n".join([*lines, "", *scratch_lines])
+
+
+STEPS = ("repeats", "scratch", "global")
 
 
 if __name__ == "__main__":

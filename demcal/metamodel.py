@@ -24,7 +24,7 @@ import pickle
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -33,6 +33,9 @@ from demcal.archive.reuse import compatible_simulations
 from demcal.archive.store import Archive
 from demcal.errors import ConfigError
 from demcal.study.model import Study
+
+if TYPE_CHECKING:
+    from demcal.analysis.solution_report import SolutionAnalysis
 
 MODEL_KINDS = ("kriging", "symbolic")
 #: Richter & Will's genetic-programming settings (sec. 2.4): population and parsimony.
@@ -113,6 +116,11 @@ class Model(Protocol):
 
     def predict(self, x_unit: np.ndarray) -> np.ndarray: ...
 
+    def predict_std(self, x_unit: np.ndarray) -> np.ndarray: ...
+
+    @property
+    def noise_sd(self) -> float: ...
+
     def describe(self) -> str: ...
 
 
@@ -133,6 +141,15 @@ class KrigingModel:
     def predict(self, x_unit: np.ndarray) -> np.ndarray:
         return np.asarray(self.model.predict(np.atleast_2d(x_unit)), float)
 
+    def predict_std(self, x_unit: np.ndarray) -> np.ndarray:
+        """The Kriging posterior's sd of the noise-free response."""
+        return np.asarray(self.model.predict_std(np.atleast_2d(x_unit)), float)
+
+    @property
+    def noise_sd(self) -> float:
+        """The scatter of single simulations the fit found (its nugget)."""
+        return float(self.model.noise_sd)
+
     def describe(self) -> str:
         return f"Kriging (Matérn 5/2, linear trend), noise sd {self.model.noise_sd:.3g}"
 
@@ -146,12 +163,16 @@ def _protected_exp(x: np.ndarray) -> np.ndarray:
 
 @dataclass
 class SymbolicModel:
-    """Symbolic regression (gplearn) on the unit box and the standardised response."""
+    """Symbolic regression (gplearn) on the unit box and the standardised response.
+
+    Genetic programming gives no posterior: its sd is its training RMSE everywhere, which
+    holds the simulations' scatter too, so its ``noise_sd`` is 0."""
 
     program: Any
     mean: float
     sd: float
     key: str
+    rmse: float
 
     @classmethod
     def fit(
@@ -181,10 +202,16 @@ class SymbolicModel:
             n_jobs=1,
         )
         regressor.fit(x_unit, (y - mean) / sd)
-        return cls(regressor, mean, sd, key)
+        fitted = mean + sd * np.asarray(regressor.predict(x_unit))
+        return cls(regressor, mean, sd, key, float(np.sqrt(np.mean((y - fitted) ** 2))))
 
     def predict(self, x_unit: np.ndarray) -> np.ndarray:
         return self.mean + self.sd * np.asarray(self.program.predict(np.atleast_2d(x_unit)))
+
+    def predict_std(self, x_unit: np.ndarray) -> np.ndarray:
+        return np.full(len(np.atleast_2d(x_unit)), self.rmse)
+
+    noise_sd = 0.0
 
     def describe(self) -> str:
         return f"{self.key} = {self.mean:.6g} + {self.sd:.6g} * {self.program._program}"
@@ -209,10 +236,14 @@ class Metamodels:
     fingerprint: str
     exclude: tuple[str, ...] = ()
 
+    def unit(self, x: np.ndarray) -> np.ndarray:
+        """SI inputs (rows) in the domain's unit box, where the models live."""
+        unit: np.ndarray = (np.atleast_2d(x) - self.lower) / (self.upper - self.lower)
+        return unit
+
     def predict(self, key: str, kind: str, x: np.ndarray) -> np.ndarray:
         """The model's prediction at SI inputs ``x`` (rows)."""
-        unit = (np.atleast_2d(x) - self.lower) / (self.upper - self.lower)
-        return self.models[key][kind].predict(unit)
+        return self.models[key][kind].predict(self.unit(x))
 
 
 def build(
@@ -306,24 +337,51 @@ def load(study: Study) -> Metamodels:
 @dataclass(frozen=True)
 class Optimum:
     """A local optimum of the objective on the metamodels: free values, objective, the
-    predicted responses, and how many starts ended there."""
+    predicted responses and the models' sd of them, and how many starts ended there."""
 
     values: dict[str, float]
     objective: float
     predicted: dict[str, float]
+    predicted_sd: dict[str, float]
     starts: int
 
 
 @dataclass(frozen=True)
 class MetamodelCalibration:
     """A material calibrated on a domain's metamodels (Richter & Will 2021, sec. 4): every
-    distinct optimum, best first, the inputs held at the material's values, and the share of
-    the free box whose predicted responses all lie within the targets' spreads."""
+    distinct optimum, best first, the inputs held at the material's values, and the solution
+    set of the material's free box on those models with a verdict per free parameter
+    (:mod:`demcal.analysis.solutions`)."""
 
     optima: list[Optimum]
     held: dict[str, float]
-    within_spreads: float
-    within_ranges: dict[str, tuple[float, float]]
+    analysis: SolutionAnalysis
+
+
+@dataclass(frozen=True)
+class MaterialResponse:
+    """One global model seen from a material's free box: points in the unit box of the
+    material's free parameters, mapped to the domain's inputs by ``inputs`` (held ones at the
+    material's values). Mean, sd and noise, as the solution-space analysis reads a model."""
+
+    models: Metamodels
+    key: str
+    kind: str
+    inputs: Callable[[np.ndarray], np.ndarray]
+
+    @property
+    def model(self) -> Model:
+        return self.models.models[self.key][self.kind]
+
+    def predict(self, x: np.ndarray) -> np.ndarray:
+        return self.model.predict(self.models.unit(self.inputs(x)))
+
+    def predict_std(self, x: np.ndarray) -> np.ndarray:
+        return self.model.predict_std(self.models.unit(self.inputs(x)))
+
+    @property
+    def noise_sd(self) -> float:
+        return self.model.noise_sd
 
 
 def material_inputs(domain: Study, material: Study) -> tuple[list[str], dict[str, float]]:
@@ -397,18 +455,24 @@ def calibrate(
     free: list[str],
     held: dict[str, float],
     starts: int,
-    seed: int,
+    explore_command: str,
+    seed: int = 1,
+    samples: int = 2**16,
 ) -> MetamodelCalibration:
     """L-BFGS-B on the material's objective of the predicted responses, from ``starts``
-    Sobol points of its free box; optima closer than 0.02 of the box are one."""
+    Sobol points of its free box (optima closer than 0.02 of the box are one); then the
+    solution set of the box on the same models (``samples`` points; ``explore_command``:
+    how to add simulations where the models cannot decide)."""
     from scipy.optimize import minimize
 
+    from demcal.analysis.solution_report import analyse_predictor
     from demcal.optimizer.designs import sobol_sequence
+    from demcal.optimizer.responses import ResponsePredictor
 
     objective = material.objective
-    bounds = {p.name: (p.lower, p.upper) for p in material.free}
-    low = np.array([bounds[n][0] for n in free])
-    high = np.array([bounds[n][1] for n in free])
+    specs = {p.name: p for p in material.free}
+    low = np.array([specs[n].lower for n in free])
+    high = np.array([specs[n].upper for n in free])
 
     def inputs(unit: np.ndarray) -> np.ndarray:
         unit = np.atleast_2d(unit)
@@ -416,17 +480,22 @@ def calibrate(
         values |= {n: np.full(len(unit), v) for n, v in held.items()}
         return np.column_stack([values[n] for n in models.names])
 
-    def predicted(unit: np.ndarray) -> dict[str, np.ndarray]:
-        x = inputs(unit)
-        return {key: models.predict(key, kind, x) for key in objective.keys}
+    view = {key: MaterialResponse(models, key, kind, inputs) for key in objective.keys}
+    predictor = ResponsePredictor(view, objective)
 
-    def value(unit: np.ndarray) -> float:
-        return float(np.ravel(objective(predicted(unit)))[0])
+    def predicted(unit: np.ndarray) -> tuple[dict[str, float], dict[str, float]]:
+        means, stds = predictor.predict(unit)
+        return {k: float(v[0]) for k, v in means.items()}, {k: float(v[0]) for k, v in stds.items()}
 
     rng = np.random.default_rng(seed)
     ends = []
     for start in sobol_sequence(starts, len(free), rng):
-        result = minimize(value, start, method="L-BFGS-B", bounds=[(0.0, 1.0)] * len(free))
+        result = minimize(
+            lambda unit: float(predictor.objective_mean(unit)[0]),
+            start,
+            method="L-BFGS-B",
+            bounds=[(0.0, 1.0)] * len(free),
+        )
         ends.append((float(result.fun), np.clip(result.x, 0.0, 1.0)))
     ends.sort(key=lambda end: end[0])
     optima: list[tuple[np.ndarray, float, int]] = []
@@ -437,31 +506,27 @@ def calibrate(
                 break
         else:
             optima.append((unit, fun, 1))
-    samples = sobol_sequence(4096, len(free), rng)
-    responses = predicted(samples)
-    inside = np.ones(len(samples), bool)
-    for target in objective.targets:
-        spread = target.spread if target.spread else 0.01 * abs(target.value)
-        inside &= np.abs(responses[target.key] - target.value) <= spread
-    ranges = {
-        n: (
-            float(low[i] + samples[inside, i].min() * (high[i] - low[i])),
-            float(low[i] + samples[inside, i].max() * (high[i] - low[i])),
-        )
-        for i, n in enumerate(free)
-        if inside.any()
-    }
+    analysis = analyse_predictor(
+        predictor,
+        {key: model.noise_sd for key, model in view.items()},
+        free,
+        [specs[n].spec.unit for n in free],
+        low,
+        high,
+        explore_command,
+        samples=samples,
+        seed=seed,
+    )
     return MetamodelCalibration(
         [
             Optimum(
                 {n: float(low[i] + unit[i] * (high[i] - low[i])) for i, n in enumerate(free)},
                 fun,
-                {k: float(v[0]) for k, v in predicted(unit).items()},
+                *predicted(unit),
                 count,
             )
             for unit, fun, count in optima
         ],
         held,
-        float(inside.mean()),
-        ranges,
+        analysis,
     )

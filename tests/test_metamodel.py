@@ -4,6 +4,7 @@ on one campaign's archived simulations, validated on another's."""
 from __future__ import annotations
 
 import copy
+import json
 import re
 
 import numpy as np
@@ -120,6 +121,16 @@ def test_show_says_when_the_archive_has_moved_on(domain, capsys):
     assert "stale: the archive's simulations of the domain have changed" in capsys.readouterr().out
 
 
+def test_ctrl_c_during_a_build_is_one_line(domain, monkeypatch, capsys):
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(metamodel, "build", interrupted)
+    assert main(["metamodel", "build", "domain.yaml"]) == 130
+    assert capsys.readouterr().err == "demcal: interrupted; run the same command again\n"
+    assert not (domain.files.dir / "metamodels").exists()
+
+
 def test_validating_on_trained_simulations_or_without_any_is_refused(domain, capsys):
     assert main(["metamodel", "build", "domain.yaml", "--model", "kriging"]) == 0
     assert main(["metamodel", "validate", "domain.yaml", "--holdout", "check"]) == 2
@@ -171,7 +182,19 @@ def test_a_material_is_calibrated_on_the_models_without_simulating(domain, tmp_p
     }
     assert found["sliding_friction_pp"] == pytest.approx(TRUTH["sliding_friction_pp"], abs=0.03)
     assert found["rolling_friction_pp"] == pytest.approx(TRUTH["rolling_friction_pp"], abs=0.015)
-    assert not (tmp_path / "results" / "material").exists()  # nothing simulated
+    assert not (tmp_path / "results" / "material" / "evals").exists()  # nothing simulated
+    # the solution set on the global models holds the truth, and says what the targets pin
+    summary = json.loads(
+        (tmp_path / "results" / "material" / "metamodel_calibration.json").read_text()
+    )
+    assert summary["solution_set"]["likely"] > 0 and summary["validation"] is None
+    for verdict in summary["solution_set"]["verdicts"]:
+        assert verdict["low"] <= TRUTH[verdict["name"]] <= verdict["high"], verdict
+        assert verdict["verdict"] in ("pinned", "partly identified"), verdict
+        assert verdict["sentence"] in out
+    assert (tmp_path / "results" / "material" / "plots" / "solution_space.png").stat().st_size
+    table = (tmp_path / "results" / "material" / "solutions.csv").read_text().splitlines()
+    assert set(table[0].split(",")[:3]) == {*TRUTH, "membership_probability"} - {"particle_density"}
     other = material()
     other["targets"] = [{"scene": "cylinder_lift", "response": "angle_of_repose", "value": 20.0}]
     other["scenes"]["cylinder_lift"]["settings"]["aor_method"] = "height_radius"

@@ -1,4 +1,5 @@
-"""A calibration through profiles/slurm against a real SLURM (CI: .ci/slurm/start.sh).
+"""A calibration and a sampling campaign through profiles/slurm against a real SLURM (CI:
+.ci/slurm/start.sh).
 
 Runs only with DEMCAL_SLURM set (``.ci/run`` sets it after starting SLURM);
 then it never skips: a SLURM that is down or misconfigured fails the test.
@@ -6,6 +7,7 @@ then it never skips: a SLURM that is down or misconfigured fails the test.
     .ci/slurm/start.sh && DEMCAL_SLURM=1 python -m pytest -q -m slurm
 """
 
+import copy
 import json
 import os
 import subprocess
@@ -13,7 +15,8 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import ROOT, demcal, evaluations, study
+import yaml
+from conftest import ANALYTIC_STUDY, ROOT, demcal, evaluations, finish, study
 
 pytestmark = [
     pytest.mark.slurm,
@@ -113,3 +116,18 @@ def test_calibration_runs_its_simulations_as_slurm_jobs(tmp_path):
     )
     assert simulations == EVALUATIONS
     assert len(jobs) == simulations and set(jobs.values()) == {"COMPLETED"}, jobs
+
+
+def test_a_campaign_runs_its_simulations_as_slurm_jobs(tmp_path):
+    """demcal sample --profile profiles/slurm: every point of the design a SLURM job, every
+    simulation archived."""
+    config = {**copy.deepcopy(ANALYTIC_STUDY), "study": "campaign", "replicates": 1}
+    (tmp_path / "campaign.yaml").write_text(yaml.safe_dump(config))
+    run = demcal(
+        tmp_path, "sample", "campaign.yaml", "--n", "4", "--profile", str(ROOT / "profiles/slurm")
+    )
+    out = finish(run, timeout=TIME_LIMIT_S)
+    assert "4 of 4 simulations finished (4 ok)" in out
+    assert len(finish(demcal(tmp_path, "archive", "list", "--of", "campaign")).splitlines()) == 4
+    jobs = finished_jobs_in(tmp_path)
+    assert len(jobs) == 4 and set(jobs.values()) == {"COMPLETED"}, jobs

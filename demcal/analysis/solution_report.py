@@ -93,27 +93,41 @@ def analyse(
     observed = {key: final_means(optimizer.records, key, dimension) for key in predictor.models}
     scatter = {key: replicate_scatter(optimizer.records, key) for key in predictor.models}
     noise = simulation_noise_sd(predictor, observed, scatter)
-    solutions = sample_solutions(predictor, dimension, noise, k, samples, seed)
-    names = [p.name for p in study.free]
-    sensitivity = sensitivity_indices(predictor, names, seed=seed)
-    verdicts = identifiability(
-        solutions,
-        names,
+    return analyse_predictor(
+        predictor,
+        noise,
+        [p.name for p in study.free],
         [p.spec.unit for p in study.free],
         np.array(optimizer.bounds.lower),
         np.array(optimizer.bounds.upper),
-        largest_total_index(sensitivity),
         f"demcal solutions --explore 8 {study.name}",
+        k,
+        samples,
+        seed,
     )
-    return SolutionAnalysis(
-        predictor,
-        solutions,
-        verdicts,
-        sensitivity,
-        names,
-        np.array(optimizer.bounds.lower),
-        np.array(optimizer.bounds.upper),
+
+
+def analyse_predictor(
+    predictor: ResponsePredictor,
+    noise: dict[str, float],
+    names: list[str],
+    units: list[str],
+    lower: np.ndarray,
+    upper: np.ndarray,
+    explore_command: str,
+    k: float = BAND_SD,
+    samples: int = 2**16,
+    seed: int = 0,
+) -> SolutionAnalysis:
+    """The solution set, sensitivity and verdicts of any response models over a box (``noise``:
+    the single-simulation scatter per response; ``explore_command``: what the verdicts suggest
+    where the models cannot decide)."""
+    solutions = sample_solutions(predictor, len(names), noise, k, samples, seed)
+    sensitivity = sensitivity_indices(predictor, names, seed=seed)
+    verdicts = identifiability(
+        solutions, names, units, lower, upper, largest_total_index(sensitivity), explore_command
     )
+    return SolutionAnalysis(predictor, solutions, verdicts, sensitivity, names, lower, upper)
 
 
 @dataclass(frozen=True)

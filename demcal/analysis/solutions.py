@@ -78,7 +78,7 @@ def simulation_noise_sd(
     return noise
 
 
-def tolerance_sd(target: Target, noise_sd: float, model_sd: np.ndarray) -> np.ndarray:
+def tolerance_sd(target: Target, noise_sd: float, model_sd: float | np.ndarray) -> np.ndarray:
     """The combined standard deviation a prediction may miss its target by, per point.
 
     sqrt(spread² + noise² + model sd²): the measurement spread of the target,

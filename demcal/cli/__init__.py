@@ -231,6 +231,9 @@ def main(argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 2
+    except KeyboardInterrupt:  # Ctrl-C in a command without its own handling, e.g. a model fit
+        print("demcal: interrupted; run the same command again", file=sys.stderr)
+        return 130
     except Exception as exc:  # a bug: say where the details are, keep the terminal clean
         return internal_error(exc)
 

@@ -7,8 +7,10 @@ import argparse
 import base64
 import html
 import io
+import json
 import sys
 import time
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
@@ -215,13 +217,16 @@ def calibrate_command(args: argparse.Namespace) -> int:
             f"{unmodelled[0]}; target those responses, or add it to the domain's targets and "
             f"build the models again"
         )
+    from demcal.analysis.solution_report import plot_corner, solutions_table
+
     start = time.monotonic()
-    result = metamodel.calibrate(models, args.model, material, free, held, args.starts, 1)
+    explore = f"demcal sample {args.domain} --n <more points>"
+    result = metamodel.calibrate(models, args.model, material, free, held, args.starts, explore)
     best = result.optima[0]
     print(
         f"demcal calibrate-metamodel: {material.name} on the {args.model} models of "
-        f"{domain.name}, {args.starts} L-BFGS-B starts, {time.monotonic() - start:.1f} s, "
-        f"no simulation"
+        f"{domain.name}, {args.starts} L-BFGS-B starts and the solution set, "
+        f"{time.monotonic() - start:.1f} s, no simulation"
     )
     print("held: " + ", ".join(f"{n} = {v:g}" for n, v in held.items()))
     for rank, optimum in enumerate(result.optima[:5], 1):
@@ -234,24 +239,73 @@ def calibrate_command(args: argparse.Namespace) -> int:
             f"  {target.key}: predicted {best.predicted[target.key]:.4g}, target "
             f"{target.value:g}" + (f" ± {target.spread:g}" if target.spread else "")
         )
-    share = f"{100 * result.within_spreads:.1f} %"
-    print(f"predicted within every target's spread: {share} of the free box")
-    if not result.within_spreads:
-        print(
-            "no point of the free box is predicted within every spread: the targets lie "
-            "outside what the domain gives for this material's held values; the optimum is "
-            "the nearest the models reach"
-        )
-    for name, (low, high) in result.within_ranges.items():
-        print(f"  {name}: {low:.4g} to {high:.4g}")
-    if args.validate:
-        validate_answer(args, material, best)
+    solutions = result.analysis.solutions
+    likely = int(np.sum(solutions.likely))
+    print(
+        f"solution set: {likely} of {solutions.sampled} sampled parameter sets likely meet every "
+        f"target within {solutions.k:g} sd (target spread and simulation noise, under the "
+        f"models' uncertainty)"
+    )
+    if not likely:
+        print(f"  {no_solution_reason(result, material)}")
+    for verdict in result.analysis.verdicts:
+        print(f"  {verdict.sentence}")
+    files = material.files
+    files.plots.mkdir(parents=True, exist_ok=True)
+    solutions_table(result.analysis).to_csv(files.solutions, index=False, float_format="%.6g")
+    plot_corner(result.analysis, {"parameters": best.values}, files.plots / "solution_space.png")
+    summary = {
+        "domain": domain.name,
+        "model": args.model,
+        "models_fingerprint": models.fingerprint,
+        "held": held,
+        "optima": [asdict(optimum) for optimum in result.optima],
+        "solution_set": {
+            "k": solutions.k,
+            "sampled": solutions.sampled,
+            "likely": likely,
+            "noise_sd": solutions.noise_sd,
+            "verdicts": [asdict(verdict) for verdict in result.analysis.verdicts],
+        },
+        "validation": validate_answer(args, material, best) if args.validate else None,
+    }
+    path = files.dir / "metamodel_calibration.json"
+    path.write_text(json.dumps(summary, indent=2, default=float))
+    print(f"solution set: {files.solutions}, {files.plots / 'solution_space.png'}; summary: {path}")
     return 0
 
 
-def validate_answer(args: argparse.Namespace, material: Study, best: metamodel.Optimum) -> None:
+def no_solution_reason(result: metamodel.MetamodelCalibration, material: Study) -> str:
+    """Why no parameter set is likely to meet every target: the models do not reach the
+    targets, or they do but are too unsure there to say where."""
+    from demcal.analysis.solutions import tolerance_sd
+
+    best, solutions = result.optima[0], result.analysis.solutions
+    band = {
+        t.key: solutions.k * float(tolerance_sd(t, solutions.noise_sd[t.key], 0.0))
+        for t in material.targets
+    }
+    if all(abs(best.predicted[t.key] - t.value) <= band[t.key] for t in material.targets):
+        widths = ", ".join(
+            f"{key} sd {best.predicted_sd[key]:.3g} against ±{band[key]:.3g}" for key in band
+        )
+        return (
+            "the models reach every target at optimum 1, but are too unsure there to tell "
+            f"which parameter sets meet them ({widths}): more simulations of the domain, or "
+            "targets with the spread of their measurement, narrow it"
+        )
+    return (
+        "no parameter set of the free box is likely to meet every target: they lie outside "
+        "what the domain gives for this material's held values; the optimum is the nearest "
+        "the models reach"
+    )
+
+
+def validate_answer(
+    args: argparse.Namespace, material: Study, best: metamodel.Optimum
+) -> dict[str, dict]:
     """Simulate the answer ``args.validate`` times; each response's relative error against the
-    target and against the metamodels' prediction."""
+    target and against the metamodels' prediction (printed, and returned per target)."""
     from demcal.campaign import run
     from demcal.cli.run import locked_study
     from demcal.jobs.evaluation import response_paths
@@ -280,15 +334,23 @@ def validate_answer(args: argparse.Namespace, material: Study, best: metamodel.O
                     for response, value in record.responses.items():
                         values.setdefault(f"{scene}.{response}", []).append(value)
     print(f"validation: {state.line()}")
+    errors: dict[str, dict] = {}
     for target in study.targets:
         simulated = values[target.key]
         if not simulated:
             print(f"  {target.key}: no simulation succeeded")
             continue
         mean = float(np.mean(simulated))
+        predicted = best.predicted[target.key]
+        errors[target.key] = {
+            "simulated": simulated,
+            "mean": mean,
+            "error_against_target": (mean - target.value) / target.value,
+            "error_against_metamodel": (mean - predicted) / predicted,
+        }
         print(
             f"  {target.key}: simulated {mean:.4g} ({len(simulated)} runs), "
-            f"{100 * (mean - target.value) / target.value:+.2f} % against the target, "
-            f"{100 * (mean - best.predicted[target.key]) / best.predicted[target.key]:+.2f} % "
-            f"against the metamodel"
+            f"{100 * errors[target.key]['error_against_target']:+.2f} % against the target, "
+            f"{100 * errors[target.key]['error_against_metamodel']:+.2f} % against the metamodel"
         )
+    return errors

@@ -16,7 +16,9 @@ applies the objective on top of the predictions, so the structure
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -153,11 +155,24 @@ class ResponseModels:
         return models
 
 
+class PredictsResponse(Protocol):
+    """What a predictor needs of a response's model: mean and sd at points of the unit box,
+    and the scatter of single simulations (an optimizer's :class:`ResponseModel`, or a global
+    metamodel seen from a material's box, :class:`demcal.metamodel.MaterialResponse`)."""
+
+    def predict(self, x: np.ndarray) -> np.ndarray: ...
+
+    def predict_std(self, x: np.ndarray) -> np.ndarray: ...
+
+    @property
+    def noise_sd(self) -> float: ...
+
+
 @dataclass(frozen=True)
 class ResponsePredictor:
     """Response models with the objective on top: what the response strategies and best() use."""
 
-    models: dict[str, ResponseModel]
+    models: Mapping[str, PredictsResponse]
     objective: ResponseObjective
 
     def predict(self, x: np.ndarray) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
