@@ -42,6 +42,8 @@ MODEL_KINDS = ("kriging", "symbolic")
 POPULATION = 5000
 PARSIMONY = 0.001
 GENERATIONS = 20
+#: Format of the saved models: 2 since each model gives an sd (the solution set needs it).
+FORMAT = 2
 #: Starts of the Kriging hyperparameter search.
 KRIGING_RESTARTS = 5
 
@@ -68,11 +70,6 @@ class DomainData:
     upper: np.ndarray
     responses: dict[str, ResponseData]
     fingerprint: str
-
-    def to_unit(self, x: np.ndarray) -> np.ndarray:
-        """SI inputs to the unit box of the domain."""
-        unit: np.ndarray = (np.atleast_2d(x) - self.lower) / (self.upper - self.lower)
-        return unit
 
 
 def domain_data(
@@ -109,6 +106,12 @@ def domain_data(
         },
         digest(sorted(record.key for record in records)),
     )
+
+
+def unit_box(x: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """SI inputs (rows) in the unit box of the domain [lower, upper], where the models live."""
+    unit: np.ndarray = (np.atleast_2d(x) - lower) / (upper - lower)
+    return unit
 
 
 class Model(Protocol):
@@ -235,11 +238,12 @@ class Metamodels:
     training_size: dict[str, int]
     fingerprint: str
     exclude: tuple[str, ...] = ()
+    #: what these models hold (:data:`FORMAT` when built); models of an older one are rebuilt
+    format: int = 1
 
     def unit(self, x: np.ndarray) -> np.ndarray:
         """SI inputs (rows) in the domain's unit box, where the models live."""
-        unit: np.ndarray = (np.atleast_2d(x) - self.lower) / (self.upper - self.lower)
-        return unit
+        return unit_box(x, self.lower, self.upper)
 
     def predict(self, key: str, kind: str, x: np.ndarray) -> np.ndarray:
         """The model's prediction at SI inputs ``x`` (rows)."""
@@ -261,12 +265,14 @@ def build(
                 f"{key}: {len(rows.y)} simulations in the archive for {len(data.names)} inputs; "
                 f"a global model needs many more: run demcal sample first"
             )
-        unit = data.to_unit(rows.x)
+        unit = unit_box(rows.x, data.lower, data.upper)
         models[key] = {}
         for kind in kinds:
             models[key][kind] = FITTERS[kind](unit, rows.y, data.names, seed, key)
         sizes[key] = len(rows.y)
-    return Metamodels(data.names, data.lower, data.upper, models, sizes, data.fingerprint, exclude)
+    return Metamodels(
+        data.names, data.lower, data.upper, models, sizes, data.fingerprint, exclude, FORMAT
+    )
 
 
 @dataclass(frozen=True)
@@ -331,6 +337,11 @@ def load(study: Study) -> Metamodels:
         raise ConfigError(f"{path}: unreadable ({exc}); run demcal metamodel build again") from None
     if not isinstance(models, Metamodels):
         raise ConfigError(f"{path}: not demcal's metamodels; run demcal metamodel build again")
+    if models.format != FORMAT:
+        raise ConfigError(
+            f"{path}: built by an earlier demcal, without the models' uncertainty; run demcal "
+            "metamodel build again"
+        )
     return models
 
 

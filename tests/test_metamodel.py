@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 import json
+import pickle
 import re
 
 import numpy as np
@@ -119,6 +120,17 @@ def test_show_says_when_the_archive_has_moved_on(domain, capsys):
         archive.add(simulated(domain, "later", np.array([[0.5, 0.5, 0.5, 0.5]])))
     assert main(["metamodel", "show", "domain.yaml"]) == 0
     assert "stale: the archive's simulations of the domain have changed" in capsys.readouterr().out
+
+
+def test_models_of_an_earlier_format_are_built_again(domain, capsys):
+    assert main(["metamodel", "build", "domain.yaml", "--model", "kriging"]) == 0
+    path = metamodel.models_file(domain)
+    models = metamodel.load(domain)
+    models.format = 1
+    path.write_bytes(pickle.dumps(models))
+    capsys.readouterr()
+    assert main(["metamodel", "show", "domain.yaml"]) == 2
+    assert "built by an earlier demcal" in capsys.readouterr().err
 
 
 def test_ctrl_c_during_a_build_is_one_line(domain, monkeypatch, capsys):
