@@ -19,7 +19,10 @@ with, so the Snakefile reads its own command line with
 
 from __future__ import annotations
 
+import functools
 import os
+import shutil
+import subprocess
 import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -40,14 +43,54 @@ def snakemake_command(
     profile: Path | None = None,
     cores: int | None = None,
 ) -> list[str]:
-    """``python -m snakemake`` on demcal's Snakefile for the frozen study, then ``arguments``."""
+    """``python -m snakemake`` on demcal's Snakefile for the frozen study, then ``arguments``;
+    a run on this machine's cores where no SLURM controller answers sees no SLURM
+    configuration (:func:`slurm_unreachable`)."""
     command = [sys.executable, "-m", "snakemake", "-s", str(SNAKEFILE)]
     command += ["--config", f"study_file={Path(study_file).resolve()}"]
     if profile is not None:
         command += ["--profile", str(profile)]
     if cores is not None:
         command += ["--cores", str(cores)]
+    if runs_locally(profile) and slurm_unreachable():
+        command = ["env", f"SLURM_CONF={os.devnull}", *command]
     return [*command, *arguments]
+
+
+#: Seconds ``scontrol ping`` may take to say that a SLURM controller answers.
+SLURM_PING_SECONDS = 5.0
+
+
+@functools.lru_cache(maxsize=1)
+def slurm_unreachable() -> bool:
+    """True where SLURM's client is installed but no controller answers ``scontrol ping``
+    (once per process).
+
+    Snakemake loads every installed executor plugin, and the SLURM plugin then asks the
+    controller for its settings (``scontrol show config``), which waits 10 s for a controller
+    that does not answer: on every Snakemake start, so on every evaluation. A run on this
+    machine's cores is then given an empty SLURM configuration (``SLURM_CONF=/dev/null``),
+    and the question fails at once. Where a controller answers, nothing changes, so a
+    command engine that calls ``srun`` inside an allocation keeps working."""
+    if shutil.which("scontrol") is None:
+        return False
+    try:
+        ping = subprocess.run(
+            ["scontrol", "ping"],
+            capture_output=True,
+            stdin=subprocess.DEVNULL,
+            timeout=SLURM_PING_SECONDS,
+            check=False,
+        )
+    except (OSError, subprocess.TimeoutExpired):
+        return True
+    return ping.returncode != 0
+
+
+def runs_locally(profile: Path | None) -> bool:
+    """True if ``profile`` (None: none, as the report and DAG runs) runs jobs on this machine's
+    cores, with Snakemake's local executor."""
+    return profile is None or profile_settings(profile).get("executor", "local") == "local"
 
 
 def child_command(
