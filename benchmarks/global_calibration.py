@@ -252,9 +252,9 @@ def material_rows(name: str, truth: dict, result: dict) -> list[str]:
     for kind, summary in result["global"].items():
         answer = summary["optima"][0]["values"]
         spans = {v["name"]: v for v in summary["solution_set"]["verdicts"]}
-        held = all(
-            spans[n]["low"] <= truth[n] <= spans[n]["high"] for n in CALIBRATED if n in spans
-        )
+        held = "no set" if not summary["solution_set"]["likely"] else "no"
+        if held == "no" and all(spans[n]["low"] <= truth[n] <= spans[n]["high"] for n in spans):
+            held = "yes"
         words = "; ".join(f"{n}: {spans[n]['verdict']}" for n in CALIBRATED if n in spans)
         errors = summary["validation"] or {}
         cells = [
@@ -263,7 +263,7 @@ def material_rows(name: str, truth: dict, result: dict) -> list[str]:
         ]
         rows.append(
             f"| {name} | {kind} | {answer['sliding_friction_pp']:.3f}, "
-            f"{answer['particle_density']:.0f} | {words} | {'yes' if held else 'no'} | "
+            f"{answer['particle_density']:.0f} | {words} | {held} | "
             f"{cells[0]} | {cells[1]} |"
         )
     return rows
