@@ -5,7 +5,7 @@ break-even.
 
     python benchmarks/global_calibration.py [--domain config/examples/shear_box_domain.yaml]
         [--holdout shear-box-domain-check] [--materials 3] [--repeats 3] [--validate 3]
-        [--scratch-budget 20] [--steps repeats scratch global]
+        [--scratch-budget 20] [--steps scratch global]
 
 Run it in the folder where the campaigns ran (their archive, results/archive.sqlite):
 
@@ -13,19 +13,20 @@ Run it in the folder where the campaigns ran (their archive, results/archive.sql
     demcal sample config/examples/shear_box_domain.yaml --n 30 --design latin_hypercube \\
         --name shear-box-domain-check
 
-Steps (each finished step is kept and not run again):
+The materials are made first, whatever the steps (their repeats run once and are kept); then
+the steps (a finished calibration is kept and not run again):
 
-1. ``repeats``: materials are points of the held-out campaign (parameters known, responses
+0. Materials: points of the held-out campaign (parameters known, responses
    simulated), taken in order. Each truth is simulated ``--repeats`` more times
    (benchmarks/scene_noise.py); its targets are the means of all its runs, their spreads the
    seed-to-seed sd of the shear box (benchmarks/results/noise_shear-box_shear_box.json). Its
    PSD (d50, sigma_ln) is given, the other parameters are fixed at its values as if measured,
    except sliding friction particle-particle and particle density, which are free (Richter &
    Will, Tables 4 and 5).
-2. ``scratch``: each material calibrated from scratch by ``demcal run`` (the default
+1. ``scratch``: each material calibrated from scratch by ``demcal run`` (the default
    strategy, 2 workers, ``--scratch-budget`` evaluations): the simulations and CPU until the
    first one within both spreads.
-3. ``global``: ``demcal metamodel build`` (Kriging and symbolic regression) without the
+2. ``global``: ``demcal metamodel build`` (Kriging and symbolic regression) without the
    held-out campaign and the materials' own simulations (gravel's too), and ``demcal
    metamodel validate`` on the campaign, beside a gradient-boosting baseline; then
    ``demcal calibrate-metamodel --validate N`` of each material on each model kind, and of
@@ -186,7 +187,9 @@ def scratch(config: dict, path: Path, budget: int, log: list[str]) -> dict:
     sd = {t["response"]: t["spread"] for t in config["targets"]}
     cpu = [float(row["cpu_s"] or 0.0) for row in rows]
     first = next((i for i, row in enumerate(rows) if within(row, targets, sd)), None)
+    best = json.loads((folder / "best.json").read_text())
     return {
+        "best": best["parameters"],
         "evaluations": len(rows),
         "cpu_s": sum(cpu),
         "first_within": None if first is None else first + 1,
@@ -198,7 +201,8 @@ def calibrate_on_both(
     material: Path, domain: str, validate: int, log: list[str]
 ) -> dict[str, dict]:
     """The material calibrated on the Kriging and on the symbolic models, each answer checked
-    by ``validate`` simulations; each command's summary (metamodel_calibration.json)."""
+    by ``validate`` simulations; each command's summary (metamodel/<kind>/calibration.json)
+    with the validation runs' CPU seconds from the archive."""
     name = yaml.safe_load(material.read_text())["study"]
     out = {}
     for kind in ("kriging", "symbolic"):
@@ -213,7 +217,11 @@ def calibrate_on_both(
             str(validate),
             log=log,
         )
-        out[kind] = json.loads((Path("results") / name / "metamodel_calibration.json").read_text())
+        out[kind] = json.loads(
+            (Path("results") / name / "metamodel" / kind / "calibration.json").read_text()
+        )
+        runs = (Path("results") / name / "evals").glob(f"validate-{kind}-*/*/rep*/simulation.json")
+        out[kind]["validation_cpu_s"] = [json.loads(r.read_text())["cost"]["cpu_s"] for r in runs]
     return out
 
 
@@ -252,7 +260,7 @@ def material_rows(name: str, truth: dict, result: dict) -> list[str]:
     for kind, summary in result["global"].items():
         answer = summary["optima"][0]["values"]
         spans = {v["name"]: v for v in summary["solution_set"]["verdicts"]}
-        held = "no set" if not summary["solution_set"]["likely"] else "no"
+        held = "no set" if not summary["solution_set"]["likely"] else "no"  # the spans, a box
         if held == "no" and all(spans[n]["low"] <= truth[n] <= spans[n]["high"] for n in spans):
             held = "yes"
         words = "; ".join(f"{n}: {spans[n]['verdict']}" for n in CALIBRATED if n in spans)
@@ -277,9 +285,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--validate", type=int, default=3)
     parser.add_argument("--scratch-budget", type=int, default=20)
-    parser.add_argument(
-        "--steps", nargs="+", default=["repeats", "scratch", "global"], choices=STEPS
-    )
+    parser.add_argument("--steps", nargs="+", default=list(STEPS), choices=STEPS)
     args = parser.parse_args()
     log: list[str] = []
     domain = load_study_file(args.domain)
@@ -339,8 +345,8 @@ def main() -> None:
 def tables(figures: dict) -> str:
     """The README's tables from the figures kept so far."""
     lines = [
-        "| material | model | answer μ_pp, density | verdicts | truth in the set | shear angle "
-        "error | bulk density error |",
+        "| material | model | answer μ_pp, density | verdicts | truth within the spans | "
+        "shear angle error | bulk density error |",
         "|---|---|---|---|---|---|---|",
     ]
     scratch_lines = [
@@ -365,7 +371,7 @@ def tables(figures: dict) -> str:
     return "\n".join([*lines, "", *scratch_lines])
 
 
-STEPS = ("repeats", "scratch", "global")
+STEPS = ("scratch", "global")
 
 
 if __name__ == "__main__":

@@ -168,8 +168,9 @@ def _protected_exp(x: np.ndarray) -> np.ndarray:
 class SymbolicModel:
     """Symbolic regression (gplearn) on the unit box and the standardised response.
 
-    Genetic programming gives no posterior: its sd is its training RMSE everywhere, which
-    holds the simulations' scatter too, so its ``noise_sd`` is 0."""
+    Genetic programming gives no posterior: its training RMSE, which holds the simulations'
+    scatter and the equation's own error alike, counts as the scatter of a simulation about
+    it (``noise_sd``), so that it widens each target's band, and its sd is 0."""
 
     program: Any
     mean: float
@@ -212,9 +213,11 @@ class SymbolicModel:
         return self.mean + self.sd * np.asarray(self.program.predict(np.atleast_2d(x_unit)))
 
     def predict_std(self, x_unit: np.ndarray) -> np.ndarray:
-        return np.full(len(np.atleast_2d(x_unit)), self.rmse)
+        return np.zeros(len(np.atleast_2d(x_unit)))
 
-    noise_sd = 0.0
+    @property
+    def noise_sd(self) -> float:
+        return self.rmse
 
     def describe(self) -> str:
         return f"{self.key} = {self.mean:.6g} + {self.sd:.6g} * {self.program._program}"

@@ -70,21 +70,25 @@ def slurm_unreachable() -> bool:
     controller for its settings (``scontrol show config``), which waits 10 s for a controller
     that does not answer: on every Snakemake start, so on every evaluation. A run on this
     machine's cores is then given an empty SLURM configuration (``SLURM_CONF=/dev/null``),
-    and the question fails at once. Where a controller answers, nothing changes, so a
-    command engine that calls ``srun`` inside an allocation keeps working."""
-    if shutil.which("scontrol") is None:
+    and the question fails at once. Where a controller answers, or may (inside a SLURM job,
+    or a ping that does not end in time), nothing changes, so a command engine that calls
+    ``srun`` inside an allocation keeps working."""
+    if shutil.which("scontrol") is None or "SLURM_JOB_ID" in os.environ:
         return False
     try:
         ping = subprocess.run(
             ["scontrol", "ping"],
             capture_output=True,
+            text=True,
             stdin=subprocess.DEVNULL,
             timeout=SLURM_PING_SECONDS,
             check=False,
         )
-    except (OSError, subprocess.TimeoutExpired):
+    except subprocess.TimeoutExpired:
+        return False  # slow, not absent: leave SLURM alone
+    except OSError:
         return True
-    return ping.returncode != 0
+    return ping.returncode != 0 or "DOWN" in ping.stdout
 
 
 def runs_locally(profile: Path | None) -> bool:

@@ -126,7 +126,7 @@ def test_models_of_an_earlier_format_are_built_again(domain, capsys):
     assert main(["metamodel", "build", "domain.yaml", "--model", "kriging"]) == 0
     path = metamodel.models_file(domain)
     models = metamodel.load(domain)
-    models.format = 1
+    del models.__dict__["format"]  # as pickled before the field existed
     path.write_bytes(pickle.dumps(models))
     capsys.readouterr()
     assert main(["metamodel", "show", "domain.yaml"]) == 2
@@ -140,7 +140,6 @@ def test_ctrl_c_during_a_build_is_one_line(domain, monkeypatch, capsys):
     monkeypatch.setattr(metamodel, "build", interrupted)
     assert main(["metamodel", "build", "domain.yaml"]) == 130
     assert capsys.readouterr().err == "demcal: interrupted; run the same command again\n"
-    assert not (domain.files.dir / "metamodels").exists()
 
 
 def test_validating_on_trained_simulations_or_without_any_is_refused(domain, capsys):
@@ -196,16 +195,15 @@ def test_a_material_is_calibrated_on_the_models_without_simulating(domain, tmp_p
     assert found["rolling_friction_pp"] == pytest.approx(TRUTH["rolling_friction_pp"], abs=0.015)
     assert not (tmp_path / "results" / "material" / "evals").exists()  # nothing simulated
     # the solution set on the global models holds the truth, and says what the targets pin
-    summary = json.loads(
-        (tmp_path / "results" / "material" / "metamodel_calibration.json").read_text()
-    )
+    folder = tmp_path / "results" / "material" / "metamodel" / "kriging"
+    summary = strict_json(folder / "calibration.json")
     assert summary["solution_set"]["likely"] > 0 and summary["validation"] is None
     for verdict in summary["solution_set"]["verdicts"]:
         assert verdict["low"] <= TRUTH[verdict["name"]] <= verdict["high"], verdict
         assert verdict["verdict"] in ("pinned", "partly identified"), verdict
         assert verdict["sentence"] in out
-    assert (tmp_path / "results" / "material" / "plots" / "solution_space.png").stat().st_size
-    table = (tmp_path / "results" / "material" / "solutions.csv").read_text().splitlines()
+    assert (folder / "solution_space.png").stat().st_size
+    table = (folder / "solutions.csv").read_text().splitlines()
     assert set(table[0].split(",")[:3]) == {*TRUTH, "membership_probability"} - {"particle_density"}
     other = material()
     other["targets"] = [{"scene": "cylinder_lift", "response": "angle_of_repose", "value": 20.0}]
@@ -215,6 +213,52 @@ def test_a_material_is_calibrated_on_the_models_without_simulating(domain, tmp_p
     assert "settings.aor_method: the domain's models were trained at flank_fit" in (
         capsys.readouterr().err
     )
+
+
+def strict_json(path):
+    """A JSON file read by the standard: a NaN or Infinity in it fails the test."""
+
+    def refuse(constant):
+        raise AssertionError(f"{path}: {constant} is not JSON")
+
+    return json.loads(path.read_text(), parse_constant=refuse)
+
+
+def test_symbolic_models_and_out_of_reach_targets_say_what_they_can(domain, tmp_path, capsys):
+    """Symbolic models (no posterior: their RMSE widens the bands) still give a set holding the
+    truth; a target no material of the domain reaches gives no set, says so, and a summary
+    with nulls where there are no spans."""
+    assert main(["metamodel", "build", "domain.yaml", "--model", "symbolic"]) == 0
+    (tmp_path / "material.yaml").write_text(yaml.safe_dump(material()))
+    assert (
+        main(
+            calibrate := [
+                "calibrate-metamodel",
+                "material.yaml",
+                "--domain",
+                "domain.yaml",
+                "--model",
+                "symbolic",
+                "--starts",
+                "4",
+            ]
+        )
+        == 0
+    )
+    summary = strict_json(tmp_path / "results/material/metamodel/symbolic/calibration.json")
+    assert summary["solution_set"]["likely"] > 0
+    for verdict in summary["solution_set"]["verdicts"]:
+        assert verdict["low"] <= TRUTH[verdict["name"]] <= verdict["high"], verdict
+    unreachable = material()
+    unreachable["targets"][0]["value"] = 80.0  # degrees: no friction of the domain gets there
+    (tmp_path / "material.yaml").write_text(yaml.safe_dump(unreachable))
+    capsys.readouterr()
+    assert main(calibrate) == 0
+    out = capsys.readouterr().out
+    assert "they lie outside what the domain gives for this material's held values" in out
+    summary = strict_json(tmp_path / "results/material/metamodel/symbolic/calibration.json")
+    assert summary["solution_set"]["likely"] == 0
+    assert all(v["low"] is None for v in summary["solution_set"]["verdicts"])
 
 
 @pytest.mark.parametrize(

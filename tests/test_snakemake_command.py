@@ -16,25 +16,29 @@ NO_SLURM = ["env", f"SLURM_CONF={os.devnull}"]
 
 @pytest.fixture
 def slurm_client(monkeypatch):
-    """A SLURM client whose ``scontrol ping`` ends with the code set in ``state["ping"]``
-    (None: it hangs past the limit); counts the pings."""
-    state = {"ping": 1, "pings": 0}
+    """A SLURM client whose ``scontrol ping`` ends with the (code, output) set in
+    ``state["ping"]`` (None: it hangs past the limit); counts the pings."""
+    state = {"ping": (1, ""), "pings": 0}
 
     def run(command, **kwargs):
         assert command == ["scontrol", "ping"]
         state["pings"] += 1
         if state["ping"] is None:
             raise subprocess.TimeoutExpired(command, kwargs["timeout"])
-        return subprocess.CompletedProcess(command, state["ping"], b"", b"")
+        code, output = state["ping"]
+        return subprocess.CompletedProcess(command, code, output, "")
 
     monkeypatch.setattr(workflow.shutil, "which", lambda name: f"/usr/bin/{name}")
     monkeypatch.setattr(workflow.subprocess, "run", run)
+    monkeypatch.delenv("SLURM_JOB_ID", raising=False)
     workflow.slurm_unreachable.cache_clear()
     yield state
     workflow.slurm_unreachable.cache_clear()
 
 
-@pytest.mark.parametrize("ping", [1, None], ids=["controller_down", "ping_hangs"])
+@pytest.mark.parametrize(
+    "ping", [(1, ""), (0, "Slurmctld(primary) at vm is DOWN")], ids=["failed", "says_down"]
+)
 def test_a_local_run_sees_no_slurm_where_no_controller_answers(slurm_client, ping):
     slurm_client["ping"] = ping
     child = workflow.child_command("study.json", "objective.json", None, None)
@@ -43,10 +47,15 @@ def test_a_local_run_sees_no_slurm_where_no_controller_answers(slurm_client, pin
     assert slurm_client["pings"] == 1  # asked once per process
 
 
-def test_slurm_runs_and_reachable_controllers_are_left_alone(slurm_client):
+def test_slurm_runs_and_controllers_that_may_answer_are_left_alone(slurm_client, monkeypatch):
     slurm = workflow.PROFILES_DIR / "slurm"
     assert workflow.child_command("study.json", "objective.json", slurm, None)[:2] != NO_SLURM
-    slurm_client["ping"] = 0
+    for ping in [(0, "Slurmctld(primary) at vm is UP"), None]:  # up, or too slow to say
+        slurm_client["ping"] = ping
+        workflow.slurm_unreachable.cache_clear()
+        assert workflow.child_command("study.json", "objective.json", None, None)[:2] != NO_SLURM
+    slurm_client["ping"] = (1, "")
+    monkeypatch.setenv("SLURM_JOB_ID", "42")  # inside an allocation: srun must keep working
     workflow.slurm_unreachable.cache_clear()
     assert workflow.child_command("study.json", "objective.json", None, None)[:2] != NO_SLURM
 

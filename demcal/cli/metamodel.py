@@ -7,7 +7,6 @@ import argparse
 import base64
 import html
 import io
-import json
 import sys
 import time
 from dataclasses import asdict
@@ -20,6 +19,7 @@ from demcal.archive.store import Archive
 from demcal.archive.url import missing_file
 from demcal.errors import ConfigError
 from demcal.resources import DEFAULT_CONFIG
+from demcal.results.storage import write_json
 from demcal.study.config import load_study_file
 from demcal.study.model import Study, load_frozen
 from demcal.workflow import LOCAL_PROFILE, check_profile
@@ -220,7 +220,7 @@ def calibrate_command(args: argparse.Namespace) -> int:
     from demcal.analysis.solution_report import plot_corner, solutions_table
 
     start = time.monotonic()
-    explore = f"demcal sample {args.domain} --n <more points>"
+    explore = extend_command(domain, args.domain)
     result = metamodel.calibrate(models, args.model, material, free, held, args.starts, explore)
     best = result.optima[0]
     print(
@@ -250,10 +250,15 @@ def calibrate_command(args: argparse.Namespace) -> int:
         print(f"  {no_solution_reason(result, material)}")
     for verdict in result.analysis.verdicts:
         print(f"  {verdict.sentence}")
-    files = material.files
-    files.plots.mkdir(parents=True, exist_ok=True)
-    solutions_table(result.analysis).to_csv(files.solutions, index=False, float_format="%.6g")
-    plot_corner(result.analysis, {"parameters": best.values}, files.plots / "solution_space.png")
+    folder = metamodel_folder(material, args.model)
+    folder.mkdir(parents=True, exist_ok=True)
+    table, figure, path = (
+        folder / "solutions.csv",
+        folder / "solution_space.png",
+        folder / "calibration.json",
+    )
+    solutions_table(result.analysis).to_csv(table, index=False, float_format="%.6g")
+    plot_corner(result.analysis, {"parameters": best.values}, figure)
     summary = {
         "domain": domain.name,
         "model": args.model,
@@ -267,12 +272,31 @@ def calibrate_command(args: argparse.Namespace) -> int:
             "noise_sd": solutions.noise_sd,
             "verdicts": [asdict(verdict) for verdict in result.analysis.verdicts],
         },
-        "validation": validate_answer(args, material, best) if args.validate else None,
+        "validation": None,
     }
-    path = files.dir / "metamodel_calibration.json"
-    path.write_text(json.dumps(summary, indent=2, default=float))
-    print(f"solution set: {files.solutions}, {files.plots / 'solution_space.png'}; summary: {path}")
+    write_json(path, summary)  # kept even if the validation is interrupted
+    print(f"solution set: {table}, {figure}; summary: {path}")
+    if args.validate:
+        summary["validation"] = validate_answer(args, material, best)
+        write_json(path, summary)
     return 0
+
+
+def metamodel_folder(material: Study, kind: str) -> Path:
+    """Where a material's calibration on the ``kind`` models keeps its files (apart from a
+    calibration's own solutions.csv and plots)."""
+    return material.files.dir / "metamodel" / kind
+
+
+def extend_command(domain: Study, config: str) -> str:
+    """The command that adds simulations to the domain: its campaign, extended."""
+    from demcal.results.records import CampaignRecord
+
+    campaign = CampaignRecord.read_if_any(domain.files.campaign)
+    if campaign is None:
+        return f"demcal sample {config} --n N"
+    size = len(campaign.unit_points)
+    return f"demcal sample {config} --n {2 * size} (its campaign has {size} points)"
 
 
 def no_solution_reason(result: metamodel.MetamodelCalibration, material: Study) -> str:
@@ -314,7 +338,7 @@ def validate_answer(
     profile = Path(args.profile)
     check_profile(profile)
     with locked_study(args.config) as study:
-        names = [f"validate-{i}" for i in range(args.validate)]
+        names = [f"validate-{args.model}-{i}" for i in range(args.validate)]
         for name in names:
             params = study.files.evaluation(name).params
             point = PointRecord(best.values, proposed_by="calibrate-metamodel")
