@@ -289,14 +289,13 @@ def metamodel_folder(material: Study, kind: str) -> Path:
 
 
 def extend_command(domain: Study, config: str) -> str:
-    """The command that adds simulations to the domain: its campaign, extended."""
+    """The command that adds simulations to the domain: its campaign, doubled (``--n`` is the
+    campaign's new size, not the number of points to add)."""
     from demcal.results.records import CampaignRecord
 
     campaign = CampaignRecord.read_if_any(domain.files.campaign)
-    if campaign is None:
-        return f"demcal sample {config} --n N"
-    size = len(campaign.unit_points)
-    return f"demcal sample {config} --n {2 * size} (its campaign has {size} points)"
+    size = 0 if campaign is None else len(campaign.unit_points)
+    return f"demcal sample {config} --n {max(2 * size, 2 * len(domain.free) + 2)}"
 
 
 def no_solution_reason(result: metamodel.MetamodelCalibration, material: Study) -> str:
