@@ -36,13 +36,13 @@ from demcal.analysis.solutions import (  # noqa: E402
     SURE,
     SolutionSet,
     Verdict,
+    band_half_width,
     identifiability,
     largest_total_index,
     membership_probability,
     sample_solutions,
     sensitivity_indices,
     simulation_noise_sd,
-    tolerance_sd,
 )
 from demcal.daemon.control import saved_optimizer  # noqa: E402
 from demcal.errors import ConfigError, DemcalError  # noqa: E402
@@ -163,7 +163,7 @@ def check_point(analysis: SolutionAnalysis, values: dict[str, float]) -> PointCh
     return PointCheck(
         float(probability),
         {key: (float(means[key][0]), float(stds[key][0])) for key in means},
-        {t.key: float(s.k * tolerance_sd(t, s.noise_sd[t.key], 0.0)) for t in targets},
+        {t.key: band_half_width(t, s.noise_sd[t.key], s.k) for t in targets},
     )
 
 

@@ -88,6 +88,13 @@ def tolerance_sd(target: Target, noise_sd: float, model_sd: float | np.ndarray) 
     return np.sqrt(spread**2 + noise_sd**2 + np.asarray(model_sd) ** 2)
 
 
+def band_half_width(target: Target, noise_sd: float, k: float) -> float:
+    """How far a noise-free response may lie from its target and still meet it: k combined sd
+    of the target's spread and the simulation noise (:func:`tolerance_sd` without the model
+    term)."""
+    return float(k * tolerance_sd(target, noise_sd, 0.0))
+
+
 def membership_probability(
     targets: tuple[Target, ...],
     means: dict[str, np.ndarray],
@@ -107,7 +114,7 @@ def membership_probability(
     """
     probability = None
     for t in targets:
-        half_width = k * tolerance_sd(t, noise_sd[t.key], 0.0)
+        half_width = band_half_width(t, noise_sd[t.key], k)
         mean, sd = np.asarray(means[t.key], float), np.asarray(stds[t.key], float)
         inside = (np.abs(mean - t.value) <= half_width).astype(float)
         with np.errstate(divide="ignore", invalid="ignore"):

@@ -301,12 +301,11 @@ def extend_command(domain: Study, config: str) -> str:
 def no_solution_reason(result: metamodel.MetamodelCalibration, material: Study) -> str:
     """Why no parameter set is likely to meet every target: the models do not reach the
     targets, or they do but are too unsure there to say where."""
-    from demcal.analysis.solutions import tolerance_sd
+    from demcal.analysis.solutions import band_half_width
 
     best, solutions = result.optima[0], result.analysis.solutions
     band = {
-        t.key: solutions.k * float(tolerance_sd(t, solutions.noise_sd[t.key], 0.0))
-        for t in material.targets
+        t.key: band_half_width(t, solutions.noise_sd[t.key], solutions.k) for t in material.targets
     }
     if all(abs(best.predicted[t.key] - t.value) <= band[t.key] for t in material.targets):
         widths = ", ".join(
