@@ -100,17 +100,27 @@ def demcal_strategies() -> list[str]:
 # ------------------------------------------------------------ demcal adapter
 # The two functions that stand between this benchmark and demcal's Optimizer.
 def make_demcal_optimizer(
-    problem: Problem, strategy: str, budget: int, seed: int, form: str = "relative"
+    problem: Problem,
+    strategy: str,
+    budget: int,
+    seed: int,
+    form: str = "relative",
+    workers: int = 1,
 ):
-    """A demcal optimizer for ``problem`` with strategy ``strategy``, ``budget`` evaluations
-    and objective form."""
+    """A demcal optimizer for ``problem`` with strategy ``strategy``, ``budget`` evaluations,
+    objective form and the number of asynchronous ``workers``."""
     from demcal.optimizer import Optimizer
     from demcal.study.objective import ResponseObjective
 
     settings = {"strategy": strategy, "max_evaluations": budget}
     objective = ResponseObjective(tuple(demcal_targets(problem)), form)
     return Optimizer(
-        list(problem.lower), list(problem.upper), settings, seed=seed, objective=objective
+        list(problem.lower),
+        list(problem.upper),
+        settings,
+        seed=seed,
+        objective=objective,
+        workers=workers,
     )
 
 
