@@ -185,6 +185,19 @@ FIELDS = [
     ),
     _field("no_replicates", ["replicates"], 0, r"replicates: 0 must be >= 1"),
     _field(
+        "staging_unknown",
+        ["staging"],
+        "serial",
+        r"staging: 'serial' is not allowed; give one of auto, staged, parallel or a list",
+    ),
+    _field(
+        "staging_scene",
+        ["staging"],
+        ["cylinder_lift", "hopper"],
+        r"staging: \['cylinder_lift', 'hopper'\] must name each of the study's scenes once "
+        r"\(cylinder_lift\); 'hopper' is not one of them",
+    ),
+    _field(
         "setting_misspelt",
         ["scenes"],
         {"cylinder_lift": {"settings": {"lift_sped": 0.01}}},

@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 import yaml
 
+from demcal.archive.store import Archive
 from demcal.scenes import SCENES
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -84,7 +85,11 @@ def test_evaluate_centre_runs_the_middle_of_the_bounds(tmp_path, analytic_config
 
 
 @pytest.mark.slow
-def test_failed_simulation_is_recorded_not_raised(tmp_path, analytic_config):
+@pytest.mark.parametrize("staging", ["parallel", "staged"])
+def test_failed_simulation_is_recorded_not_raised(tmp_path, analytic_config, staging):
+    """Both replicates fail side by side; staged, the second is not started after the first
+    failed, and it is not archived (nothing ran)."""
+    analytic_config["staging"] = staging
     analytic_config["engine"]["failures"] = [
         {"when": {"sliding_friction_pp": [0.8, 0.9]}, "reason": "particles escaped"}
     ]
@@ -96,7 +101,55 @@ def test_failed_simulation_is_recorded_not_raised(tmp_path, analytic_config):
     record = json.loads((evaldir / "objective.json").read_text())
     assert record["status"] == "failed"
     assert "cylinder_lift rep0: particles escaped" in record["reason"]
-    assert "cylinder_lift rep1: particles escaped" in record["reason"]
+    second = json.loads((evaldir / "cylinder_lift" / "rep1" / "simulation.json").read_text())
+    with Archive(f"sqlite:///{tmp_path}/results/archive.sqlite") as archive:
+        archived = archive.count()
+    if staging == "parallel":
+        assert "cylinder_lift rep1: particles escaped" in record["reason"]
+        assert archived == 2
+    else:
+        assert second["status"] == "terminated"
+        assert second["reason"] == "not started: cylinder_lift rep0 failed"
+        assert "rep1" not in record["reason"]
+        assert archived == 1
+
+
+@pytest.mark.slow
+def test_staged_scenes_run_in_their_order_and_replicates_after_the_first(tmp_path, analytic_config):
+    """staging [calibration_device, cylinder_lift]: the device's replicate 0, then the lift's,
+    then both second replicates (side by side on 2 cores)."""
+    config = {
+        **analytic_config,
+        "engine": {"name": "analytic", "noise": 0.0, "duration": 1.0},
+        "parameters": {
+            **analytic_config["parameters"],
+            "sliding_friction_pw": {"lower": 0.2, "upper": 0.9},
+        },
+        "targets": [
+            *analytic_config["targets"],
+            {"scene": "calibration_device", "response": "mass_flow", "value": 0.02, "unit": "kg/s"},
+        ],
+        "staging": ["calibration_device", "cylinder_lift"],
+    }
+    evaldir = write_point(
+        tmp_path,
+        "unit",
+        "e1",
+        sliding_friction_pp=0.4,
+        rolling_friction_pp=0.1,
+        sliding_friction_pw=0.4,
+    )
+    proc = run_snakemake(tmp_path, config, "results/unit/evals/e1/objective.json")
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert json.loads((evaldir / "objective.json").read_text())["status"] == "ok"
+    span = {}
+    for scene in ("cylinder_lift", "calibration_device"):
+        for rep in (0, 1):
+            sim = json.loads((evaldir / scene / f"rep{rep}" / "simulation.json").read_text())
+            span[scene, rep] = (sim["started_at"], sim["ended_at"])
+    assert span["cylinder_lift", 0][0] >= span["calibration_device", 0][1]
+    first_done = max(span["cylinder_lift", 0][1], span["calibration_device", 0][1])
+    assert all(span[scene, 1][0] >= first_done for scene in ("cylinder_lift", "calibration_device"))
 
 
 @pytest.mark.slow

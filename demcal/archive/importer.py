@@ -58,6 +58,9 @@ def import_results(archive: Archive, folder: Path) -> ImportReport:
         except SimulationFailed as exc:
             report.skipped.append(str(exc))
             continue
+        if not simulation.ran:
+            report.skipped.append(f"{replicate.dir}: never started ({simulation.reason})")
+            continue
         records.append(from_results(study, simulation, responses, replicate.partial, "import"))
     report.found = len(records)
     for start in range(0, len(records), BATCH):

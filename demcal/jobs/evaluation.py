@@ -29,6 +29,7 @@ from demcal.engines.base import RunMonitor, RunResult, SimulationJob
 from demcal.errors import ConfigError, DemcalError, SimulationFailed, bounded_reason
 from demcal.results.layout import EvaluationFiles, ReplicateFiles
 from demcal.results.records import (
+    NOT_STARTED,
     ObjectiveRecord,
     PointRecord,
     ResponsesRecord,
@@ -63,6 +64,40 @@ def response_paths(study: Study, evaluation: str) -> list[Path]:
     ]
 
 
+def staged_inputs(study: Study, evaluation: str, scene: str, replicate: int) -> list[Path]:
+    """The responses.json a simulation waits for in a staged study (``Study.staging``).
+
+    Replicate 0 of a scene in the staging order waits for replicate 0 of the
+    scene before it; every other replicate waits for replicate 0 of every
+    scene. So the first simulations are judged by early termination
+    (Samuelsson 2023, sec. 5.1.2: a stopped evaluation costs a fraction of
+    its replicates) before the rest start. Nothing in a parallel study.
+    """
+    if study.staging is None:
+        return []
+    files = study.files.evaluation(evaluation)
+    if replicate > 0:
+        return [files.replicate(name, 0).responses for name in study.scenes]
+    order = study.staging
+    if scene in order[1:]:
+        return [files.replicate(order[order.index(scene) - 1], 0).responses]
+    return []
+
+
+def not_started(study: Study, evaluation: str, scene: str, replicate: int) -> RunResult | None:
+    """Why a simulation is not to start (its evaluation was stopped, or a simulation it waits
+    for failed or was stopped), as its result; None when it should run."""
+    files = study.files.evaluation(evaluation)
+    if files.stop.exists():
+        return RunResult(Status.TERMINATED, f"{NOT_STARTED}the evaluation was stopped early")
+    for path in staged_inputs(study, evaluation, scene, replicate):
+        before = ResponsesRecord.read(path)
+        if before.status != Status.OK:
+            label = f"{before.scene} rep{before.replicate}"
+            return RunResult(Status.TERMINATED, f"{NOT_STARTED}{label} {before.status}")
+    return None
+
+
 def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> SimulationRecord:
     """Run one scene replicate; write and return its simulation.json record."""
     files = study.files.evaluation(evaluation)
@@ -93,7 +128,7 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> Simul
             stop_file=str(files.stop.resolve()),
             attempt=point.attempt,
         )
-        result = run_engine(study, job)
+        result = not_started(study, evaluation, scene, replicate) or run_engine(study, job)
     state_file = None
     if result.status == Status.OK and result.arrays:
         # numpy's stub types **kwds as if a key could be its allow_pickle: bool
@@ -171,7 +206,7 @@ def extract(study: Study, simulation_path: Path) -> ResponsesRecord:
         )
     files = ReplicateFiles(simulation_path.parent)
     record.write(files.responses)
-    if sim is not None and study.archive is not None:
+    if sim is not None and sim.ran and study.archive is not None:
         archive_simulation(study, study.archive, sim, record, files)
     return record
 

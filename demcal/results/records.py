@@ -241,6 +241,11 @@ class LaunchRecord(Record):
     started_at: float
 
 
+#: How the reason of a simulation that never started begins (its evaluation was stopped, or a
+#: simulation it waited for did not end ok: ``demcal.jobs.evaluation.not_started``).
+NOT_STARTED = "not started: "
+
+
 @dataclass(frozen=True)
 class SimulationRecord(Record):
     """``simulation.json``: one scene replicate as the simulate job ran it.
@@ -248,7 +253,8 @@ class SimulationRecord(Record):
     ``parameters`` are the resolved material parameters (SI units) the engine
     was given; ``measurements`` the responses the engine measured itself;
     ``cost`` its ``cpu_s``/``wall_s``; ``state_file`` the saved particle
-    state (``state.npz``) when responses are computed from it.
+    state (``state.npz``) when responses are computed from it. A simulation
+    that never started is terminated with a reason beginning ``NOT_STARTED``.
     """
 
     FILE: ClassVar[str] = "simulation.json"
@@ -271,6 +277,11 @@ class SimulationRecord(Record):
     cost: dict = field(default_factory=dict)
     ended_at: float | None = None
     state_file: str | None = _optional()
+
+    @property
+    def ran(self) -> bool:
+        """Whether the engine ran (an archive records only simulations that did)."""
+        return not (self.status == Status.TERMINATED and self.reason.startswith(NOT_STARTED))
 
     @classmethod
     def _from_dict(cls, data: dict, where: str) -> Self:

@@ -57,6 +57,14 @@ def _schema_message(error: jsonschema.ValidationError, schema: dict) -> str:
     if kind in ("enum", "const"):
         choices = expected if kind == "enum" else [expected]
         return f"{where}: {value!r} is not one of {', '.join(map(str, choices))}"
+    if kind in ("oneOf", "anyOf"):
+        forms = [
+            "one of " + ", ".join(map(str, form["enum"]))
+            if "enum" in form
+            else {"array": "a list"}.get(form.get("type"), str(form.get("type")))
+            for form in expected
+        ]
+        return f"{where}: {value!r} is not allowed; give {' or '.join(forms)}"
     if kind == "pattern":
         return (
             f"{where}: {value!r} is not a valid name (letters, digits, '_' and '-', "
@@ -340,6 +348,23 @@ def _reuse(config: dict, archive: str | None) -> str | None:
     return reuse
 
 
+def _staging(config: dict, scenes: dict, optimizer: OptimizerSettings) -> tuple[str, ...] | None:
+    """``Study.staging`` from the study's ``staging``: None (parallel), () (replicate 0 of
+    the scenes first, together) or the scenes in the order their replicate 0 runs."""
+    staging = config.get("staging", default("staging"))
+    if isinstance(staging, list):
+        if sorted(staging) != sorted(scenes):
+            unknown = [name for name in staging if name not in scenes]
+            raise ConfigError(
+                f"staging: {staging} must name each of the study's scenes once "
+                f"({', '.join(scenes)})"
+                + (f"; {', '.join(map(repr, unknown))} is not one of them" if unknown else "")
+            )
+        return tuple(staging)
+    stops_early = optimizer.early_termination.enabled and STRATEGIES[optimizer.strategy].stops_early
+    return () if staging == "staged" or (staging == "auto" and stops_early) else None
+
+
 def load_study(config: dict, check_engine: bool = True) -> Study:
     """Validate a study configuration (mapping from YAML) and resolve it into a ``Study``."""
     if not isinstance(config, dict):
@@ -401,6 +426,7 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
         fixed=fixed,
         targets=targets,
         replicates=int(config.get("replicates", default("replicates"))),
+        staging=_staging(config, scenes, optimizer),
         seed=int(config.get("seed", default("seed"))),
         timestep_fraction=fraction,
         optimizer=optimizer,

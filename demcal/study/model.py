@@ -81,6 +81,10 @@ class Study:
     fixed: dict[str, float]
     targets: list[Target]
     replicates: int
+    #: Which simulations of an evaluation wait for others (``jobs.evaluation.staged_inputs``):
+    #: None, all at once; else replicate 0 of every scene first, each after the scene before
+    #: it in this order (empty: together), and the other replicates after them.
+    staging: tuple[str, ...] | None
     seed: int
     timestep_fraction: float
     optimizer: OptimizerSettings
@@ -270,6 +274,7 @@ def study_record(study: Study) -> dict:
             for t in study.targets
         ],
         "replicates": study.replicates,
+        "staging": None if study.staging is None else list(study.staging),
         "seed": study.seed,
         "timestep_fraction": study.timestep_fraction,
         "rayleigh_cost_weight": study.rayleigh_cost_weight,
@@ -303,6 +308,7 @@ def study_from_record(record: dict) -> Study:
             for t in record["targets"]
         ],
         replicates=record["replicates"],
+        staging=None if record.get("staging") is None else tuple(record["staging"]),
         seed=record["seed"],
         timestep_fraction=record["timestep_fraction"],
         optimizer=OptimizerSettings.from_dict(record["optimizer"]),
@@ -341,14 +347,14 @@ def incompatible_changes(old: dict, new: dict) -> list[str]:
 
     Allowed: the budget and stopping rules (``RESUMABLE_OPTIMIZER_SETTINGS``),
     the daemon's ``calibration`` settings, warnings, the demcal version, the
-    objective's form, the archive, and target values, weights and spreads when the same
+    objective's form, the archive, the staging, and target values, weights and spreads when the same
     responses are targeted (stored simulations are then re-scored).
     """
     changed = [
         path
         for path in _differences(old, new, "")
         if not path.startswith(
-            ("demcal_version", "warnings", "calibration", "objective", "archive")
+            ("demcal_version", "warnings", "calibration", "objective", "archive", "staging")
         )
         and not any(
             path == f"optimizer.{name}" or path.startswith(f"optimizer.{name}.")

@@ -2,7 +2,7 @@
 # the slurm profile); extract and objective are cheap and run locally. Every
 # job reads the frozen study (params.study_file), never the YAML.
 
-from demcal.jobs.evaluation import response_paths
+from demcal.jobs.evaluation import response_paths, staged_inputs
 
 EVAL = FILES.evaluation("{evaluation}")
 REPLICATE = EVAL.replicate("{scene}", "{replicate}")
@@ -62,9 +62,13 @@ rule extract:
         "../scripts/extract.py"
 
 
+# In a staged study a simulation also waits for the first ones (study.staging).
 rule simulate:
     input:
         str(EVAL.params),
+        lambda w: [
+            str(path) for path in staged_inputs(STUDY, w.evaluation, w.scene, int(w.replicate))
+        ],
     output:
         str(REPLICATE.simulation),
     log:
