@@ -114,13 +114,12 @@ def test_failed_simulation_is_recorded_not_raised(tmp_path, analytic_config, sta
         assert archived == 1
 
 
-@pytest.mark.slow
-def test_staged_scenes_run_in_their_order_and_replicates_after_the_first(tmp_path, analytic_config):
-    """staging [calibration_device, cylinder_lift]: the device's replicate 0, then the lift's,
-    then both second replicates (side by side on 2 cores)."""
+def joint_evaluation(tmp_path, analytic_config, duration, **study):
+    """One evaluation of a study of two scenes (cylinder lift and calibration device) x 2
+    replicates, on the analytic engine; its folder and the Snakemake run."""
     config = {
         **analytic_config,
-        "engine": {"name": "analytic", "noise": 0.0, "duration": 1.0},
+        "engine": {"name": "analytic", "noise": 0.0, "duration": duration},
         "parameters": {
             **analytic_config["parameters"],
             "sliding_friction_pw": {"lower": 0.2, "upper": 0.9},
@@ -128,8 +127,9 @@ def test_staged_scenes_run_in_their_order_and_replicates_after_the_first(tmp_pat
         "targets": [
             *analytic_config["targets"],
             {"scene": "calibration_device", "response": "mass_flow", "value": 0.02, "unit": "kg/s"},
+            {"scene": "calibration_device", "response": "slide_time", "value": 0.6, "unit": "s"},
         ],
-        "staging": ["calibration_device", "cylinder_lift"],
+        **study,
     }
     evaldir = write_point(
         tmp_path,
@@ -139,14 +139,29 @@ def test_staged_scenes_run_in_their_order_and_replicates_after_the_first(tmp_pat
         rolling_friction_pp=0.1,
         sliding_friction_pw=0.4,
     )
-    proc = run_snakemake(tmp_path, config, "results/unit/evals/e1/objective.json")
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    assert json.loads((evaldir / "objective.json").read_text())["status"] == "ok"
-    span = {}
+    return evaldir, run_snakemake(tmp_path, config, "results/unit/evals/e1/objective.json")
+
+
+def simulation_spans(evaldir) -> dict:
+    """(start, end) of each (scene, replicate) simulation of a joint evaluation."""
+    spans = {}
     for scene in ("cylinder_lift", "calibration_device"):
         for rep in (0, 1):
             sim = json.loads((evaldir / scene / f"rep{rep}" / "simulation.json").read_text())
-            span[scene, rep] = (sim["started_at"], sim["ended_at"])
+            spans[scene, rep] = (sim["started_at"], sim["ended_at"])
+    return spans
+
+
+@pytest.mark.slow
+def test_staged_scenes_run_in_their_order_and_replicates_after_the_first(tmp_path, analytic_config):
+    """staging [calibration_device, cylinder_lift]: the device's replicate 0, then the lift's,
+    then both second replicates (side by side on 2 cores)."""
+    evaldir, proc = joint_evaluation(
+        tmp_path, analytic_config, 1.0, staging=["calibration_device", "cylinder_lift"]
+    )
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert json.loads((evaldir / "objective.json").read_text())["status"] == "ok"
+    span = simulation_spans(evaldir)
     assert span["cylinder_lift", 0][0] >= span["calibration_device", 0][1]
     first_done = max(span["cylinder_lift", 0][1], span["calibration_device", 0][1])
     assert all(span[scene, 1][0] >= first_done for scene in ("cylinder_lift", "calibration_device"))
@@ -337,28 +352,7 @@ def test_dag_drawing_without_graphviz_says_how_to_get_it(monkeypatch):
 @pytest.mark.slow
 def test_joint_study_runs_every_scene_replicate_in_parallel(tmp_path, analytic_config):
     """Two scenes x 2 replicates in one evaluation: four simulate/extract pairs, two at a time."""
-    config = {
-        **analytic_config,
-        "engine": {"name": "analytic", "noise": 0.0, "duration": 1.5},
-        "parameters": {
-            **analytic_config["parameters"],
-            "sliding_friction_pw": {"lower": 0.2, "upper": 0.9},
-        },
-        "targets": [
-            *analytic_config["targets"],
-            {"scene": "calibration_device", "response": "mass_flow", "value": 0.02, "unit": "kg/s"},
-            {"scene": "calibration_device", "response": "slide_time", "value": 0.6, "unit": "s"},
-        ],
-    }
-    evaldir = write_point(
-        tmp_path,
-        "unit",
-        "e1",
-        sliding_friction_pp=0.4,
-        rolling_friction_pp=0.1,
-        sliding_friction_pw=0.4,
-    )
-    proc = run_snakemake(tmp_path, config, "results/unit/evals/e1/objective.json")
+    evaldir, proc = joint_evaluation(tmp_path, analytic_config, 1.5)
     assert proc.returncode == 0, proc.stderr[-3000:]
     record = json.loads((evaldir / "objective.json").read_text())
     assert record["status"] == "ok"
@@ -368,7 +362,6 @@ def test_joint_study_runs_every_scene_replicate_in_parallel(tmp_path, analytic_c
         "calibration_device.mass_flow",
         "calibration_device.slide_time",
     }
-    spans = []
     for scene in ("cylinder_lift", "calibration_device"):
         for rep in (0, 1):
             sim = json.loads((evaldir / scene / f"rep{rep}" / "simulation.json").read_text())
@@ -377,7 +370,7 @@ def test_joint_study_runs_every_scene_replicate_in_parallel(tmp_path, analytic_c
                 if scene == "cylinder_lift"
                 else ["mass_flow", "slide_time"]
             )
-            spans.append((sim["started_at"], sim["ended_at"]))
+    spans = list(simulation_spans(evaldir).values())
     # two at a time with 2 cores: some ran side by side, never three at once (which pairs
     # run together is the scheduler's choice between ready simulate and extract jobs)
     at_once = [sum(start <= moment < end for start, end in spans) for moment, _ in spans]
