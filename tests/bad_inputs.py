@@ -185,6 +185,12 @@ FIELDS = [
     ),
     _field("no_replicates", ["replicates"], 0, r"replicates: 0 must be >= 1"),
     _field(
+        "termination_rule",
+        ["optimizer", "early_termination"],
+        {"rule": "fast"},
+        r"optimizer.early_termination.rule: 'fast' is not one of weighed, eq_3_4",
+    ),
+    _field(
         "staging_unknown",
         ["staging"],
         "serial",

@@ -14,6 +14,7 @@ from demcal.daemon.termination import (
     early_termination_decisions,
     latest_estimates,
     partial_responses,
+    share_done,
 )
 from demcal.optimizer.early_termination import early_termination_decision
 from demcal.results.layout import EvaluationFiles
@@ -57,6 +58,14 @@ def test_the_latest_estimate_of_each_replicate_is_read(files):
         DENSITY: {"values": [1480.0, 1460.0], "final": True},
         ANGLE: {"values": [31.0], "final": False},
     }
+
+
+def test_share_done_counts_finished_running_and_waiting_simulations(files):
+    """Three replicates: one finished (responses.json), one 40 % through, one not started."""
+    write_partial(files, 0, [("5.0", "1.0", "lift", "angle_of_repose", "31.0", "1")])
+    files.replicate("cylinder_lift", 0).responses.write_text("{}")
+    write_partial(files, 1, [("2.0", "0.4", "fill", "bulk_density", "1500.0", "0")])
+    assert share_done(files, ["cylinder_lift"], 3) == pytest.approx((1.0 + 0.4 + 0.0) / 3)
 
 
 def test_each_poll_reads_on_from_where_the_last_stopped(files):

@@ -31,10 +31,11 @@ from demcal.daemon.termination import (
     early_termination_decisions,
     latest_estimates,
     partial_responses,
+    share_done,
 )
 from demcal.errors import DemcalError, SimulationFailed
 from demcal.jobs.evaluation import rescore, reused_objectives
-from demcal.optimizer import Optimizer, Proposal
+from demcal.optimizer import Optimizer, Proposal, RunProgress, estimate_heading
 from demcal.optimizer.evaluation import ReusedPoint
 from demcal.results.layout import evaluation_id, proposal_id
 from demcal.results.records import (
@@ -79,6 +80,8 @@ class Calibration:
         self.stop_requested: set[str] = set()
         #: (estimate, limit) last written to early_termination.csv, per evaluation
         self.recorded_estimates: dict[str, tuple] = {}
+        #: (share done, estimate) of each running evaluation as it changed: its trend
+        self.estimate_history: dict[str, list[tuple[float, float]]] = {}
         self.rescore()
 
     # -- state ------------------------------------------------------------------
@@ -262,6 +265,7 @@ class Calibration:
             if not child.finished():
                 continue
             del self.children[evaluation]
+            self.estimate_history.pop(evaluation, None)
             files = self.files.evaluation(evaluation)
             try:
                 record = ObjectiveRecord.read(files.objective)
@@ -351,7 +355,7 @@ class Calibration:
             if evaluation not in self.stop_requested
         }
         decide = lambda evaluation, estimate: self.optimizer.early_termination(  # noqa: E731
-            proposal_id(evaluation), estimate
+            proposal_id(evaluation), estimate, self._run_progress(evaluation, estimate)
         )
         decisions = early_termination_decisions(watched, decide)
         now, rows = time.time(), []
@@ -373,6 +377,16 @@ class Calibration:
                 self.stop_requested.add(evaluation)
                 log.info("%s: early stop: %s", evaluation, decision.reason)
         append_estimates(self.files.early_termination, rows)
+
+    def _run_progress(self, evaluation: str, estimate: float) -> RunProgress:
+        """Where a running evaluation stands: its share done and its estimate's heading."""
+        done = share_done(
+            self.files.evaluation(evaluation), list(self.study.scenes), self.study.replicates
+        )
+        history = self.estimate_history.setdefault(evaluation, [])
+        if not history or history[-1] != (done, estimate):
+            history.append((done, estimate))
+        return RunProgress(done, estimate_heading(history))
 
     def _estimate(self, evaluation: str) -> float | None:
         """Objective estimate of a running evaluation from its replicates' early estimates."""

@@ -3,6 +3,7 @@
 ``latest_estimates`` reads what running simulations have reported so far
 (``partial_responses`` the same as the optimizer is told it for a stopped run),
 each poll reading on from where the last one stopped in each ``partial.csv``;
+``share_done`` says how much of an evaluation's simulation work is behind it;
 ``early_termination_decisions`` applies the optimizer's rule to the objective
 estimates, so the loop feeds it and acts on its answer; ``append_estimates``
 keeps the estimates and limits over time in ``early_termination.csv`` (the
@@ -22,17 +23,22 @@ from demcal.results.storage import GrowingCsv, partial_row
 
 
 class LatestReports(GrowingCsv):
-    """(value, final) of the latest report of each response in a simulation's partial.csv."""
+    """(value, final) of the latest report of each response in a simulation's partial.csv,
+    and its latest progress (0-1)."""
 
     def __init__(self, path: Path):
         super().__init__(path, "partial.csv")
 
     def forget(self) -> None:
         self.latest: dict[str, tuple[float, bool]] = {}
+        self.progress = 0.0
 
     def take(self, row: dict) -> None:
         report = partial_row(row)
-        if report is not None and report["response"] is not None and report["value"] is not None:
+        if report is None:
+            return
+        self.progress = min(max(report["progress"], 0.0), 1.0)
+        if report["response"] is not None and report["value"] is not None:
             self.latest[report["response"]] = (report["value"], report["final"])
 
 
@@ -55,6 +61,22 @@ def _latest(
             for response, report in replicate_reports.latest.items():
                 reports.setdefault(f"{scene}.{response}", []).append(report)
     return reports
+
+
+def share_done(files: EvaluationFiles, scenes: list[str], replicates: int) -> float:
+    """The share of an evaluation's simulations behind it: a finished one (its responses.json
+    written) counts 1, a running one its latest progress, one not started 0; all weigh alike."""
+    shares = []
+    for scene in scenes:
+        for replicate in range(replicates):
+            replicate_files = files.replicate(scene, replicate)
+            if replicate_files.responses.exists():
+                shares.append(1.0)
+                continue
+            reports = _reports(replicate_files.partial)
+            reports.read_on()
+            shares.append(reports.progress)
+    return sum(shares) / len(shares)
 
 
 def latest_estimates(

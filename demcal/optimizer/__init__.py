@@ -55,7 +55,8 @@ is for adding a strategy, see below)::
         # value is lowest; a confirmed point stays the answer
     opt.response_predictor(objective=None) -> ResponsePredictor | None
         # one model per targeted response, the objective on top
-    opt.early_termination(id, partial_estimate) -> EarlyTerminationDecision
+    opt.early_termination(id, partial_estimate, run=None) -> EarlyTerminationDecision
+        # run: RunProgress(done, heading), where the evaluation stands
     opt.stop_reason(elapsed_seconds) -> str | None
     opt.confirm() -> list[Proposal]      # after the stop: the best point again
     opt.confirmation() -> Confirmation | None  # what the confirmation runs found
@@ -65,8 +66,11 @@ is for adding a strategy, see below)::
     early_termination_decision(best_value, partial_estimate, progress,
                                in_initial_design=False, enabled=True,
                                thresholds=(10, 5, 2.5),
-                               progress_boundaries=(0.5, 0.75))
-        # .stop is True when partial_estimate > c * best_value (thesis eq. 3.4)
+                               progress_boundaries=(0.5, 0.75),
+                               run=None, rule="weighed", last_stretch=0.9)
+        # .stop is True when partial_estimate > c * best_value (thesis eq. 3.4);
+        # weighed: > c * best_value / (1 - run.done), never in the last stretch
+    estimate_heading(history) -> float | None  # trend of (done, estimate) at done = 1
 
 Adding a strategy: subclass ``Strategy`` and implement
 ``propose(history: History) -> numpy.ndarray | None`` (the next point in
@@ -114,8 +118,10 @@ _EXPORTS = {
     "Optimizer": "optimizer",
     "OptimizerSettings": "settings",
     "Proposal": "optimizer",
+    "RunProgress": "early_termination",
     "Strategy": "strategies.base",
     "early_termination_decision": "early_termination",
+    "estimate_heading": "early_termination",
     "register_strategy": "registry",
 }
 
@@ -124,7 +130,9 @@ __all__ = sorted(_EXPORTS)
 if TYPE_CHECKING:  # the names as mypy sees them; at run time __getattr__ imports them
     from .bounds import Bounds as Bounds
     from .early_termination import EarlyTerminationDecision as EarlyTerminationDecision
+    from .early_termination import RunProgress as RunProgress
     from .early_termination import early_termination_decision as early_termination_decision
+    from .early_termination import estimate_heading as estimate_heading
     from .optimizer import Optimizer as Optimizer
     from .optimizer import Proposal as Proposal
     from .registry import register_strategy as register_strategy

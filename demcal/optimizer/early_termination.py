@@ -9,6 +9,15 @@ half of the evaluations after the initial design, 5 during the third
 quarter and 2.5 for the rest. Runs of the initial design are never stopped.
 The rule assumes a non-negative objective (a sum of squared errors).
 :func:`reference` is the f* the optimizer compares with.
+
+The ``weighed`` rule (demcal's default; ``eq_3_4`` is the thesis' alone)
+keeps that limit and weighs what stopping saves: a run with a share
+``done`` of its simulation work behind it is stopped only when its
+estimate exceeds the limit divided by the share left, 1 - done, so the
+less there is to save, the surer the run must be hopeless; a run in its
+last stretch is finished, whatever the limit did meanwhile. An estimate
+that falls as the run goes on is judged by where its trend heads at the
+end of the run (:func:`estimate_heading`), never by a rising trend.
 """
 
 from __future__ import annotations
@@ -24,6 +33,35 @@ if TYPE_CHECKING:
 
     from .evaluation import BestPoint, Evaluation
     from .responses import ResponsePredictor
+
+
+#: The early-termination rules (``EarlyTerminationSettings.rule``).
+RULES = ("weighed", "eq_3_4")
+
+
+@dataclass(frozen=True)
+class RunProgress:
+    """Where a running evaluation stands: ``done``, the share of its simulation work behind
+    it (0-1), and ``heading``, where its estimate's trend points at the end of the run (None
+    without a trend)."""
+
+    done: float
+    heading: float | None = None
+
+
+def estimate_heading(
+    history: Sequence[tuple[float, float]], points: int = 5, min_span: float = 0.05
+) -> float | None:
+    """Where a run's objective estimate heads at the end of the run: the least-squares line
+    through its last ``points`` (share done, estimate) pairs, at share 1.
+
+    None with fewer than three pairs, or when they span less than ``min_span`` of the run.
+    """
+    recent = np.asarray(history[-points:], float)
+    if len(recent) < 3 or np.ptp(recent[:, 0]) < min_span:
+        return None
+    slope, intercept = np.polyfit(recent[:, 0], recent[:, 1], 1)
+    return float(slope + intercept)
 
 
 @dataclass(frozen=True)
@@ -61,11 +99,16 @@ def early_termination_decision(
     enabled: bool = True,
     thresholds: Sequence[float] = (10.0, 5.0, 2.5),
     progress_boundaries: Sequence[float] = (0.5, 0.75),
+    run: RunProgress | None = None,
+    rule: str = "weighed",
+    last_stretch: float = 0.9,
 ) -> EarlyTerminationDecision:
     """Decide whether to stop a running evaluation (eq. 3.4: stop if eta_et > c f*).
 
     ``progress`` is the fraction of the optimizer's evaluation budget used
     after the initial design (0 at its end, 1 when the budget is spent).
+    With ``run`` (where the evaluation stands) and the ``weighed`` rule the
+    work left is weighed (module docstring); without ``run``, eq. 3.4 alone.
     """
     if not enabled:
         return EarlyTerminationDecision(False, None, "early termination disabled")
@@ -75,18 +118,24 @@ def early_termination_decision(
         return EarlyTerminationDecision(False, None, "no best value yet")
     factor = termination_factor(min(max(progress, 0.0), 1.0), thresholds, progress_boundaries)
     limit = factor * best_value
-    if partial_estimate > limit:
-        return EarlyTerminationDecision(
-            True,
-            factor,
-            f"partial estimate {partial_estimate:g} > {factor:g} x best {best_value:g}",
-            limit,
-        )
+    bound = f"{factor:g} x best {best_value:g}"
+    estimate = partial_estimate
+    if rule == "weighed" and run is not None:
+        done = min(max(run.done, 0.0), 1.0)
+        if done >= last_stretch:
+            return EarlyTerminationDecision(
+                False, factor, f"in its last stretch ({done:.0%} done): finished", limit
+            )
+        if run.heading is not None and run.heading < estimate:
+            estimate = max(run.heading, 0.0)
+        limit /= 1.0 - done
+        bound = f"{bound} / {1.0 - done:.2f} left"
+    stop = estimate > limit
+    judged = f"partial estimate {partial_estimate:g}" + (
+        f" heading to {estimate:g}" if estimate != partial_estimate else ""
+    )
     return EarlyTerminationDecision(
-        False,
-        factor,
-        f"partial estimate {partial_estimate:g} <= {factor:g} x best {best_value:g}",
-        limit,
+        stop, factor, f"{judged} {'>' if stop else '<='} {bound}", limit
     )
 
 

@@ -43,7 +43,12 @@ from .best import best_point
 from .bounds import Bounds
 from .confirmation import confirmation_summary
 from .designs import default_initial_size, initial_design
-from .early_termination import EarlyTerminationDecision, early_termination_decision, reference
+from .early_termination import (
+    EarlyTerminationDecision,
+    RunProgress,
+    early_termination_decision,
+    reference,
+)
 from .evaluation import BestPoint, Confirmation, Evaluation, ObservedResponse, ReusedPoint
 from .objective_surrogate import fit_surrogate, training_data
 from .registry import STRATEGIES, strategy_class
@@ -514,8 +519,11 @@ class Optimizer:
         predictor = self.response_predictor()
         return predictor is not None and predictor.meets_targets(self.bounds.to_unit([best.x])[0])
 
-    def early_termination(self, id: int, partial_estimate: float) -> EarlyTerminationDecision:
-        """Apply :func:`early_termination_decision` to running evaluation ``id``."""
+    def early_termination(
+        self, id: int, partial_estimate: float, run: RunProgress | None = None
+    ) -> EarlyTerminationDecision:
+        """Apply :func:`early_termination_decision` to running evaluation ``id``; ``run``: where
+        it stands (share done, the estimate's heading), for the ``weighed`` rule."""
         record = self._record(id)
         et = self.settings.early_termination
         adaptive_budget = max(self.settings.max_evaluations - self.initial_size, 1)
@@ -537,6 +545,9 @@ class Optimizer:
             and not record.maps_solutions,
             thresholds=et.thresholds,
             progress_boundaries=et.progress_boundaries,
+            run=run,
+            rule=et.rule,
+            last_stretch=et.last_stretch,
         )
 
     # ------------------------------------------------------- confirmation

@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from .early_termination import RULES
 from .registry import DESIGNS, RESPONSE_MODELS, STRATEGIES, SURROGATES
 
 
@@ -23,12 +24,17 @@ class EarlyTerminationSettings:
     ``thresholds`` are the factors c applied in turn; ``progress_boundaries``
     are the fractions of the adaptive budget at which the next factor takes
     over (the thesis: c = 10 for the first half, 5 for the third quarter,
-    2.5 for the rest).
+    2.5 for the rest). ``rule``: ``weighed`` also weighs the work a stop
+    saves and the estimate's trend, and finishes a run once ``last_stretch``
+    of it is done; ``eq_3_4`` is the thesis' rule alone
+    (:mod:`.early_termination`).
     """
 
     enabled: bool = True
     thresholds: tuple[float, ...] = (10.0, 5.0, 2.5)
     progress_boundaries: tuple[float, ...] = (0.5, 0.75)
+    rule: str = "weighed"
+    last_stretch: float = 0.9
 
 
 @dataclass(frozen=True)
@@ -134,6 +140,8 @@ class OptimizerSettings:
             "enabled": self.early_termination.enabled,
             "thresholds": list(self.early_termination.thresholds),
             "progress_boundaries": list(self.early_termination.progress_boundaries),
+            "rule": self.early_termination.rule,
+            "last_stretch": self.early_termination.last_stretch,
         }
         return result
 
@@ -183,6 +191,8 @@ class OptimizerSettings:
         _number("calm_share", self.calm_share, 0.0, 1.0, open_low=True)
         et = self.early_termination
         _boolean("early_termination.enabled", et.enabled)
+        _choice("early_termination.rule", et.rule, RULES)
+        _number("early_termination.last_stretch", et.last_stretch, 0.0, 1.0, open_low=True)
         if len(et.thresholds) != len(et.progress_boundaries) + 1:
             raise ValueError(
                 f"optimizer.early_termination.progress_boundaries: {list(et.progress_boundaries)} "

@@ -1,6 +1,6 @@
 import pytest
 
-from demcal.optimizer import early_termination_decision
+from demcal.optimizer import RunProgress, early_termination_decision, estimate_heading
 from demcal.optimizer.early_termination import termination_factor
 
 
@@ -35,3 +35,45 @@ def test_configurable_pattern():
         1.0, 3.5, 0.5, thresholds=(4.0, 3.0), progress_boundaries=(0.4,)
     )
     assert decision.stop and decision.factor == 3.0
+
+
+def test_the_weighed_rule_asks_more_the_less_a_stop_saves():
+    """Limit 10 x 0.02 = 0.2. Half done, a stop saves half: the estimate must pass 0.4."""
+    half = RunProgress(0.5)
+    assert early_termination_decision(0.02, 0.3, 0.1, rule="eq_3_4", run=half).stop
+    assert not early_termination_decision(0.02, 0.3, 0.1, run=half).stop
+    decision = early_termination_decision(0.02, 0.41, 0.1, run=half)
+    assert decision.stop and decision.limit == pytest.approx(0.4)
+    assert "0.41 > 10 x best 0.02 / 0.50 left" in decision.reason
+    # the first of five replicates done: 1.25 x the limit
+    assert early_termination_decision(0.02, 0.26, 0.1, run=RunProgress(0.2)).stop
+    # without where the run stands, eq. 3.4 alone
+    assert early_termination_decision(0.02, 0.3, 0.1).stop
+
+
+def test_a_run_in_its_last_stretch_is_finished_whatever_the_limit():
+    decision = early_termination_decision(0.02, 100.0, 0.9, run=RunProgress(0.93))
+    assert not decision.stop and "last stretch (93% done)" in decision.reason
+    assert early_termination_decision(0.02, 100.0, 0.9, run=RunProgress(0.93), rule="eq_3_4").stop
+    assert early_termination_decision(0.02, 100.0, 0.9, run=RunProgress(0.85)).stop
+    assert not early_termination_decision(
+        0.02, 100.0, 0.9, run=RunProgress(0.85), last_stretch=0.8
+    ).stop
+
+
+def test_a_falling_estimate_is_judged_by_where_it_heads_a_rising_one_by_where_it_is():
+    falling = estimate_heading([(0.1, 0.5), (0.2, 0.4), (0.3, 0.3)])
+    assert falling == pytest.approx(-0.4)  # the line at done = 1; the rule floors it at 0
+    spared = early_termination_decision(0.02, 0.3, 0.1, run=RunProgress(0.3, falling))
+    assert not spared.stop and "heading to 0" in spared.reason
+    rising = estimate_heading([(0.1, 0.1), (0.2, 0.15), (0.3, 0.2)])
+    assert rising == pytest.approx(0.55)
+    assert not early_termination_decision(0.02, 0.2, 0.1, run=RunProgress(0.3, rising)).stop
+
+
+def test_no_heading_from_too_few_or_too_close_estimates():
+    assert estimate_heading([(0.1, 0.5), (0.3, 0.3)]) is None
+    assert estimate_heading([(0.30, 0.5), (0.31, 0.4), (0.32, 0.3)]) is None
+    assert estimate_heading(
+        [(0.1, 9.0), (0.2, 0.5), (0.3, 0.5), (0.4, 0.5), (0.5, 0.5), (0.6, 0.5)]
+    ) == pytest.approx(0.5)

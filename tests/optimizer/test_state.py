@@ -38,6 +38,11 @@ def test_an_old_state_loads_saves_the_same_and_resumes_to_the_same_proposals(nam
     defaults = OptimizerSettings().to_dict()
     for added in set(saved["settings"]) - set(old["settings"]):  # settings added since: defaults
         assert saved["settings"].pop(added) == defaults[added]
+    termination, old_termination = (
+        state["settings"]["early_termination"] for state in (saved, old)
+    )
+    for added in set(termination) - set(old_termination):
+        assert termination.pop(added) == defaults["early_termination"][added]
     assert saved == old
     assert [proposal.x for proposal in optimizer.ask(2)] == NEXT[name]
 
