@@ -2,7 +2,11 @@
 
     python benchmarks/calibration_runs.py CONFIG [--seeds 1 2 3] [--et on off]
                                           [--workers 2] [--strategies NAME ...]
-                                          [--tag TAG]
+                                          [--replicates N] [--tag TAG]
+
+``--et``: ``on`` (demcal's default rule, weighed), ``eq_3_4`` (the thesis' rule
+alone) or ``off``, each a run per seed. ``--replicates`` overrides the config's
+replicates (the study's staging stays ``auto``: staged when early termination is on).
 
 Each run is ``demcal run`` on a copy of CONFIG with its own study name
 (``<study>-et-<on|off>-s<seed>``, or ``<study>-<strategy>-et-<on|off>-s<seed>``
@@ -83,9 +87,11 @@ def trace(evaluations: pd.DataFrame, config: dict) -> dict:
 
 
 def run_one(
-    config: dict, study: str, seed: int, et: bool, strategy: str | None, workers: int, scratch: Path
+    config: dict, study: str, seed: int, et: str, strategy: str | None, workers: int, scratch: Path
 ) -> dict:
-    optimizer = {**config.get("optimizer", {}), "early_termination": {"enabled": et}}
+    """One calibration; ``et``: on (the default rule), eq_3_4 or off."""
+    termination = {"enabled": et != "off", **({"rule": et} if et == "eq_3_4" else {})}
+    optimizer = {**config.get("optimizer", {}), "early_termination": termination}
     if strategy is not None:
         optimizer["strategy"] = strategy
     strategy = optimizer.get("strategy", "(default)")
@@ -139,25 +145,25 @@ def table(runs: list[dict]) -> str:
     for r in runs:
         if "error" in r:
             lines.append(
-                f"| {r['strategy']} | {'on' if r['et'] else 'off'} | {r['seed']} | "
+                f"| {r['strategy']} | {r['et']} | {r['seed']} | "
                 f"error: {r['error'][-200:]!r} | | | | | |"
             )
             continue
         point = ", ".join(f"{k} {v:.3f}" for k, v in sorted(r["best_parameters"].items()))
         to_noise = r["simulations_to_noise"] or "never"
         lines.append(
-            f"| {r['strategy']} | {'on' if r['et'] else 'off'} | {r['seed']} | "
+            f"| {r['strategy']} | {r['et']} | {r['seed']} | "
             f"{r['evaluations']} ({r['terminated']}) | {r['cpu_s']:.0f} | "
             f"{r['wall_s']:.0f} | {r['best_objective']:.3g} | {to_noise} | {point} |"
         )
     for strategy in dict.fromkeys(r["strategy"] for r in runs):
-        for et in (True, False):
+        for et in dict.fromkeys(r["et"] for r in runs):
             group = [
                 r for r in runs if r["strategy"] == strategy and r["et"] == et and "error" not in r
             ]
             if group:
                 lines.append(
-                    f"| {strategy} | {'on' if et else 'off'} | mean | | "
+                    f"| {strategy} | {et} | mean | | "
                     f"{statistics.fmean(r['cpu_s'] for r in group):.0f} | "
                     f"{statistics.fmean(r['wall_s'] for r in group):.0f} | "
                     f"{statistics.median(r['best_objective'] for r in group):.3g} "
@@ -170,7 +176,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("config")
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
-    parser.add_argument("--et", nargs="+", choices=("on", "off"), default=["on", "off"])
+    parser.add_argument("--et", nargs="+", choices=("on", "eq_3_4", "off"), default=["on", "off"])
+    parser.add_argument("--replicates", type=int, default=None)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument(
         "--strategies",
@@ -181,6 +188,8 @@ def main() -> None:
     parser.add_argument("--tag", default="")
     args = parser.parse_args()
     config = yaml.safe_load(Path(args.config).read_text())
+    if args.replicates is not None:
+        config["replicates"] = args.replicates
     name = f"calibration_{config['study']}" + (f"_{args.tag}" if args.tag else "")
     out = ROOT / "benchmarks" / "results" / f"{name}.json"
     runs = []
@@ -190,9 +199,7 @@ def main() -> None:
                 for strategy in args.strategies or [None]:
                     prefix = config["study"] + (f"-{strategy}" if strategy else "")
                     study = f"{prefix}-et-{et}-s{seed}"
-                    run = run_one(
-                        config, study, seed, et == "on", strategy, args.workers, Path(scratch)
-                    )
+                    run = run_one(config, study, seed, et, strategy, args.workers, Path(scratch))
                     runs.append(run)
                     print(json.dumps(run), flush=True)
                     out.write_text(json.dumps({"config": args.config, "runs": runs}, indent=2))
