@@ -87,7 +87,7 @@ def simulate(problem: Problem, workers: int, seed: int, budget: int) -> dict:
         return count - len(proposals)
 
     idle = hand_out(workers, 0.0)
-    finished, started, rounds = 0, time.perf_counter(), []
+    finished, started, rounds, trace = 0, time.perf_counter(), [], []
     while running:
         now, ident, x = heapq.heappop(running)
         finished += 1
@@ -100,6 +100,7 @@ def simulate(problem: Problem, workers: int, seed: int, budget: int) -> dict:
         idle = hand_out(idle + 1, now)
         rounds.append(time.perf_counter() - clock)
         answer = problem.true_objective(best.x)
+        trace.append((now, answer))
         if answer <= problem.noise_level and math.isinf(row["time_to_noise"]):
             row.update(time_to_noise=now, simulations_to_noise=finished)
         if reason and not reason.startswith("evaluation budget") and math.isinf(row["stop_time"]):
@@ -110,12 +111,30 @@ def simulate(problem: Problem, workers: int, seed: int, budget: int) -> dict:
         final_true_objective=problem.true_objective(opt.best().x),
         ask_seconds_mean=statistics.fmean(rounds),
         ask_seconds_max=max(rounds),
+        trace=trace,
     )
     return row
 
 
 def median(values: list[float]) -> float:
     return float(np.median(values)) if values else math.nan
+
+
+def running_answer(trace: list[tuple[float, float]], moments: np.ndarray) -> np.ndarray:
+    """The true objective of a run's running answer at each of ``moments`` (inf before its
+    first answer)."""
+    times = np.array([t for t, _ in trace])
+    values = np.array([v for _, v in trace])
+    index = np.searchsorted(times, moments, side="right") - 1
+    return np.where(index >= 0, values[np.maximum(index, 0)], np.inf)
+
+
+def time_to_quality(runs: list[dict], quality: float, moments: np.ndarray) -> float:
+    """The first moment at which the median over ``runs`` of the running answer's true
+    objective is at or below ``quality`` (inf if never)."""
+    curve = np.median([running_answer(r["trace"], moments) for r in runs], axis=0)
+    reached = np.nonzero(curve <= quality)[0]
+    return float(moments[reached[0]]) if len(reached) else math.inf
 
 
 def summarise(rows: list[dict]) -> list[dict]:
@@ -125,10 +144,15 @@ def summarise(rows: list[dict]) -> list[dict]:
         serial = [r for r in rows if r["problem"] == name and r["workers"] == 1]
         serial_time = median([r["time_to_noise"] for r in serial])
         serial_end = median([r["end_time"] for r in serial])
+        moments = np.linspace(0.0, max(r["end_time"] for r in serial), 2000)
         for workers in sorted({r["workers"] for r in rows if r["problem"] == name}):
             runs = [r for r in rows if r["problem"] == name and r["workers"] == workers]
             to_noise = median([r["time_to_noise"] for r in runs])
             end = median([r["end_time"] for r in runs])
+            stopped = [r for r in runs if math.isfinite(r["stop_time"])]
+            final = median([r["final_true_objective"] for r in runs])
+            # equal quality: the worse of the serial and the parallel runs' final medians
+            quality = max(final, median([r["final_true_objective"] for r in serial]))
             table.append(
                 {
                     "problem": name,
@@ -138,10 +162,14 @@ def summarise(rows: list[dict]) -> list[dict]:
                     "time_to_noise": to_noise,
                     "simulations_to_noise": median([r["simulations_to_noise"] for r in runs]),
                     "speedup": serial_time / to_noise if serial else math.nan,
+                    "quality": quality,
+                    "quality_speedup": time_to_quality(serial, quality, moments)
+                    / time_to_quality(runs, quality, moments),
                     "budget_speedup": serial_end / end if serial else math.nan,
-                    "stop_time": median([r["stop_time"] for r in runs]),
-                    "stop_true_objective": median([r["stop_true_objective"] for r in runs]),
-                    "final_true_objective": median([r["final_true_objective"] for r in runs]),
+                    "stopped": len(stopped),
+                    "stop_time": median([r["stop_time"] for r in stopped]),
+                    "stop_true_objective": median([r["stop_true_objective"] for r in stopped]),
+                    "final_true_objective": final,
                     "ask_seconds_mean": median([r["ask_seconds_mean"] for r in runs]),
                     "ask_seconds_max": max(r["ask_seconds_max"] for r in runs),
                 }
@@ -170,16 +198,17 @@ def report(table: list[dict], command: str, minutes: float, budget: int) -> str:
         "largest single one.",
         "",
         "| problem | P | runs | reached noise | time to noise | sims to noise | speedup "
-        "| speedup / P | budget speedup | stop time | true objective at stop "
-        "| final true objective | s/ask mean | s/ask max |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "| speedup / P | final-quality speedup / P | budget speedup | stopped | stop time "
+        "| true objective at stop | final true objective | s/ask mean | s/ask max |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in table:
         lines.append(
             f"| {r['problem']} | {r['workers']} | {r['runs']} | {r['reached']}/{r['runs']} "
             f"| {r['time_to_noise']:.2f} | {r['simulations_to_noise']:.1f} "
             f"| {r['speedup']:.2f} | {r['speedup'] / r['workers']:.2f} "
-            f"| {r['budget_speedup']:.2f} | {r['stop_time']:.2f} "
+            f"| {r['quality_speedup'] / r['workers']:.2f} "
+            f"| {r['budget_speedup']:.2f} | {r['stopped']}/{r['runs']} | {r['stop_time']:.2f} "
             f"| {r['stop_true_objective']:.3g} | {r['final_true_objective']:.3g} "
             f"| {r['ask_seconds_mean']:.3f} | {r['ask_seconds_max']:.3f} |"
         )
@@ -199,7 +228,7 @@ def main(argv: list[str] | None = None) -> None:
     rows = []
     args.out.mkdir(parents=True, exist_ok=True)
     with open(args.out / "workers.csv", "w", newline="") as handle:
-        writer = csv.DictWriter(handle, FIELDS)
+        writer = csv.DictWriter(handle, FIELDS, extrasaction="ignore")
         writer.writeheader()
         for name in args.problems.split(","):
             for p in workers:
