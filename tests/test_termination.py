@@ -141,11 +141,18 @@ def test_the_trace_gets_its_header_once_and_no_file_without_rows(tmp_path):
     path = tmp_path / "early_termination.csv"
     append_estimates(path, [])
     assert not path.exists()
-    append_estimates(path, [("1.0", "e0004", "0.5", "0.5", "0.2", 1)])
-    append_estimates(path, [("2.0", "e0005", "1.5", "0.1", "", 0)])
+    append_estimates(path, [("1.0", "e0004", "0.5", "0.5", "0.2", 1, "0.5")])
+    append_estimates(path, [("2.0", "e0005", "1.5", "0.1", "", 0, "")])
     with open(path, newline="") as handle:
         assert list(csv.reader(handle)) == [
             list(ESTIMATE_COLUMNS),
-            ["1.0", "e0004", "0.5", "0.5", "0.2", "1"],
-            ["2.0", "e0005", "1.5", "0.1", "", "0"],
+            ["1.0", "e0004", "0.5", "0.5", "0.2", "1", "0.5"],
+            ["2.0", "e0005", "1.5", "0.1", "", "0", ""],
         ]
+
+
+def test_a_trace_begun_before_the_judged_column_keeps_its_columns(tmp_path):
+    path = tmp_path / "early_termination.csv"
+    path.write_text("elapsed_s,evaluation,running_s,estimate,limit,stop\n1.0,e0004,0.5,0.5,0.2,1\n")
+    append_estimates(path, [("2.0", "e0005", "1.5", "0.1", "0.3", 0, "0.1")])
+    assert path.read_text().splitlines()[-1] == "2.0,e0005,1.5,0.1,0.3,0"

@@ -370,6 +370,7 @@ class Calibration:
                         f"{watched[evaluation]:.7g}",
                         "" if decision.limit is None else f"{decision.limit:.7g}",
                         int(decision.stop),
+                        "" if decision.judged is None else f"{decision.judged:.7g}",
                     )
                 )
             if decision.stop:

@@ -119,16 +119,23 @@ def early_termination_decisions(
 
 
 #: Columns of early_termination.csv: one row each time a running evaluation's estimate changes.
-ESTIMATE_COLUMNS = ("elapsed_s", "evaluation", "running_s", "estimate", "limit", "stop")
+#: ``limit``: what the estimate was held to (empty: none applied); ``judged``: the estimate
+#: compared with it (the estimate, or where its falling trend heads).
+ESTIMATE_COLUMNS = ("elapsed_s", "evaluation", "running_s", "estimate", "limit", "stop", "judged")
 
 
 def append_estimates(path: Path, rows: list[tuple]) -> None:
-    """Append rows (``ESTIMATE_COLUMNS``) to the study's early-termination trace."""
+    """Append rows (``ESTIMATE_COLUMNS``) to the study's early-termination trace; a trace begun
+    by an earlier demcal keeps its own columns."""
     if not rows:
         return
     new = not path.exists()
+    width = len(ESTIMATE_COLUMNS)
+    if not new:
+        with open(path, newline="") as handle:
+            width = len(next(csv.reader(handle), ESTIMATE_COLUMNS))
     with open(path, "a", newline="") as handle:
         writer = csv.writer(handle)
         if new:
             writer.writerow(ESTIMATE_COLUMNS)
-        writer.writerows(rows)
+        writer.writerows(row[:width] for row in rows)

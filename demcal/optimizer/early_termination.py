@@ -66,13 +66,16 @@ def estimate_heading(
 
 @dataclass(frozen=True)
 class EarlyTerminationDecision:
-    """``stop`` is the verdict; ``factor`` the c used and ``limit`` = c f* (None if not applied);
-    ``reason`` explains it."""
+    """``stop`` is the verdict; ``factor`` the c used; ``limit`` what the estimate was held to
+    (c f*, weighed by the work left; None if no limit applied); ``judged`` the estimate
+    compared with it (the partial estimate, or where its falling trend heads); ``reason``
+    explains it."""
 
     stop: bool
     factor: float | None
     reason: str
     limit: float | None = None
+    judged: float | None = None
 
 
 def termination_factor(
@@ -124,7 +127,7 @@ def early_termination_decision(
         done = min(max(run.done, 0.0), 1.0)
         if done >= last_stretch:
             return EarlyTerminationDecision(
-                False, factor, f"in its last stretch ({done:.0%} done): finished", limit
+                False, factor, f"in its last stretch ({done:.0%} done): finished"
             )
         if run.heading is not None and run.heading < estimate:
             estimate = max(run.heading, 0.0)
@@ -135,7 +138,7 @@ def early_termination_decision(
         f" heading to {estimate:g}" if estimate != partial_estimate else ""
     )
     return EarlyTerminationDecision(
-        stop, factor, f"{judged} {'>' if stop else '<='} {bound}", limit
+        stop, factor, f"{judged} {'>' if stop else '<='} {bound}", limit, estimate
     )
 
 
