@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Protocol, runtime_checkable
+from typing import Protocol
 
 import numpy as np
 
@@ -168,22 +168,6 @@ class PredictsResponse(Protocol):
     def noise_sd(self) -> float: ...
 
 
-@runtime_checkable
-class ConditionsOnPending(PredictsResponse, Protocol):
-    """A response model that knows its sd once results at running points are in (an
-    optimizer's :class:`ResponseModel`)."""
-
-    def predict_std_given(self, x: np.ndarray, pending: np.ndarray) -> np.ndarray: ...
-
-
-def std_given(model: PredictsResponse, x: np.ndarray, pending: np.ndarray) -> np.ndarray:
-    """The model's sd at ``x`` once the ``pending`` points' results are in, where the model can
-    say; else its sd now."""
-    if len(pending) and isinstance(model, ConditionsOnPending):
-        return model.predict_std_given(x, pending)
-    return model.predict_std(x)
-
-
 @dataclass(frozen=True)
 class ResponsePredictor:
     """Response models with the objective on top: what the response strategies and best() use."""
@@ -224,27 +208,15 @@ class ResponsePredictor:
         return np.asarray(self.objective(means), float) * np.ones(len(np.atleast_2d(x)))
 
     def expected_improvement(
-        self,
-        x: np.ndarray,
-        best: float,
-        rng: np.random.Generator,
-        pending: np.ndarray | None = None,
-        samples: int = 128,
+        self, x: np.ndarray, best: float, rng: np.random.Generator, samples: int = 128
     ) -> np.ndarray:
         """Monte Carlo expected improvement of the objective over ``best`` at the rows of ``x``.
 
         Each response is drawn from its model's normal posterior (independent
         responses, the same draws for every candidate), the objective is
-        applied to each draw, and the improvements are averaged. With
-        ``pending`` points (running evaluations), each posterior is the one
-        expected once their results are in (:func:`std_given`): the kriging
-        believer of Ginsbourger et al. (2010), which keeps parallel workers
-        from crowding one region.
+        applied to each draw, and the improvements are averaged.
         """
-        x = np.atleast_2d(x)
-        pending = np.empty((0, x.shape[1])) if pending is None else pending
-        means = {key: model.predict(x) for key, model in self.models.items()}
-        stds = {key: std_given(model, x, pending) for key, model in self.models.items()}
+        means, stds = self.predict(x)
         draws = rng.standard_normal((samples, len(self.models)))
         sampled = {
             key: means[key][None, :] + stds[key][None, :] * draws[:, [i]]

@@ -93,19 +93,3 @@ def test_replicate_variance_smooths_the_fit(data):
     model = CubicRBF(smoothing=0.0).fit(x, y, variance)
     low = y < np.median(y)
     assert np.max(np.abs(model.predict(x[low]) - y[low])) > 1e-6
-
-
-def test_running_points_narrow_the_kriging_sd_only_around_them():
-    """The kriging believer: once a running point's result is in, the sd near it falls and the
-    sd far from it hardly moves; without running points nothing changes."""
-    rng = np.random.default_rng(3)
-    x = rng.random((14, 2))
-    y = np.sin(3 * x[:, 0]) + x[:, 1] ** 2 + 0.02 * rng.standard_normal(14)
-    model = KrigingSurrogate(restarts=2, seed=0).fit(x, y)
-    running = np.array([[0.5, 0.5]])
-    probes = np.array([[0.5, 0.5], [0.52, 0.5], [0.98, 0.02]])
-    before, after = model.predict_std(probes), model.predict_std_given(probes, running)
-    assert np.array_equal(model.predict_std_given(probes, np.empty((0, 2))), before)
-    assert after[0] < 0.8 * before[0] and after[1] < before[1]
-    assert after[2] == pytest.approx(before[2], rel=0.05)
-    assert np.all(after <= before + 1e-12)

@@ -17,22 +17,14 @@ class ResponseEI(Strategy):
     the DYCORS step size and coordinate probability) plus as many uniform
     ones; each is scored by the expected improvement of the objective
     applied to the responses' posteriors (Monte Carlo, see
-    :meth:`~demcal.optimizer.responses.ResponsePredictor.expected_improvement`).
-    Running points count as if their results were in and equal to the
-    prediction (the kriging believer, Ginsbourger et al. 2010): they
-    narrow the posteriors around them, and the best predicted objective
-    among evaluated and running points is the one to improve on, so
-    parallel workers spread out instead of crowding the best region. The
-    score is also damped within sigma of running points, for response
-    models whose sd does not depend on where the data lie.
-    The best point is the evaluated one with the lowest predicted
-    objective. Without response models yet, or without an admissible
-    candidate, the point is space filling.
+    :meth:`~demcal.optimizer.responses.ResponsePredictor.expected_improvement`), damped
+    within sigma of running points. The best point is the evaluated one
+    with the lowest predicted objective. Without response models yet, or
+    without an admissible candidate, the point is space filling.
 
-    It counts the proposals in a row whose largest expected improvement,
-    on the finished results alone, is below ``calm_share`` of the noise
-    level (``calm_proposals`` in the strategy state): half of the
-    optimizer's rule that the answer is known.
+    It counts the proposals in a row whose largest expected improvement is
+    below ``calm_share`` of the noise level (``calm_proposals`` in the
+    strategy state): half of the optimizer's rule that the answer is known.
     """
 
     def propose(self, history: History) -> np.ndarray:
@@ -64,11 +56,9 @@ class ResponseEI(Strategy):
         calm = float(improvement.max()) < s.calm_share * predictor.noise_level()
         state = history.strategy_state
         state["calm_proposals"] = state.get("calm_proposals", 0) + 1 if calm else 0
-        running = history.select(Status.PENDING)
-        if len(running):  # calm is judged on results; the choice also on what is running
-            believed = float(np.min(predictor.objective_mean(np.vstack([finished, running]))))
-            improvement = predictor.expected_improvement(candidates, believed, history.rng, running)
-        score = improvement * st.pending_damping(candidates, running, history.sigma)
+        score = improvement * st.pending_damping(
+            candidates, history.select(Status.PENDING), history.sigma
+        )
         if not np.any(score > 0.0):  # no improvement expected anywhere: exploit the prediction
             exploited: np.ndarray = candidates[int(np.argmin(predictor.objective_mean(candidates)))]
             return exploited

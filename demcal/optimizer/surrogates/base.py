@@ -195,8 +195,3 @@ class ResponseModel(Surrogate):
     @property
     def warm_start(self) -> tuple[np.ndarray, float] | None:
         return None
-
-    def predict_std_given(self, x: ArrayLike, pending: np.ndarray) -> np.ndarray:
-        """The sd at ``x`` once the results at the ``pending`` points are in. Here the sd does
-        not depend on where the data lie (e.g. a leave-one-out error), so it is unchanged."""
-        return self.predict_std(x)

@@ -139,28 +139,3 @@ class KrigingSurrogate(ResponseModel):
             variance = self.model.predict_variances(x).ravel()
         std: np.ndarray = self.data.scale * np.sqrt(np.maximum(variance, 0.0))
         return std
-
-    def predict_std_given(self, x: ArrayLike, pending: np.ndarray) -> np.ndarray:
-        """The sd at ``x`` once the ``pending`` points' results are in, each a noisy observation
-        (the kriging believer; the mean does not move when a result equals its prediction).
-
-        Var[f(x) | data, y_p] = S_xx - S_xp (S_pp + tau^2 I)^-1 S_px, with S the posterior
-        covariance (SMT's ``covariance_matrix``) and tau^2 the fitted noise variance.
-        """
-        x = np.atleast_2d(np.asarray(x, float))
-        std = self.predict_std(x)
-        if self.constant or len(pending) == 0:
-            return std
-        from smt.surrogate_models.krg_based import covariance_matrix
-
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            joint = covariance_matrix(self.model, np.vstack([x, pending]))
-        n = len(x)
-        cross, among = joint[:n, n:], joint[n:, n:]
-        among = among + (self._noise_variance() + 1e-12 * np.trace(among)) * np.eye(len(among))
-        explained = np.einsum("ij,ji->i", cross, np.linalg.solve(among, cross.T))
-        prior = np.maximum(np.diag(joint)[:n], 1e-300)
-        remaining = np.clip(1.0 - explained / prior, 0.0, 1.0)
-        reduced: np.ndarray = std * np.sqrt(remaining)
-        return reduced
