@@ -184,7 +184,7 @@ def report(table: list[dict], command: str, minutes: float, budget: int) -> str:
         f"Command: `{command}`",
         "",
         f"Date: {datetime.now(UTC):%Y-%m-%d %H:%M} UTC; total {minutes:.1f} min. demcal at "
-        f"commit {demcal_revision()}; machine {platform.machine()}, Python "
+        f"{demcal_revision()}; machine {platform.machine()}, Python "
         f"{platform.python_version()}. Written by workers.py.",
         "",
         f"Budget {budget} simulations per run; durations uniform on {DURATION_RANGE} units. "
