@@ -203,8 +203,6 @@ def test_early_termination_stops_hopeless_runs_and_saves_time(tmp_path):
     # no limit in the initial design and in a run's last stretch
     held = trace[(trace["stop"] == 0) & trace["limit"].notna()]
     assert len(held) and (held["judged"] <= held["limit"]).all()
-    judged = trace.dropna(subset=["judged"])
-    assert (judged["judged"] <= judged["estimate"]).all()  # only a falling trend is heeded
     assert (
         trace.loc[trace["evaluation"].map(lambda e: int(e[1:])) < state["initial_size"], "limit"]
         .isna()

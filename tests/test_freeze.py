@@ -88,6 +88,7 @@ def test_a_resumable_change_is_accepted_and_frozen(workdir):
         ({"fixed": {"restitution_pp": 0.6}}, "fixed.restitution_pp", "0.5 -> 0.6"),
         ({"engine": {"noise": 0.02}}, "engine.noise", "0.01 -> 0.02"),
         ({"optimizer": {"strategy": "dycors"}}, "optimizer.strategy", "'response_ei' -> 'dycors'"),
+        ({"staging": "parallel"}, "staging", "[] -> None"),
     ],
 )
 def test_an_incompatible_change_is_refused_naming_the_field(workdir, overrides, field, shown):
@@ -99,6 +100,16 @@ def test_an_incompatible_change_is_refused_naming_the_field(workdir, overrides, 
     assert f"{field}: {shown}" in message
     assert "give the study a new name" in message
     assert study.files.study.read_text() == before  # the frozen copy is left as it was
+
+
+def test_a_study_begun_before_staging_keeps_its_evaluations_running_at_once(workdir):
+    study = freeze(load_study(analytic_example()))
+    assert study.staging == ()
+    record = frozen_record(study)
+    del record["staging"]
+    study.files.study.write_text(json.dumps(record))
+    assert freeze(load_study(analytic_example())).staging is None
+    assert load_frozen(study.files.study).staging is None
 
 
 def test_a_different_targeted_response_is_refused(workdir):

@@ -39,10 +39,11 @@ def run_snakemake(workdir, config, *args):
     )
 
 
-def write_point(workdir, study, evaluation, **point):
+def write_point(workdir, study, evaluation, staged=False, **point):
+    """params.json of an evaluation; ``staged`` as the daemon marks one it may stop early."""
     path = workdir / "results" / study / "evals" / evaluation / "params.json"
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps({"parameters": point}))
+    path.write_text(json.dumps({"parameters": point, "staged": staged}))
     return path.parent
 
 
@@ -87,14 +88,19 @@ def test_evaluate_centre_runs_the_middle_of_the_bounds(tmp_path, analytic_config
 @pytest.mark.slow
 @pytest.mark.parametrize("staging", ["parallel", "staged"])
 def test_failed_simulation_is_recorded_not_raised(tmp_path, analytic_config, staging):
-    """Both replicates fail side by side; staged, the second is not started after the first
+    """In parallel both replicates fail; staged, the second is not started after the first
     failed, and it is not archived (nothing ran)."""
     analytic_config["staging"] = staging
     analytic_config["engine"]["failures"] = [
         {"when": {"sliding_friction_pp": [0.8, 0.9]}, "reason": "particles escaped"}
     ]
     evaldir = write_point(
-        tmp_path, "unit", "bad", sliding_friction_pp=0.85, rolling_friction_pp=0.1
+        tmp_path,
+        "unit",
+        "bad",
+        staged=staging == "staged",
+        sliding_friction_pp=0.85,
+        rolling_friction_pp=0.1,
     )
     proc = run_snakemake(tmp_path, analytic_config, "results/unit/evals/bad/objective.json")
     assert proc.returncode == 0, proc.stderr[-3000:]
@@ -114,9 +120,10 @@ def test_failed_simulation_is_recorded_not_raised(tmp_path, analytic_config, sta
         assert archived == 1
 
 
-def joint_evaluation(tmp_path, analytic_config, duration, **study):
+def joint_evaluation(tmp_path, analytic_config, duration, staged=False, **study):
     """One evaluation of a study of two scenes (cylinder lift and calibration device) x 2
-    replicates, on the analytic engine; its folder and the Snakemake run."""
+    replicates, on the analytic engine (``staged`` as the daemon marks one it may stop); its
+    folder and the Snakemake run."""
     config = {
         **analytic_config,
         "engine": {"name": "analytic", "noise": 0.0, "duration": duration},
@@ -135,6 +142,7 @@ def joint_evaluation(tmp_path, analytic_config, duration, **study):
         tmp_path,
         "unit",
         "e1",
+        staged=staged,
         sliding_friction_pp=0.4,
         rolling_friction_pp=0.1,
         sliding_friction_pw=0.4,
@@ -157,7 +165,11 @@ def test_staged_scenes_run_in_their_order_and_replicates_after_the_first(tmp_pat
     """staging [calibration_device, cylinder_lift]: the device's replicate 0, then the lift's,
     then both second replicates (side by side on 2 cores)."""
     evaldir, proc = joint_evaluation(
-        tmp_path, analytic_config, 1.0, staging=["calibration_device", "cylinder_lift"]
+        tmp_path,
+        analytic_config,
+        1.0,
+        staged=True,
+        staging=["calibration_device", "cylinder_lift"],
     )
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert json.loads((evaldir / "objective.json").read_text())["status"] == "ok"

@@ -29,6 +29,7 @@ from demcal.daemon.progress import Progress
 from demcal.daemon.termination import (
     append_estimates,
     early_termination_decisions,
+    forget_reports,
     latest_estimates,
     partial_responses,
     share_done,
@@ -80,8 +81,8 @@ class Calibration:
         self.stop_requested: set[str] = set()
         #: (estimate, limit) last written to early_termination.csv, per evaluation
         self.recorded_estimates: dict[str, tuple] = {}
-        #: (share done, estimate) of each running evaluation as it changed: its trend
-        self.estimate_history: dict[str, list[tuple[float, float]]] = {}
+        #: (share done, estimate, estimates reporting) of each running evaluation as it changed
+        self.estimate_history: dict[str, list[tuple[float, float, int]]] = {}
         self.rescore()
 
     # -- state ------------------------------------------------------------------
@@ -210,7 +211,8 @@ class Calibration:
             self.launch(evaluation_id(proposal.id))
 
     def write_point(self, proposal: Proposal) -> None:
-        """The proposal's params.json; a confirmation run names the point it repeats."""
+        """The proposal's params.json; a confirmation run names the point it repeats; an
+        evaluation early termination may stop is staged in a staged study."""
         of = None
         if proposal.confirms is not None:  # a reused point is named by its source
             confirmed = next(r for r in self.optimizer.records if r.id == proposal.confirms)
@@ -219,6 +221,7 @@ class Calibration:
             dict(zip(self.names, proposal.x)),
             in_initial_design=proposal.in_initial_design,
             proposed_by=None if of is None else f"confirmation of {of}",
+            staged=self.study.staging is not None and self.optimizer.can_stop_early(proposal.id),
         ).write(self.files.evaluation(evaluation_id(proposal.id)).params)
 
     def confirm_best(self, reason: str) -> bool:
@@ -335,6 +338,7 @@ class Calibration:
         files = self.files.evaluation(evaluation)
         for scene in self.study.scenes:
             shutil.rmtree(files.scene_dir(scene), ignore_errors=True)
+        forget_reports()
         for stale in (files.objective, files.rescored, files.stop):
             stale.unlink(missing_ok=True)
         self.stop_requested.discard(evaluation)
@@ -380,14 +384,18 @@ class Calibration:
         append_estimates(self.files.early_termination, rows)
 
     def _run_progress(self, evaluation: str, estimate: float) -> RunProgress:
-        """Where a running evaluation stands: its share done and its estimate's heading."""
-        done = share_done(
-            self.files.evaluation(evaluation), list(self.study.scenes), self.study.replicates
-        )
+        """Where a running evaluation stands: its share done and its estimate's heading. The
+        trend starts anew whenever another simulation starts reporting (the estimate, a mean
+        over the reporting ones, jumps then)."""
+        files, scenes = self.files.evaluation(evaluation), list(self.study.scenes)
+        done = share_done(files, scenes, self.study.replicates)
+        reporting = sum(map(len, latest_estimates(files, scenes, self.study.replicates).values()))
         history = self.estimate_history.setdefault(evaluation, [])
-        if not history or history[-1] != (done, estimate):
-            history.append((done, estimate))
-        return RunProgress(done, estimate_heading(history))
+        if history and history[-1][2] != reporting:
+            history.clear()
+        if not history or history[-1][:2] != (done, estimate):
+            history.append((done, estimate, reporting))
+        return RunProgress(done, estimate_heading([(d, e) for d, e, _ in history]))
 
     def _estimate(self, evaluation: str) -> float | None:
         """Objective estimate of a running evaluation from its replicates' early estimates."""

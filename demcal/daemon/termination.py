@@ -63,6 +63,11 @@ def _latest(
     return reports
 
 
+def forget_reports() -> None:
+    """Drop what was read of every partial.csv (an evaluation retried starts its files anew)."""
+    _reports.cache_clear()
+
+
 def share_done(files: EvaluationFiles, scenes: list[str], replicates: int) -> float:
     """The share of an evaluation's simulations behind it: a finished one (its responses.json
     written) counts 1, a running one its latest progress, one not started 0; all weigh alike."""

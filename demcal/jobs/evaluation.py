@@ -71,11 +71,18 @@ def staged_inputs(study: Study, evaluation: str, scene: str, replicate: int) -> 
     scene before it; every other replicate waits for replicate 0 of every
     scene. So the first simulations are judged by early termination
     (Samuelsson 2023, sec. 5.1.2: a stopped evaluation costs a fraction of
-    its replicates) before the rest start. Nothing in a parallel study.
+    its replicates) before the rest start. Nothing in a parallel study, nor
+    for an evaluation that cannot be stopped (its params.json not ``staged``:
+    the initial design, confirmations, campaigns, points given by hand).
     """
     if study.staging is None:
         return []
     files = study.files.evaluation(evaluation)
+    try:
+        if not PointRecord.read(files.params).staged:
+            return []
+    except SimulationFailed:  # the simulate job records what is wrong with params.json
+        return []
     if replicate > 0:
         return [files.replicate(name, 0).responses for name in study.scenes]
     order = study.staging
@@ -91,9 +98,11 @@ def not_started(study: Study, evaluation: str, scene: str, replicate: int) -> Ru
     if files.stop.exists():
         return RunResult(Status.TERMINATED, f"{NOT_STARTED}the evaluation was stopped early")
     for path in staged_inputs(study, evaluation, scene, replicate):
+        if not path.exists():  # a DAG built before the study was staged: nothing to wait for
+            continue
         before = ResponsesRecord.read(path)
         if before.status != Status.OK:
-            label = f"{before.scene} rep{before.replicate}"
+            label = f"{path.parent.parent.name} {path.parent.name}"
             return RunResult(Status.TERMINATED, f"{NOT_STARTED}{label} {before.status}")
     return None
 

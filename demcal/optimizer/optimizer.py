@@ -539,16 +539,29 @@ class Optimizer:
             partial_estimate,
             progress,
             in_initial_design=record.in_initial_design,
-            enabled=et.enabled
-            and STRATEGIES[self.settings.strategy].stops_early
-            and record.confirms is None
-            and not record.maps_solutions,
+            enabled=self._may_stop(record),
             thresholds=et.thresholds,
             progress_boundaries=et.progress_boundaries,
             run=run,
             rule=et.rule,
             last_stretch=et.last_stretch,
         )
+
+    def _may_stop(self, record: Evaluation) -> bool:
+        """Whether early termination applies to an evaluation of this kind (the initial design
+        aside): on, with a strategy that stops runs, and not a confirmation or mapping run."""
+        return (
+            self.settings.early_termination.enabled
+            and STRATEGIES[self.settings.strategy].stops_early
+            and record.confirms is None
+            and not record.maps_solutions
+        )
+
+    def can_stop_early(self, id: int) -> bool:
+        """Whether early termination may stop evaluation ``id`` (then its first simulations
+        are worth running first: a staged study stages it)."""
+        record = self._record(id)
+        return self._may_stop(record) and not record.in_initial_design
 
     # ------------------------------------------------------- confirmation
     def confirm(self, n: int | None = None) -> list[Proposal]:

@@ -241,9 +241,9 @@ def plot_early_termination(
     study: Study, estimates: pd.DataFrame, statuses: dict[str, str], path: Path
 ) -> None:
     """The objective estimates of running evaluations over the calibration's time (points,
-    joined per evaluation, coloured by how it ended) and the limit c f* they were held to
-    (thesis eq. 3.4, one step line: it applies to every run at that moment); a cross where
-    a run was stopped."""
+    joined per evaluation, coloured by how it ended) and the limit each was held to (dashed:
+    c f* of the thesis' eq. 3.4, divided by the share of the run left under the weighed rule,
+    so each run has its own); a cross where a run was stopped."""
     fig, ax = plt.subplots(figsize=(7, 4.2))
     if estimates.empty:
         ax.text(
@@ -259,30 +259,33 @@ def plot_early_termination(
         _save(fig, path)
         return
     unit, size = time_unit(float(estimates["elapsed_s"].max()))
-    shown = set()
+    shown, limit_label = set(), "limit it was held to"
     for evaluation, rows in estimates.groupby("evaluation", sort=True):
         status = statuses.get(evaluation, Status.PENDING)
         label = None if status in shown else {Status.PENDING: "running"}.get(status, status)
         shown.add(status)
+        colour = STATUS_COLOURS.get(status, "grey")
         ax.semilogy(
             rows["elapsed_s"] / size,
             rows["estimate"],
             "-o",
-            color=STATUS_COLOURS.get(status, "grey"),
+            color=colour,
             markersize=3,
             lw=0.8,
             label=label,
         )
-    limits = estimates.dropna(subset=["limit"]).sort_values("elapsed_s")
-    if len(limits):
-        ax.step(
-            limits["elapsed_s"] / size,
-            limits["limit"],
-            where="post",
-            color="black",
-            lw=1.2,
-            label="limit c f* (eq. 3.4)",
-        )
+        limits = rows.dropna(subset=["limit"])
+        if len(limits):
+            ax.step(
+                limits["elapsed_s"] / size,
+                limits["limit"],
+                "--",
+                where="post",
+                color=colour,
+                lw=0.8,
+                label=limit_label,
+            )
+            limit_label = None
     stopped = estimates[estimates["stop"] == 1]
     if len(stopped):
         ax.plot(

@@ -193,7 +193,9 @@ class PointRecord(Record):
     """``params.json``: the free-parameter values of a point and how often it was run.
 
     ``parameters`` is kept as written (a hand-written file may hold text);
-    the simulate job checks it against the study.
+    the simulate job checks it against the study. ``staged``: its first
+    simulations run before the others (a staged study's evaluation that early
+    termination may stop; ``demcal.jobs.evaluation.staged_inputs``).
     """
 
     FILE: ClassVar[str] = "params.json"
@@ -203,6 +205,7 @@ class PointRecord(Record):
     previous_failures: list[str] = field(default_factory=list)
     in_initial_design: bool = False
     proposed_by: str | None = _optional()
+    staged: bool = False
 
     @classmethod
     def _from_dict(cls, data: dict, where: str) -> Self:
@@ -223,6 +226,7 @@ class PointRecord(Record):
             list(failures),
             bool(data.get("in_initial_design", False)),
             proposed_by,
+            data.get("staged") is True,
         )
 
     def retried(self, reason: str | None) -> PointRecord:

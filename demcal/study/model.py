@@ -347,14 +347,14 @@ def incompatible_changes(old: dict, new: dict) -> list[str]:
 
     Allowed: the budget and stopping rules (``RESUMABLE_OPTIMIZER_SETTINGS``),
     the daemon's ``calibration`` settings, warnings, the demcal version, the
-    objective's form, the archive, the staging, and target values, weights and spreads when the same
+    objective's form, the archive, and target values, weights and spreads when the same
     responses are targeted (stored simulations are then re-scored).
     """
     changed = [
         path
         for path in _differences(old, new, "")
         if not path.startswith(
-            ("demcal_version", "warnings", "calibration", "objective", "archive", "staging")
+            ("demcal_version", "warnings", "calibration", "objective", "archive")
         )
         and not any(
             path == f"optimizer.{name}" or path.startswith(f"optimizer.{name}.")
@@ -413,6 +413,8 @@ def freeze(study: Study) -> Study:
             old = read_json(path, "study.json")
         except SimulationFailed as exc:
             raise ConfigError(f"{exc}; move it away to start the study afresh") from None
+        if "staging" not in old:  # begun before staging: its evaluations keep running at once
+            record["staging"] = None
         changed = incompatible_changes(old, record)
         if changed:
             shown = "; ".join(
