@@ -2,7 +2,7 @@
 
     python benchmarks/calibration_runs.py CONFIG [--seeds 1 2 3] [--et on off]
                                           [--workers 2] [--strategies NAME ...]
-                                          [--replicates N] [--tag TAG]
+                                          [--replicates N] [--tag TAG] [--keep DIR]
 
 ``--et``: ``on`` (demcal's default rule, weighed), ``eq_3_4`` (the thesis' rule
 alone) or ``off``, each a run per seed. ``--replicates`` overrides the config's
@@ -186,6 +186,12 @@ def main() -> None:
         help="optimizer.strategy of each run (default: the config's own)",
     )
     parser.add_argument("--tag", default="")
+    parser.add_argument(
+        "--keep",
+        type=Path,
+        default=None,
+        help="run the calibrations in this folder and keep it (default: a scratch folder)",
+    )
     args = parser.parse_args()
     config = yaml.safe_load(Path(args.config).read_text())
     if args.replicates is not None:
@@ -194,6 +200,9 @@ def main() -> None:
     out = ROOT / "benchmarks" / "results" / f"{name}.json"
     runs = []
     with tempfile.TemporaryDirectory() as scratch:
+        if args.keep is not None:
+            args.keep.mkdir(parents=True, exist_ok=True)
+            scratch = str(args.keep)
         for seed in args.seeds:
             for et in args.et:
                 for strategy in args.strategies or [None]:

@@ -56,12 +56,15 @@ def unit_to_box(study: Study, unit: np.ndarray) -> list[dict[str, float]]:
     return [{p.name: float(v) for p, v in zip(study.free, row)} for row in values]
 
 
-def check_request(size: int, design: str) -> None:
-    """A ConfigError for a design size or kind no campaign can have."""
+def check_request(size: int, design: str, bundle: int = 1) -> None:
+    """A ConfigError for a design size or kind, or a bundle of simulations per cluster job,
+    that no campaign can have."""
     if design not in CAMPAIGN_DESIGNS:
         raise ConfigError(f"--design {design}: use one of {', '.join(CAMPAIGN_DESIGNS)}")
     if size < 2:
         raise ConfigError(f"--n {size}: give at least 2 points")
+    if bundle < 1:
+        raise ConfigError(f"--bundle {bundle}: give at least 1 simulation per cluster job")
 
 
 def design_seed(study: Study) -> int:
@@ -200,13 +203,20 @@ def design_quality(campaign: CampaignRecord) -> tuple[float, float]:
     return minimum_pairwise_distance(points), cover_measure(points)
 
 
-def run(study: Study, names: list[str], profile: Path, show: Callable[[Tally], None]) -> Tally:
+def run(
+    study: Study, names: list[str], profile: Path, show: Callable[[Tally], None], bundle: int = 1
+) -> Tally:
     """Build every evaluation's responses under one Snakemake (``profile``), showing the tally
     as simulations finish; stop it when the first simulations of this run all failed (the
     tally is then the one that decided it: Snakemake removes what its killed jobs were
-    writing). An interrupt (Ctrl-C) ends the Snakemake and is raised again."""
+    writing). An interrupt (Ctrl-C) ends the Snakemake and is raised again. Through a cluster,
+    each job runs ``bundle`` simulations (with their extraction: group ``run``) one after
+    another (Snakemake's ``--group-components``)."""
     targets = [str(path) for name in names for path in response_paths(study, name)]
-    command = snakemake_command(study.files.study, "--keep-going", *targets, profile=profile)
+    bundling = ["--group-components", f"run={bundle}"] if bundle > 1 else []
+    command = snakemake_command(
+        study.files.study, "--keep-going", *bundling, *targets, profile=profile
+    )
     before = tally(study, names)
     with open(study.files.campaign_log, "a") as log:
         process = subprocess.Popen(

@@ -106,6 +106,108 @@ def test_the_loop_runs_the_budget_and_writes_every_record(tmp_path, monkeypatch)
     assert best["objective"] == told[int(best["evaluation"][1:])]
 
 
+@dataclass
+class UnawareChild:
+    """A child whose jobs have written every responses.json but whose Snakemake has not seen
+    them end yet (through SLURM: until the executor's next status check); it writes
+    objective.json and ends at the ``polls``-th question."""
+
+    evaluation: str
+    started: float
+    study: Study
+    polls: int
+    pid: int = -1
+
+    def finished(self) -> bool:
+        self.polls -= 1
+        if self.polls > 0:
+            return False
+        if not self.study.files.evaluation(self.evaluation).objective.exists():
+            objective(self.study, self.evaluation, response_paths(self.study, self.evaluation))
+        return True
+
+    def returncode(self) -> int | None:
+        return 0
+
+
+@dataclass
+class SlowToEndLauncher(InProcessLauncher):
+    """Runs every simulate and extract at launch; each child then takes ``polls`` polls to
+    write objective.json and end."""
+
+    polls: int = 4
+
+    def launch(self, files: EvaluationFiles) -> UnawareChild:
+        self.launched.append(files.id)
+        self.unaware_at_launch.append(
+            sorted(c.evaluation for c in self.children if c.polls > 0 and c.evaluation != files.id)
+        )
+        for scene in self.study.scenes:
+            for replicate in range(self.study.replicates):
+                simulate(self.study, files.id, scene, replicate)
+                extract(self.study, files.replicate(scene, replicate).simulation)
+        child = UnawareChild(files.id, time.time(), self.study, self.polls)
+        self.children.append(child)
+        return child
+
+    def __post_init__(self):
+        super().__post_init__()
+        self.children: list[UnawareChild] = []
+        self.unaware_at_launch: list[list[str]] = []
+
+
+def test_an_evaluation_is_taken_from_its_responses_before_its_snakemake_ends(
+    tmp_path, monkeypatch
+):
+    """The daemon does not wait for a child to see its jobs end: the next point is launched
+    while the last child still waits; the calibration still ends with every record written,
+    the same as with children that end at once."""
+    monkeypatch.chdir(tmp_path)
+    study = freeze(load_study(config()))
+    runner = SlowToEndLauncher(study)
+    calibration = Calibration(study, runner, workers=1)
+    reason = calibration.run(show_progress=lambda progress: None)
+    assert reason == "evaluation budget reached (8 of 8)"
+    for i, unaware in enumerate(runner.unaware_at_launch[1:]):
+        assert f"e{i:04d}" in unaware  # launched before e{i}'s Snakemake saw its end
+    assert all(child.polls <= 0 for child in runner.children)  # none left behind
+    assert not calibration.ending
+    table = evaluations_table("unit")
+    assert list(table["status"]) == ["ok"] * 8
+    (tmp_path / "at_once").mkdir()
+    monkeypatch.chdir(tmp_path / "at_once")
+    runner = InProcessLauncher(study)
+    Calibration(study, runner, workers=1).run(show_progress=lambda progress: None)
+    pd.testing.assert_frame_equal(evaluations_table("unit"), table)
+
+
+def test_a_daemon_killed_before_a_taken_evaluation_was_written_has_it_written(
+    tmp_path, monkeypatch
+):
+    """A daemon that ends while a taken evaluation's child has not written objective.json
+    (both killed): the next daemon starts its child again to write it."""
+    monkeypatch.chdir(tmp_path)
+    settings = config()
+    settings["optimizer"]["max_evaluations"] = 3
+    study = freeze(load_study(settings))
+    runner = SlowToEndLauncher(study, polls=10**6)
+    calibration = Calibration(study, runner, workers=1)
+    calibration.resume()
+    calibration.propose()
+    calibration.collect()
+    assert list(calibration.ending) == ["e0000"]
+    best = json.loads(calibration.files.best.read_text())
+    assert best["evaluation"] == "e0000"  # written from the record taken
+    objective_file = calibration.files.evaluation("e0000").objective
+    assert not objective_file.exists()
+    runner = InProcessLauncher(study)  # the child is gone: the next daemon starts it again
+    again = Calibration(study, runner, workers=1)
+    assert again.run(show_progress=lambda progress: None).startswith("evaluation budget")
+    assert runner.launched[0] == "e0000"
+    told = next(r for r in again.optimizer.records if r.id == 0)
+    assert ObjectiveRecord.read(objective_file).objective == told.value
+
+
 def test_same_seed_same_evaluations(tmp_path, monkeypatch):
     tables = []
     for run in ("a", "b"):

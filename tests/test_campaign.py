@@ -10,7 +10,7 @@ import pytest
 import yaml
 from conftest import ANALYTIC_STUDY, demcal, finish
 
-from demcal.campaign import plan, tally, write_points
+from demcal.campaign import check_request, plan, tally, write_points
 from demcal.errors import ConfigError
 from demcal.optimizer.designs import (
     cover_measure,
@@ -85,6 +85,8 @@ def test_a_campaign_grows_by_its_next_points_and_refuses_another_design(tmp_path
         plan(study, 10, "latin_hypercube")
     with pytest.raises(ConfigError, match="--n 1: give at least 2 points"):
         plan(study, 1, "sobol")
+    with pytest.raises(ConfigError, match="--bundle 0: give at least 1 simulation per"):
+        check_request(4, "fssf_f", bundle=0)
     renamed = freeze(load_study({**copy.deepcopy(ANALYTIC_STUDY), "study": "held-out"}))
     assert plan(renamed, 6, "fssf_f").unit_points != first.unit_points  # a design of its own
 

@@ -118,16 +118,25 @@ def test_calibration_runs_its_simulations_as_slurm_jobs(tmp_path):
     assert len(jobs) == simulations and set(jobs.values()) == {"COMPLETED"}, jobs
 
 
-def test_a_campaign_runs_its_simulations_as_slurm_jobs(tmp_path):
-    """demcal sample --profile profiles/slurm: every point of the design a SLURM job, every
-    simulation archived."""
+@pytest.mark.parametrize("bundle, slurm_jobs", [(1, 4), (2, 2)])
+def test_a_campaign_runs_its_simulations_as_slurm_jobs(tmp_path, bundle, slurm_jobs):
+    """demcal sample --profile profiles/slurm: every point of the design a SLURM job (with
+    --bundle 2, two points a job), every simulation archived."""
     config = {**copy.deepcopy(ANALYTIC_STUDY), "study": "campaign", "replicates": 1}
     (tmp_path / "campaign.yaml").write_text(yaml.safe_dump(config))
     run = demcal(
-        tmp_path, "sample", "campaign.yaml", "--n", "4", "--profile", str(ROOT / "profiles/slurm")
+        tmp_path,
+        "sample",
+        "campaign.yaml",
+        "--n",
+        "4",
+        "--profile",
+        str(ROOT / "profiles/slurm"),
+        "--bundle",
+        str(bundle),
     )
     out = finish(run, timeout=TIME_LIMIT_S)
     assert "4 of 4 simulations finished (4 ok)" in out
     assert len(finish(demcal(tmp_path, "archive", "list", "--of", "campaign")).splitlines()) == 4
     jobs = finished_jobs_in(tmp_path)
-    assert len(jobs) == 4 and set(jobs.values()) == {"COMPLETED"}, jobs
+    assert len(jobs) == slurm_jobs and set(jobs.values()) == {"COMPLETED"}, jobs

@@ -22,7 +22,7 @@ from demcal.campaign import (
 from demcal.cli.run import locked_study
 from demcal.errors import ConfigError
 from demcal.study.config import load_study_file
-from demcal.workflow import LOCAL_PROFILE, check_profile
+from demcal.workflow import LOCAL_PROFILE, check_profile, runs_locally
 
 
 def arguments(sub: argparse.ArgumentParser) -> None:
@@ -43,15 +43,28 @@ def arguments(sub: argparse.ArgumentParser) -> None:
         default=str(LOCAL_PROFILE),
         help="Snakemake profile of the simulations (default: demcal's profiles/local)",
     )
+    sub.add_argument(
+        "--bundle",
+        type=int,
+        default=1,
+        help="simulations per cluster job, run one after another (default 1): for simulations "
+        "of seconds, where job submission and the scheduler's limits would take longer",
+    )
 
 
 def sample(args: argparse.Namespace) -> int:
     profile = Path(args.profile)
     check_profile(profile)
-    check_request(args.n, args.design)
+    check_request(args.n, args.design, args.bundle)
     if load_study_file(args.config).archive is None:
         raise ConfigError(
             "archive: false: a campaign is for the archive; give the study an archive"
+        )
+    if args.bundle > 1 and runs_locally(profile):
+        print(
+            f"demcal sample: --bundle {args.bundle} has no effect with {profile}: its simulations "
+            f"run on this machine's cores, not as cluster jobs",
+            file=sys.stderr,
         )
     with locked_study(args.config, name=args.name) as study:
         campaign = plan(study, args.n, args.design)
@@ -76,7 +89,7 @@ def sample(args: argparse.Namespace) -> int:
             bar.update(state.finished - bar.n)
 
         try:
-            state = run(study, names, profile, show)
+            state = run(study, names, profile, show, args.bundle)
         except KeyboardInterrupt:
             bar.close()
             print(

@@ -35,7 +35,7 @@ from demcal.daemon.termination import (
     share_done,
 )
 from demcal.errors import DemcalError, SimulationFailed
-from demcal.jobs.evaluation import rescore, reused_objectives
+from demcal.jobs.evaluation import objective_record, rescore, response_paths, reused_objectives
 from demcal.optimizer import Optimizer, Proposal, RunProgress, estimate_heading
 from demcal.optimizer.evaluation import ReusedPoint
 from demcal.results.layout import evaluation_id, proposal_id
@@ -75,6 +75,9 @@ class Calibration:
         #: the Snakemake that started this daemon: when it dies, the daemon ends too
         self.watch_pid = watch_pid
         self.children: dict[str, Running] = {}
+        #: evaluations taken from their responses.json whose child Snakemake has not ended
+        #: yet (it still writes objective.json), with the outcome the optimizer was told
+        self.ending: dict[str, tuple[Running, ObjectiveRecord]] = {}
         self.names = [p.name for p in study.free]
         self.optimizer = self._load_or_create_optimizer()
         self.started_at = self._load_start_time()
@@ -260,27 +263,80 @@ class Calibration:
                 self.children[evaluation] = Child(evaluation, -1, None, time.time())
                 continue  # finished while no daemon ran: collected in the next poll
             self.launch(evaluation)
+        for record in self.optimizer.records:
+            if record.status != Status.PENDING and record.reused_from is None:
+                self._finish_writing(evaluation_id(record.id))
+
+    def _finish_writing(self, evaluation: str) -> None:
+        """An evaluation taken from its responses before a daemon ended: its child Snakemake,
+        re-attached or started again, still writes its objective.json (nothing is simulated
+        again: every output is there)."""
+        files = self.files.evaluation(evaluation)
+        if files.objective.exists():
+            return
+        record = self.taken_early(evaluation)
+        if record is None:
+            return
+        running = self.launcher.reattach(files) or self.launcher.launch(files)
+        self.ending[evaluation] = (running, record)
 
     # -- collecting ----------------------------------------------------------------
     def collect(self) -> None:
-        """Tell the optimizer about every finished child; retry failures up to the cap."""
+        """Tell the optimizer about every finished evaluation, as soon as all its responses
+        are written (:meth:`taken_early`) or else when its child has ended; retry failures up
+        to the cap."""
         for evaluation, child in list(self.children.items()):
-            if not child.finished():
+            if child.finished():
+                record = self._objective_written(evaluation, child)
+            elif (early := self.taken_early(evaluation)) is not None:
+                record = early
+                self.ending[evaluation] = (child, early)
+            else:
                 continue
             del self.children[evaluation]
             self.estimate_history.pop(evaluation, None)
-            files = self.files.evaluation(evaluation)
-            try:
-                record = ObjectiveRecord.read(files.objective)
-            except SimulationFailed as exc:
-                tail = log_tail(files.snakemake_log, lines=3)
-                record = ObjectiveRecord(
-                    evaluation,
-                    Status.FAILED,
-                    f"workflow ended with code {child.returncode()} and no "
-                    f"objective ({exc}): {tail}",
-                )
             self.finish(evaluation, record)
+        for evaluation, (child, _) in list(self.ending.items()):
+            if child.finished():
+                del self.ending[evaluation]
+                if not self.files.evaluation(evaluation).objective.exists():
+                    log.warning(
+                        "%s: its Snakemake ended with code %s without writing objective.json "
+                        "(see %s); the outcome taken from its responses stands",
+                        evaluation,
+                        child.returncode(),
+                        self.files.evaluation(evaluation).snakemake_log,
+                    )
+
+    def _objective_written(self, evaluation: str, child: Running) -> ObjectiveRecord:
+        """The outcome of an evaluation whose child has ended: its objective.json, or a
+        failure that says why there is none."""
+        files = self.files.evaluation(evaluation)
+        try:
+            return ObjectiveRecord.read(files.objective)
+        except SimulationFailed as exc:
+            tail = log_tail(files.snakemake_log, lines=3)
+            return ObjectiveRecord(
+                evaluation,
+                Status.FAILED,
+                f"workflow ended with code {child.returncode()} and no objective ({exc}): {tail}",
+            )
+
+    def taken_early(self, evaluation: str) -> ObjectiveRecord | None:
+        """The outcome of an evaluation once every replicate's responses.json is written, the
+        same record its objective job will write; None before, and for a failure (that waits
+        for the child: its log says why, and a retry needs it gone).
+
+        Through SLURM, a child Snakemake learns that a job has ended only at the
+        executor's next status check, which comes up to 3 minutes apart; the
+        simulation and its extraction are one SLURM job (group ``run``), so
+        the responses are there as soon as the simulation ends.
+        """
+        paths = response_paths(self.study, evaluation)
+        if not all(path.exists() for path in paths):
+            return None
+        record = objective_record(self.study, evaluation, paths)
+        return record if record.status in (Status.OK, Status.TERMINATED) else None
 
     def finish(self, evaluation: str, record: ObjectiveRecord) -> None:
         point = PointRecord.read(self.files.evaluation(evaluation).params)
@@ -415,8 +471,14 @@ class Calibration:
         write_evaluations_csv(self.study)
         best = self.optimizer.best()
         if best is not None:
+            taken = self.ending.get(evaluation_id(best.id))
             write_best(
-                self.study, best, self.optimizer.confirmation(), stop_reason, self.reuse_counts()
+                self.study,
+                best,
+                self.optimizer.confirmation(),
+                stop_reason,
+                self.reuse_counts(),
+                taken=None if taken is None else taken[1],
             )
 
     def reuse_counts(self) -> dict[str, int] | None:
@@ -499,6 +561,7 @@ class Calibration:
                 break
             show_progress(self.progress())
             time.sleep(self.poll_seconds)
+        self.wait_for_ending()
         self.write_tables(reason)
         show_progress(self.progress())
         counts = self.reuse_counts()
@@ -510,6 +573,21 @@ class Calibration:
         ).write(self.files.finished)
         log.info("calibration finished: %s", reason)
         return reason
+
+    def wait_for_ending(self) -> None:
+        """Let the children of evaluations already taken end on their own (each writes its
+        objective.json once its executor has seen its jobs end), so that the calibration
+        ends with every record on disk and no Snakemake output marked incomplete."""
+        if self.ending:
+            log.info(
+                "waiting for the Snakemake of %s to see its jobs end and write objective.json",
+                ", ".join(sorted(self.ending)),
+            )
+        while self.ending:
+            self.check_parent()
+            self.collect()
+            if self.ending:
+                time.sleep(self.poll_seconds)
 
     def check_parent(self) -> None:
         """End the daemon when the Snakemake that started it is gone (killed, lost terminal).

@@ -91,6 +91,16 @@ def staged_inputs(study: Study, evaluation: str, scene: str, replicate: int) -> 
     return []
 
 
+def release_marker(study: Study, evaluation: str, scene: str, replicate: int) -> list[Path]:
+    """The file a staged simulation waits for (the ``release`` job's output, after its
+    ``staged_inputs``), or [] when it waits for nothing. Between the staged simulations
+    stands this local job, so that each simulation stays its own SLURM job: a direct edge
+    would merge them into one Snakemake group job, whose jobs run one after another."""
+    if not staged_inputs(study, evaluation, scene, replicate):
+        return []
+    return [study.files.evaluation(evaluation).replicate(scene, replicate).released]
+
+
 def not_started(study: Study, evaluation: str, scene: str, replicate: int) -> RunResult | None:
     """Why a simulation is not to start (its evaluation was stopped, or a simulation it waits
     for failed or was stopped), as its result; None when it should run."""
@@ -294,6 +304,13 @@ def _load_state(workdir: Path, sim: SimulationRecord) -> dict:
 
 
 def objective(study: Study, evaluation: str, response_paths: list[Path]) -> ObjectiveRecord:
+    """The objective job: :func:`objective_record`, written to the evaluation's objective.json."""
+    record = objective_record(study, evaluation, response_paths)
+    record.write(study.files.evaluation(evaluation).objective)
+    return record
+
+
+def objective_record(study: Study, evaluation: str, response_paths: list[Path]) -> ObjectiveRecord:
     """Objective record of an evaluation from all its replicates' responses.
 
     Replicates are averaged per response before the relative error is taken
@@ -337,7 +354,6 @@ def objective(study: Study, evaluation: str, response_paths: list[Path]) -> Obje
         )
     else:
         record = score(study, record, dict(values))
-    record.write(files.objective)
     return record
 
 

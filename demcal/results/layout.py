@@ -57,6 +57,11 @@ class ReplicateFiles:
         return self.dir / "partial.csv"
 
     @property
+    def released(self) -> Path:
+        """Marks a staged simulation's turn: the simulations it waits for have ended."""
+        return self.dir / "released"
+
+    @property
     def state(self) -> Path:
         return self.dir / "state.npz"
 

@@ -141,13 +141,16 @@ def write_best(
     confirmation: Confirmation | None = None,
     stop_reason: str | None = None,
     evaluations: dict[str, int] | None = None,
+    taken: ObjectiveRecord | None = None,
 ) -> None:
     """best.json from the optimizer's best point (``Optimizer.best()``) and its records, with the
     re-simulations that confirm it (``Optimizer.confirmation()``) where there are any, the units
     of every parameter and response, why the calibration ended (None while it runs) and, with
-    reuse, the ``evaluations`` new and reused. A reused best point is read from reused.json."""
+    reuse, the ``evaluations`` new and reused. A reused best point is read from reused.json;
+    ``taken``: the best point's outcome when the daemon took it before objective.json was
+    written (``Calibration.taken_early``)."""
     if best.reused_from is None:
-        record = ObjectiveRecord.read_latest(study.files.evaluation(evaluation_id(best.id)))
+        record = ObjectiveRecord.read_latest(study.files.evaluation(evaluation_id(best.id)), taken)
     else:
         record = next(r for r in reused_objectives(study) if r.evaluation == best.reused_from)
     BestRecord(

@@ -1,8 +1,13 @@
-# Jobs of one evaluation. simulate is the expensive job (one SLURM job under
-# the slurm profile); extract and objective are cheap and run locally. Every
-# job reads the frozen study (params.study_file), never the YAML.
+# Jobs of one evaluation. A scene replicate's simulate and extract form one group
+# ("run"): under the slurm profile one SLURM job, so that its responses.json appears
+# as soon as the simulation ends (the calibration daemon takes the result from it);
+# locally the group has no effect. The objective and the release of staged
+# simulations are cheap and run locally. Every job reads the frozen study
+# (params.study_file), never the YAML.
 
-from demcal.jobs.evaluation import response_paths, staged_inputs
+from pathlib import Path
+
+from demcal.jobs.evaluation import release_marker, response_paths, staged_inputs
 
 EVAL = FILES.evaluation("{evaluation}")
 REPLICATE = EVAL.replicate("{scene}", "{replicate}")
@@ -19,6 +24,7 @@ localrules:
     centre_point,
     extract,
     objective,
+    release,
 
 
 rule centre_point:
@@ -56,23 +62,39 @@ rule extract:
     log:
         str(EVAL.job_log("extract", "{scene}", "{replicate}")),
     priority: 10
+    group:
+        "run"
     params:
         study_file=STUDY_FILE,
     script:
         "../scripts/extract.py"
 
 
-# In a staged study a simulation also waits for the first ones (study.staging).
+# In a staged study a simulation waits for the first ones (study.staging): this job
+# releases it once they have ended.
+rule release:
+    input:
+        lambda w: [
+            str(path) for path in staged_inputs(STUDY, w.evaluation, w.scene, int(w.replicate))
+        ],
+    output:
+        str(REPLICATE.released),
+    run:
+        Path(output[0]).touch()
+
+
 rule simulate:
     input:
         str(EVAL.params),
         lambda w: [
-            str(path) for path in staged_inputs(STUDY, w.evaluation, w.scene, int(w.replicate))
+            str(path) for path in release_marker(STUDY, w.evaluation, w.scene, int(w.replicate))
         ],
     output:
         str(REPLICATE.simulation),
     log:
         str(EVAL.job_log("simulate", "{scene}", "{replicate}")),
+    group:
+        "run"
     threads: 1
     resources:
         mem_mb=500,
