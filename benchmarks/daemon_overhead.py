@@ -1,7 +1,8 @@
 """What the calibration daemon costs beyond the simulations, locally and through SLURM.
 
     python benchmarks/daemon_overhead.py [--durations 5 [30 ...]] [--evaluations 4]
-        [--speedup-evaluations 10] [--no-slurm] [--parts overhead speedup] [--out FILE]
+        [--speedup-evaluations 10] [--no-slurm | --no-local] [--parts overhead speedup]
+        [--out FILE]
 
 Two measurements on the analytic engine (config/examples/analytic.yaml, one
 replicate, no noise, a fixed fake simulation time, early termination off),
@@ -229,12 +230,13 @@ def main() -> None:
     )
     parser.add_argument("--speedup-evaluations", type=int, default=10)
     parser.add_argument("--no-slurm", action="store_true", help="local profile only")
+    parser.add_argument("--no-local", action="store_true", help="SLURM profile only")
     parser.add_argument(
         "--parts", nargs="+", choices=["overhead", "speedup"], default=["overhead", "speedup"]
     )
     parser.add_argument("--out", type=Path, default=OUT)
     args = parser.parse_args()
-    profiles = ["local"] + ([] if args.no_slurm else ["slurm"])
+    profiles = ([] if args.no_local else ["local"]) + ([] if args.no_slurm else ["slurm"])
     result = {
         "command": " ".join(["python benchmarks/daemon_overhead.py", *sys.argv[1:]]),
         "started_at": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),

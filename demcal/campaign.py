@@ -213,7 +213,9 @@ def run(
     each job runs ``bundle`` simulations (with their extraction: group ``run``) one after
     another (Snakemake's ``--group-components``)."""
     targets = [str(path) for name in names for path in response_paths(study, name)]
-    bundling = ["--group-components", f"run={bundle}"] if bundle > 1 else []
+    bundling = (
+        [f"--group-components=run={bundle}"] if bundle > 1 else []
+    )  # one value: not the targets
     command = snakemake_command(
         study.files.study, "--keep-going", *bundling, *targets, profile=profile
     )

@@ -19,7 +19,7 @@ from conftest import ANALYTIC_STUDY, TRUTH, true_targets
 from demcal.daemon.loop import Calibration
 from demcal.errors import ConfigError
 from demcal.jobs.evaluation import extract, objective, response_paths, simulate
-from demcal.results.layout import EvaluationFiles
+from demcal.results.layout import EvaluationFiles, evaluation_id
 from demcal.results.records import FinishedRecord, ObjectiveRecord, Status
 from demcal.study.config import load_study
 from demcal.study.model import Study, freeze
@@ -38,6 +38,9 @@ class Ended:
 
     def returncode(self) -> int | None:
         return 0
+
+    def end(self) -> None:
+        pass
 
 
 @dataclass
@@ -117,17 +120,22 @@ class UnawareChild:
     study: Study
     polls: int
     pid: int = -1
+    writes: bool = True  # False: killed before its objective job
+    ended: bool = False  # by the daemon
 
     def finished(self) -> bool:
         self.polls -= 1
         if self.polls > 0:
             return False
-        if not self.study.files.evaluation(self.evaluation).objective.exists():
+        if self.writes and not self.study.files.evaluation(self.evaluation).objective.exists():
             objective(self.study, self.evaluation, response_paths(self.study, self.evaluation))
         return True
 
     def returncode(self) -> int | None:
         return 0
+
+    def end(self) -> None:
+        self.polls, self.writes, self.ended = 0, False, True  # gone at the next question
 
 
 @dataclass
@@ -156,9 +164,7 @@ class SlowToEndLauncher(InProcessLauncher):
         self.unaware_at_launch: list[list[str]] = []
 
 
-def test_an_evaluation_is_taken_from_its_responses_before_its_snakemake_ends(
-    tmp_path, monkeypatch
-):
+def test_an_evaluation_is_taken_from_its_responses_before_its_snakemake_ends(tmp_path, monkeypatch):
     """The daemon does not wait for a child to see its jobs end: the next point is launched
     while the last child still waits; the calibration still ends with every record written,
     the same as with children that end at once."""
@@ -181,11 +187,26 @@ def test_an_evaluation_is_taken_from_its_responses_before_its_snakemake_ends(
     pd.testing.assert_frame_equal(evaluations_table("unit"), table)
 
 
-def test_a_daemon_killed_before_a_taken_evaluation_was_written_has_it_written(
-    tmp_path, monkeypatch
-):
+def test_a_child_that_does_not_end_after_its_evaluation_was_taken_is_ended(tmp_path, monkeypatch):
+    """A child still waiting ``ENDING_GRACE_S`` after its evaluation was taken is ended, and
+    the daemon writes its objective.json: the calibration ends with every record written."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr("demcal.daemon.loop.ENDING_GRACE_S", 0.0)
+    study = freeze(load_study(config()))
+    runner = SlowToEndLauncher(study, polls=10**6)
+    calibration = Calibration(study, runner, workers=2)
+    assert calibration.run(show_progress=lambda progress: None).startswith("evaluation budget")
+    assert all(child.ended for child in runner.children) and len(runner.children) == 8
+    told = {evaluation_id(r.id): r.value for r in calibration.optimizer.records}
+    for files in calibration.files.evaluations():
+        assert ObjectiveRecord.read(files.objective).objective == told[files.id]
+    assert list(evaluations_table("unit")["status"]) == ["ok"] * 8
+
+
+def test_a_daemon_killed_before_a_taken_evaluation_was_written_writes_it(tmp_path, monkeypatch):
     """A daemon that ends while a taken evaluation's child has not written objective.json
-    (both killed): the next daemon starts its child again to write it."""
+    (both killed): the next daemon writes it from the responses, simulating nothing again; a
+    child that ends without writing it gets it written too."""
     monkeypatch.chdir(tmp_path)
     settings = config()
     settings["optimizer"]["max_evaluations"] = 3
@@ -200,11 +221,14 @@ def test_a_daemon_killed_before_a_taken_evaluation_was_written_has_it_written(
     assert best["evaluation"] == "e0000"  # written from the record taken
     objective_file = calibration.files.evaluation("e0000").objective
     assert not objective_file.exists()
-    runner = InProcessLauncher(study)  # the child is gone: the next daemon starts it again
     again = Calibration(study, runner, workers=1)
-    assert again.run(show_progress=lambda progress: None).startswith("evaluation budget")
-    assert runner.launched[0] == "e0000"
+    again.resume()
     told = next(r for r in again.optimizer.records if r.id == 0)
+    assert ObjectiveRecord.read(objective_file).objective == told.value
+    assert not again.ending and runner.launched == ["e0000"]
+    runner.children[0].polls, runner.children[0].writes = 1, False  # killed: ends, no objective
+    objective_file.unlink()
+    calibration.collect()
     assert ObjectiveRecord.read(objective_file).objective == told.value
 
 

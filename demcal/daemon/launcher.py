@@ -12,6 +12,8 @@ Snakemake). Tests give the loop a launcher that runs the jobs in-process.
 
 from __future__ import annotations
 
+import os
+import signal
 import subprocess
 import time
 from dataclasses import dataclass
@@ -34,6 +36,10 @@ class Running(Protocol):
     def finished(self) -> bool: ...
 
     def returncode(self) -> int | None: ...
+
+    def end(self) -> None:
+        """Ask it to end now (its result has been taken)."""
+        ...
 
 
 class Launcher(Protocol):
@@ -64,6 +70,19 @@ class Child:
 
     def returncode(self) -> int | None:
         return None if self.process is None else self.process.returncode
+
+    def end(self) -> None:
+        """SIGKILL to the child's session (the Snakemake and any local job it runs).
+
+        Not SIGTERM: Snakemake takes that as "finish the running jobs first", and
+        so waits for the executor's next status check. Once the daemon ends a
+        child, its jobs have written their outputs and their own Snakemake has
+        cleared the incomplete marks; a later run redoes nothing of them.
+        """
+        try:
+            os.killpg(self.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
 
 
 def alive(pid: int) -> bool:

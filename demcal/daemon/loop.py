@@ -13,6 +13,12 @@ the optimizer is deterministic, so a point asked but not yet saved is asked
 again with the same id and values; pending evaluations are re-attached
 (child still alive), read back (objective written) or launched again. A
 completed evaluation is never redone.
+
+An evaluation is taken as soon as all its responses.json are written, while
+its child may still wait for its executor to see the jobs end (SLURM); the
+child then writes objective.json, or, if it has not ended within
+``ENDING_GRACE_S`` or ended without doing so, is ended and the daemon writes
+the same record.
 """
 
 from __future__ import annotations
@@ -51,6 +57,10 @@ from demcal.study.model import RESUMABLE_OPTIMIZER_SETTINGS, Study
 
 log = logging.getLogger("demcal.daemon")
 
+#: Seconds a child Snakemake gets to end on its own once its evaluation has been taken, before
+#: the daemon ends it: its SLURM jobs wrote their last file, and end within a second or two.
+ENDING_GRACE_S = 10.0
+
 
 class Calibration:
     """One study's calibration on disk under ``results/<study>/``.
@@ -76,8 +86,8 @@ class Calibration:
         self.watch_pid = watch_pid
         self.children: dict[str, Running] = {}
         #: evaluations taken from their responses.json whose child Snakemake has not ended
-        #: yet (it still writes objective.json), with the outcome the optimizer was told
-        self.ending: dict[str, tuple[Running, ObjectiveRecord]] = {}
+        #: yet: the child, the outcome the optimizer was told and when (Unix s)
+        self.ending: dict[str, tuple[Running, ObjectiveRecord, float]] = {}
         self.names = [p.name for p in study.free]
         self.optimizer = self._load_or_create_optimizer()
         self.started_at = self._load_start_time()
@@ -269,16 +279,18 @@ class Calibration:
 
     def _finish_writing(self, evaluation: str) -> None:
         """An evaluation taken from its responses before a daemon ended: its child Snakemake,
-        re-attached or started again, still writes its objective.json (nothing is simulated
-        again: every output is there)."""
+        when still alive, writes its objective.json; else the daemon does."""
         files = self.files.evaluation(evaluation)
         if files.objective.exists():
             return
         record = self.taken_early(evaluation)
         if record is None:
             return
-        running = self.launcher.reattach(files) or self.launcher.launch(files)
-        self.ending[evaluation] = (running, record)
+        running = self.launcher.reattach(files)
+        if running is None:
+            record.write(files.objective)
+        else:
+            self.ending[evaluation] = (running, record, time.time())
 
     # -- collecting ----------------------------------------------------------------
     def collect(self) -> None:
@@ -290,31 +302,47 @@ class Calibration:
                 record = self._objective_written(evaluation, child)
             elif (early := self.taken_early(evaluation)) is not None:
                 record = early
-                self.ending[evaluation] = (child, early)
+                self.ending[evaluation] = (child, early, time.time())
             else:
                 continue
             del self.children[evaluation]
             self.estimate_history.pop(evaluation, None)
             self.finish(evaluation, record)
-        for evaluation, (child, _) in list(self.ending.items()):
-            if child.finished():
-                del self.ending[evaluation]
-                if not self.files.evaluation(evaluation).objective.exists():
-                    log.warning(
-                        "%s: its Snakemake ended with code %s without writing objective.json "
-                        "(see %s); the outcome taken from its responses stands",
-                        evaluation,
-                        child.returncode(),
-                        self.files.evaluation(evaluation).snakemake_log,
-                    )
+        self.end_taken()
+
+    def end_taken(self) -> None:
+        """End the children of taken evaluations: each is given ``ENDING_GRACE_S`` to end on
+        its own (writing objective.json), then ended, and the daemon writes the record.
+
+        Through SLURM a child learns that its jobs have ended only at the
+        executor's next status check, up to 3 minutes away. Its jobs' outputs
+        are all there by then and the Snakemake inside each job has cleared
+        their incomplete marks, so ending it loses nothing and a later run
+        redoes none of them (checked by hand on the one-node SLURM: a dry run
+        afterwards plans only the objective job).
+        """
+        now = time.time()
+        for evaluation, (child, taken, taken_at) in list(self.ending.items()):
+            if not child.finished():
+                if now - taken_at > ENDING_GRACE_S:
+                    child.end()
+                continue
+            del self.ending[evaluation]
+            files = self.files.evaluation(evaluation)
+            if not files.objective.exists():
+                taken.write(files.objective)
 
     def _objective_written(self, evaluation: str, child: Running) -> ObjectiveRecord:
-        """The outcome of an evaluation whose child has ended: its objective.json, or a
-        failure that says why there is none."""
+        """The outcome of an evaluation whose child has ended: its objective.json; else, when
+        every response is there (a child ended before its objective job), the outcome from
+        them, written; else a failure that says why there is none."""
         files = self.files.evaluation(evaluation)
         try:
             return ObjectiveRecord.read(files.objective)
         except SimulationFailed as exc:
+            if (taken := self.taken_early(evaluation)) is not None:
+                taken.write(files.objective)
+                return taken
             tail = log_tail(files.snakemake_log, lines=3)
             return ObjectiveRecord(
                 evaluation,
@@ -575,14 +603,8 @@ class Calibration:
         return reason
 
     def wait_for_ending(self) -> None:
-        """Let the children of evaluations already taken end on their own (each writes its
-        objective.json once its executor has seen its jobs end), so that the calibration
-        ends with every record on disk and no Snakemake output marked incomplete."""
-        if self.ending:
-            log.info(
-                "waiting for the Snakemake of %s to see its jobs end and write objective.json",
-                ", ".join(sorted(self.ending)),
-            )
+        """Wait until the children of taken evaluations have ended (:meth:`end_taken`), so
+        that the calibration ends with every record on disk."""
         while self.ending:
             self.check_parent()
             self.collect()

@@ -224,9 +224,9 @@ def extract(study: Study, simulation_path: Path) -> ResponsesRecord:
             f"simulation.json malformed or response not measurable: {type(exc).__name__}: {exc}",
         )
     files = ReplicateFiles(simulation_path.parent)
-    record.write(files.responses)
     if sim is not None and sim.ran and study.archive is not None:
         archive_simulation(study, study.archive, sim, record, files)
+    record.write(files.responses)  # last: once it is there, the run's job has done its work
     return record
 
 
