@@ -28,6 +28,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .responses import replicate_scatter
+
 if TYPE_CHECKING:
     from demcal.study.objective import ResponseObjective
 
@@ -152,12 +154,13 @@ def reference(
     """The best objective f* a running evaluation is compared with (thesis eq. 3.4).
 
     With response models (``best`` chosen by them): their best prediction at
-    an evaluated point plus the objective's noise floor, the mean objective
-    of the models' residuals at the evaluated points (what simulation noise
-    alone adds to a single run's objective). A lucky noisy sample does not
-    set the bar, and once the best prediction is below the noise, a run is
-    not stopped for being as noisy as every run is. Else ``best_observed``,
-    the best observed value.
+    an evaluated point plus the objective's noise floor, the larger of the
+    mean objective of the models' residuals at the evaluated points and
+    :func:`single_run_noise` (what simulation noise alone adds to the
+    objective of the simulations a running evaluation's estimate comes
+    from). A lucky noisy sample does not set the bar, and once the best
+    prediction is below the noise, a run is not stopped for being as noisy
+    as every run is. Else ``best_observed``, the best observed value.
     """
     if best is None or best.chosen_by != "response models":
         return best_observed
@@ -172,4 +175,22 @@ def reference(
         key: np.array([r.responses[key].mean for r in finished]) - predicted[key] + target.value
         for key, target in zip(objective.keys, objective.targets)
     }
-    return best_predicted + float(np.mean(objective(residuals)))
+    floor = max(float(np.mean(objective(residuals))), single_run_noise(finished, objective))
+    return best_predicted + floor
+
+
+def single_run_noise(records: list[Evaluation], objective: ResponseObjective) -> float:
+    """The objective of one simulation at the targets from simulation noise alone: eq. 3.3 of
+    responses one single-run standard deviation (``replicate_scatter``) off each target; 0
+    where no point was simulated twice.
+
+    A running evaluation is judged by the estimates of the simulations reporting so far (in
+    a staged study replicate 0 alone): as noisy as one run, while the best it is compared
+    with is a mean over every replicate (Samuelsson 2023, sec. 5.1.2 judged the first of
+    five so).
+    """
+    off = {
+        t.key: np.array([t.value + np.sqrt(replicate_scatter(records, t.key))])
+        for t in objective.targets
+    }
+    return float(np.asarray(objective(off))[0])

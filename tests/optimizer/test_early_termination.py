@@ -1,7 +1,13 @@
+import dataclasses
+
+import numpy as np
 import pytest
 
 from demcal.optimizer import RunProgress, early_termination_decision, estimate_heading
-from demcal.optimizer.early_termination import termination_factor
+from demcal.optimizer.early_termination import single_run_noise, termination_factor
+from demcal.optimizer.evaluation import Evaluation, ObservedResponse
+from demcal.results.records import Status
+from demcal.study.objective import ResponseObjective, Target
 
 
 @pytest.mark.parametrize(
@@ -77,3 +83,34 @@ def test_no_heading_from_too_few_or_too_close_estimates():
     assert estimate_heading(
         [(0.1, 9.0), (0.2, 0.5), (0.3, 0.5), (0.4, 0.5), (0.5, 0.5), (0.6, 0.5)]
     ) == pytest.approx(0.5)
+
+
+def test_a_single_run_is_judged_against_the_noise_of_a_single_run():
+    """Five replicates per point, 0.1 sd each on a target of 1 (relative form): one run at the
+    target shows an objective of 0.01 on average, which the bar of a running evaluation's
+    estimate includes; none without replicated points."""
+    rng = np.random.default_rng(3)
+    targets = (Target("s", "a", 1.0), Target("s", "b", 2.0))
+    objective = ResponseObjective(targets, "relative")
+    records = [
+        Evaluation(
+            i,
+            (i / 4.0,),
+            False,
+            Status.OK,
+            responses={
+                "s.a": ObservedResponse(tuple(1.0 + 0.1 * rng.standard_normal(5))),
+                "s.b": ObservedResponse((2.0,) * 5),
+            },
+        )
+        for i in range(40)
+    ]
+    noise = single_run_noise(records, objective)
+    assert noise == pytest.approx(0.01, rel=0.15)  # (0.1 / 1)^2 + 0
+    once = [
+        dataclasses.replace(
+            r, responses={k: ObservedResponse(v.values[:1]) for k, v in r.responses.items()}
+        )
+        for r in records
+    ]
+    assert single_run_noise(once, objective) == 0.0

@@ -3,6 +3,7 @@
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from demcal.optimizer import Optimizer
@@ -43,7 +44,8 @@ def test_an_old_state_loads_saves_the_same_and_resumes_to_the_same_proposals(nam
     for added in set(termination) - set(old_termination):
         assert termination.pop(added) == defaults["early_termination"][added]
     assert saved == old
-    assert [proposal.x for proposal in optimizer.ask(2)] == NEXT[name]
+    # the same to rounding: the last digits vary with the machine's BLAS
+    np.testing.assert_allclose([proposal.x for proposal in optimizer.ask(2)], NEXT[name], rtol=1e-7)
 
 
 def test_a_state_that_scored_responses_needs_its_objective():
