@@ -38,7 +38,7 @@ from demcal.optimizer.registry import DESIGNS
 from demcal.results.layout import evaluation_id
 from demcal.results.records import CampaignRecord, PointRecord, ResponsesRecord, Status
 from demcal.study.model import Study
-from demcal.workflow import snakemake_command
+from demcal.workflow import runs_locally, snakemake_command
 
 #: The designs a campaign may use (Richter & Will chose FSSF-f).
 CAMPAIGN_DESIGNS = ("fssf_f", "sobol", "halton", "latin_hypercube")
@@ -211,11 +211,15 @@ def run(
     tally is then the one that decided it: Snakemake removes what its killed jobs were
     writing). An interrupt (Ctrl-C) ends the Snakemake and is raised again. Through a cluster,
     each job runs ``bundle`` simulations (with their extraction: group ``run``) one after
-    another (Snakemake's ``--group-components``)."""
+    another on one core (Snakemake's ``--group-components``), its time limit their sum."""
     targets = [str(path) for name in names for path in response_paths(study, name)]
-    bundling = (
-        [f"--group-components=run={bundle}"] if bundle > 1 else []
-    )  # one value: not the targets
+    targets += [str(study.files.evaluation(name).archived) for name in names]
+    bundling = []
+    if bundle > 1 and not runs_locally(profile):
+        # "=": one value each (--group-components takes several, and would take the targets);
+        # one core per job: Snakemake would otherwise ask for one per simulation in it, which
+        # the SLURM executor runs one after another, and then it adds up their run times
+        bundling = [f"--group-components=run={bundle}", "--cores=1"]
     command = snakemake_command(
         study.files.study, "--keep-going", *bundling, *targets, profile=profile
     )

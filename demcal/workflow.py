@@ -100,8 +100,12 @@ def runs_locally(profile: Path | None) -> bool:
 def child_command(
     study_file: Path | str, target: Path | str, profile: Path | None, cores: int | None
 ) -> list[str]:
-    """The child Snakemake that builds one evaluation's ``target`` (its objective.json)."""
-    return snakemake_command(study_file, str(target), profile=profile or LOCAL_PROFILE, cores=cores)
+    """The child Snakemake that builds one evaluation's ``target`` (its objective.json) and
+    archives its simulations (the ``archived`` mark beside it)."""
+    archived = Path(target).with_name("archived")
+    return snakemake_command(
+        study_file, str(target), str(archived), profile=profile or LOCAL_PROFILE, cores=cores
+    )
 
 
 def report_command(study_file: Path | str, report: Path | str) -> list[str]:
@@ -110,8 +114,11 @@ def report_command(study_file: Path | str, report: Path | str) -> list[str]:
 
 
 def dag_command(study_file: Path | str, target: Path | str) -> list[str]:
-    """The DAG of the jobs that build ``target``, in Graphviz's dot language on stdout."""
-    return snakemake_command(study_file, "--nolock", "--dag", "dot", str(target))
+    """The DAG of the jobs that build ``target``, in Graphviz's dot language on stdout (an
+    objective.json the daemon wrote after ending its child may still be marked incomplete)."""
+    return snakemake_command(
+        study_file, "--nolock", "--ignore-incomplete", "--dag", "dot", str(target)
+    )
 
 
 def profile_settings(profile: Path) -> dict[str, Any]:

@@ -196,9 +196,9 @@ def new_optimizer(study):
 
 
 def evaluate(study, optimizer, proposal) -> dict:
-    """Write a proposal's params.json, run its simulate, extract and objective jobs in this
-    process, tell the optimizer, save its state; the objective record (as a dict)."""
-    from demcal.jobs.evaluation import extract, objective, response_paths, simulate
+    """Write a proposal's params.json, run its simulate, extract, objective and archive jobs in
+    this process, tell the optimizer, save its state; the objective record (as a dict)."""
+    from demcal.jobs.evaluation import archive, extract, objective, response_paths, simulate
     from demcal.results.layout import evaluation_id
     from demcal.results.records import PointRecord, Status
     from demcal.results.storage import atomic_write_text
@@ -213,6 +213,7 @@ def evaluate(study, optimizer, proposal) -> dict:
             simulate(study, evaluation, scene, replicate)
             extract(study, files.replicate(scene, replicate).simulation)
     record = objective(study, evaluation, response_paths(study, evaluation)).to_dict()
+    archive(study, evaluation)
     if record["status"] == Status.OK:
         optimizer.tell(proposal.id, responses=record["replicates"])
     else:

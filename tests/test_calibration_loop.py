@@ -20,7 +20,13 @@ from demcal.daemon.loop import Calibration
 from demcal.errors import ConfigError
 from demcal.jobs.evaluation import extract, objective, response_paths, simulate
 from demcal.results.layout import EvaluationFiles, evaluation_id
-from demcal.results.records import FinishedRecord, ObjectiveRecord, Status
+from demcal.results.records import (
+    FinishedRecord,
+    ObjectiveRecord,
+    PointRecord,
+    ResponsesRecord,
+    Status,
+)
 from demcal.study.config import load_study
 from demcal.study.model import Study, freeze
 
@@ -201,6 +207,43 @@ def test_a_child_that_does_not_end_after_its_evaluation_was_taken_is_ended(tmp_p
     for files in calibration.files.evaluations():
         assert ObjectiveRecord.read(files.objective).objective == told[files.id]
     assert list(evaluations_table("unit")["status"]) == ["ok"] * 8
+
+
+def test_failures_and_an_earlier_attempts_responses_are_not_taken_early(tmp_path, monkeypatch):
+    """A failed simulation waits for the child (its log says why, a retry needs it gone), and
+    responses a job of an earlier attempt wrote into a retry's folders are not the retry's."""
+    monkeypatch.chdir(tmp_path)
+    study = freeze(load_study(config()))
+    calibration = Calibration(study, SlowToEndLauncher(study, polls=10**6), workers=1)
+    calibration.resume()
+    calibration.propose()
+    files = calibration.files.evaluation("e0000")
+    assert calibration.taken_early("e0000") is not None
+    responses = files.replicate("cylinder_lift", 0).responses
+    kept = responses.read_text()
+    ResponsesRecord(Status.FAILED, "node lost").write(responses)
+    assert calibration.taken_early("e0000") is None
+    responses.write_text(kept)
+    PointRecord.read(files.params).retried("node lost").write(files.params)
+    assert calibration.taken_early("e0000") is None
+
+
+def test_a_pending_evaluation_whose_responses_are_in_is_collected_on_resume(tmp_path, monkeypatch):
+    """A daemon killed after an evaluation's jobs wrote every responses.json, before it took
+    them, and its child gone too: the next daemon takes them and launches nothing."""
+    monkeypatch.chdir(tmp_path)
+    study = freeze(load_study(config()))
+    first = Calibration(study, SlowToEndLauncher(study, polls=10**6), workers=1)
+    first.resume()
+    first.propose()  # launched; the daemon dies before its next poll
+    runner = InProcessLauncher(study)
+    again = Calibration(study, runner, workers=1)
+    again.resume()
+    again.collect()
+    assert runner.launched == []
+    record = next(r for r in again.optimizer.records if r.id == 0)
+    assert record.status == Status.OK
+    assert ObjectiveRecord.read(again.files.evaluation("e0000").objective).objective == record.value
 
 
 def test_a_daemon_killed_before_a_taken_evaluation_was_written_writes_it(tmp_path, monkeypatch):

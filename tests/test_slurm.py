@@ -116,6 +116,15 @@ def test_calibration_runs_its_simulations_as_slurm_jobs(tmp_path):
     )
     assert simulations == EVALUATIONS
     assert len(jobs) == simulations and set(jobs.values()) == {"COMPLETED"}, jobs
+    # each extracted in the simulation's own SLURM job (group "run"), archived here
+    evals = tmp_path / "results/slurm/evals"
+    logs = list(evals.glob("*/logs/extract_cylinder_lift_rep0.log"))
+    assert len(logs) == EVALUATIONS
+    for log in logs:
+        assert "extract job on" in log.read_text() and "SLURM job" in log.read_text(), log
+    assert len(list(evals.glob("*/archived"))) == EVALUATIONS
+    archived = finish(demcal(tmp_path, "archive", "list", "--of", "slurm")).splitlines()
+    assert len(archived) == EVALUATIONS
 
 
 @pytest.mark.parametrize("bundle, slurm_jobs", [(1, 4), (2, 2)])
@@ -140,3 +149,7 @@ def test_a_campaign_runs_its_simulations_as_slurm_jobs(tmp_path, bundle, slurm_j
     assert len(finish(demcal(tmp_path, "archive", "list", "--of", "campaign")).splitlines()) == 4
     jobs = finished_jobs_in(tmp_path)
     assert len(jobs) == slurm_jobs and set(jobs.values()) == {"COMPLETED"}, jobs
+    asked = slurm("sacct", "-c", "-n", "-P", "-o", "JobID,NCPUS,Timelimit").splitlines()
+    for job, cpus, minutes in (line.split("|") for line in asked):
+        if job in jobs:  # one core, the simulations' time limits (30 + 5 min each) added
+            assert (int(cpus), int(minutes)) == (1, 35 * bundle), (job, cpus, minutes)

@@ -2,7 +2,7 @@
 
 :func:`from_results` builds the record of one scene replicate from its ``simulation.json``
 and ``responses.json`` (and, for a stopped run, the last estimates in its ``partial.csv``);
-the extract job and ``demcal archive import`` both use it, so a simulation recorded by its
+the archive job and ``demcal archive import`` both use it, so a simulation recorded by its
 job and imported later has the same :attr:`ArchivedSimulation.key` and is stored once.
 """
 

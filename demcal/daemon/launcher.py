@@ -62,6 +62,7 @@ class Child:
     pid: int
     process: subprocess.Popen | None
     started: float
+    target: str = ""  # what it builds: a re-attached child is ended only while it still is
 
     def finished(self) -> bool:
         if self.process is not None:
@@ -79,6 +80,8 @@ class Child:
         child, its jobs have written their outputs and their own Snakemake has
         cleared the incomplete marks; a later run redoes nothing of them.
         """
+        if self.process is None and not is_snakemake_for(self.pid, self.target):
+            return  # a re-attached child gone since, its pid perhaps another's now
         try:
             os.killpg(self.pid, signal.SIGKILL)
         except ProcessLookupError:
@@ -141,5 +144,5 @@ class SnakemakeLauncher:
             and alive(launch.pid)
             and is_snakemake_for(launch.pid, str(files.objective))
         ):
-            return Child(files.id, launch.pid, None, launch.started_at)
+            return Child(files.id, launch.pid, None, launch.started_at, str(files.objective))
         return None

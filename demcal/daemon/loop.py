@@ -41,14 +41,21 @@ from demcal.daemon.termination import (
     share_done,
 )
 from demcal.errors import DemcalError, SimulationFailed
-from demcal.jobs.evaluation import objective_record, rescore, response_paths, reused_objectives
+from demcal.jobs.evaluation import (
+    archive,
+    objective_record,
+    rescore,
+    response_paths,
+    reused_objectives,
+)
 from demcal.optimizer import Optimizer, Proposal, RunProgress, estimate_heading
 from demcal.optimizer.evaluation import ReusedPoint
-from demcal.results.layout import evaluation_id, proposal_id
+from demcal.results.layout import EvaluationFiles, evaluation_id, proposal_id
 from demcal.results.records import (
     FinishedRecord,
     ObjectiveRecord,
     PointRecord,
+    SimulationRecord,
     Status,
 )
 from demcal.results.storage import atomic_write_text, log_tail, read_json, write_json
@@ -177,6 +184,18 @@ class Calibration:
                 continue
             evaluation = evaluation_id(record.id)
             files = self.files.evaluation(evaluation)
+            if not files.objective.exists():  # taken from its responses, not written yet
+                taken = self.taken_early(evaluation)
+                if taken is not None and (taken.status, taken.objective) != (
+                    record.status,
+                    record.value,
+                ):
+                    outcomes[record.id] = (
+                        taken.status,
+                        taken.objective,
+                        self._replicate_values(taken),
+                    )
+                continue
             try:
                 job = ObjectiveRecord.read(files.objective)
                 latest = ObjectiveRecord.read_latest(files, job)
@@ -269,7 +288,7 @@ class Calibration:
                 self.children[evaluation] = running
                 log.info("re-attached %s (pid %d)", evaluation, running.pid)
                 continue
-            if files.objective.exists():
+            if files.objective.exists() or self.taken_early(evaluation) is not None:
                 self.children[evaluation] = Child(evaluation, -1, None, time.time())
                 continue  # finished while no daemon ran: collected in the next poll
             self.launch(evaluation)
@@ -288,7 +307,7 @@ class Calibration:
             return
         running = self.launcher.reattach(files)
         if running is None:
-            record.write(files.objective)
+            self._write_what_the_child_did_not(evaluation, record)
         else:
             self.ending[evaluation] = (running, record, time.time())
 
@@ -321,28 +340,42 @@ class Calibration:
         redoes none of them (checked by hand on the one-node SLURM: a dry run
         afterwards plans only the objective job).
         """
-        now = time.time()
+        now, ended = time.time(), False
         for evaluation, (child, taken, taken_at) in list(self.ending.items()):
+            files = self.files.evaluation(evaluation)
             if not child.finished():
-                if now - taken_at > ENDING_GRACE_S:
+                if now - taken_at > ENDING_GRACE_S and not objective_job_started(files, child):
                     child.end()
                 continue
             del self.ending[evaluation]
-            files = self.files.evaluation(evaluation)
-            if not files.objective.exists():
-                taken.write(files.objective)
+            self._write_what_the_child_did_not(evaluation, taken)
+            ended = True
+        if ended:
+            self.write_tables()
+
+    def _write_what_the_child_did_not(
+        self, evaluation: str, record: ObjectiveRecord | None = None
+    ) -> None:
+        """After a child has ended (on its own, or ended by the daemon): the evaluation's
+        objective.json (``record``, when given and the child did not write it) and its
+        simulations in the archive (:func:`demcal.jobs.evaluation.archive`), the child's last
+        jobs, where it did not run them."""
+        files = self.files.evaluation(evaluation)
+        if record is not None and not files.objective.exists():
+            record.write(files.objective)
+        if not files.archived.exists():
+            archive(self.study, evaluation)
 
     def _objective_written(self, evaluation: str, child: Running) -> ObjectiveRecord:
         """The outcome of an evaluation whose child has ended: its objective.json; else, when
         every response is there (a child ended before its objective job), the outcome from
         them, written; else a failure that says why there is none."""
         files = self.files.evaluation(evaluation)
+        taken = None if files.objective.exists() else self.taken_early(evaluation)
+        self._write_what_the_child_did_not(evaluation, taken)
         try:
             return ObjectiveRecord.read(files.objective)
         except SimulationFailed as exc:
-            if (taken := self.taken_early(evaluation)) is not None:
-                taken.write(files.objective)
-                return taken
             tail = log_tail(files.snakemake_log, lines=3)
             return ObjectiveRecord(
                 evaluation,
@@ -363,7 +396,18 @@ class Calibration:
         paths = response_paths(self.study, evaluation)
         if not all(path.exists() for path in paths):
             return None
-        record = objective_record(self.study, evaluation, paths)
+        try:
+            attempt = PointRecord.read(self.files.evaluation(evaluation).params).attempt
+            if any(  # a job of an earlier attempt, still running, wrote into the new folders
+                SimulationRecord.read(path.with_name("simulation.json")).attempt
+                not in (attempt, None)
+                for path in paths
+            ):
+                return None
+            record = objective_record(self.study, evaluation, paths)
+        except Exception as exc:  # noqa: BLE001  (the objective job will record what is wrong)
+            log.debug("%s: not taken from its responses (%s: %s)", evaluation, type(exc), exc)
+            return None
         return record if record.status in (Status.OK, Status.TERMINATED) else None
 
     def finish(self, evaluation: str, record: ObjectiveRecord) -> None:
@@ -423,7 +467,7 @@ class Calibration:
         for scene in self.study.scenes:
             shutil.rmtree(files.scene_dir(scene), ignore_errors=True)
         forget_reports()
-        for stale in (files.objective, files.rescored, files.stop):
+        for stale in (files.objective, files.rescored, files.stop, files.archived):
             stale.unlink(missing_ok=True)
         self.stop_requested.discard(evaluation)
         point = point.retried(reason)
@@ -626,3 +670,13 @@ class Calibration:
                 f"the daemon ends too; {len(self.children)} running evaluations go on and are "
                 f"collected when the same command runs again"
             )
+
+
+def objective_job_started(files: EvaluationFiles, child: Running) -> bool:
+    """Whether the child has started its objective job (its log is newer than the child):
+    that job takes a second or two, and a child ended during it would leave objective.json
+    marked incomplete for Snakemake."""
+    try:
+        return files.job_log("objective").stat().st_mtime >= child.started
+    except OSError:
+        return False

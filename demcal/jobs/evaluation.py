@@ -1,6 +1,8 @@
-"""The three jobs of one evaluation's DAG: simulate -> extract -> objective.
+"""The jobs of one evaluation's DAG: simulate -> extract -> objective, and archive.
 
-The extract job also records each simulation in the study's archive (``demcal.archive``).
+The archive job records the evaluation's simulations in the study's archive
+(``demcal.archive``), on the machine where Snakemake runs; a staged simulation waits for
+its ``release`` job (:func:`release_marker`).
 Files of evaluation ``<id>`` under ``results/<study>/evals/<id>/``
 (``demcal.results.layout``): ``params.json`` (written by whoever proposes the point),
 per scene and replicate ``<scene>/rep<r>/simulation.json`` (+ ``state.npz``
@@ -15,6 +17,8 @@ exits 0. Jobs work from the frozen study (``demcal.study.model.load_frozen``).
 from __future__ import annotations
 
 import logging
+import os
+import platform
 import time
 import traceback
 from collections import defaultdict
@@ -223,38 +227,52 @@ def extract(study: Study, simulation_path: Path) -> ResponsesRecord:
             Status.FAILED,
             f"simulation.json malformed or response not measurable: {type(exc).__name__}: {exc}",
         )
-    files = ReplicateFiles(simulation_path.parent)
-    if sim is not None and sim.ran and study.archive is not None:
-        archive_simulation(study, study.archive, sim, record, files)
-    record.write(files.responses)  # last: once it is there, the run's job has done its work
+    record.write(ReplicateFiles(simulation_path.parent).responses)
     return record
 
 
-def archive_simulation(
-    study: Study, url: str, sim: SimulationRecord, record: ResponsesRecord, files: ReplicateFiles
-) -> None:
-    """Record a finished simulation in the study's archive (demcal.archive). A failure is a
-    warning in the job's log, never the evaluation's: the results files stay, and ``demcal
-    archive import`` records them later."""
+def archive(study: Study, evaluation: str) -> int:
+    """The archive job: every simulation of an evaluation that ran, recorded in the study's
+    archive (demcal.archive) in one transaction, then the evaluation's ``archived`` mark;
+    returns how many records were new.
+
+    A local job, never a cluster one: an SQLite archive must not be written from several
+    nodes. A failure is a warning in the job's log, never the evaluation's: the results
+    files stay, and ``demcal archive import`` records them later.
+    """
     from demcal.archive.record import from_results
     from demcal.archive.store import Archive
     from demcal.archive.url import shown
 
-    try:
-        with Archive(url) as archive:
-            archive.add([from_results(study, sim, record, files.partial)])
-    except Exception as exc:  # noqa: BLE001  (whatever the archive's fault, the evaluation stands)
-        log.warning(
-            "simulation %s %s rep%d not archived (%s: %s); 'demcal archive import --url %s "
-            "%s' records it from the results files",
-            sim.evaluation,
-            sim.scene,
-            sim.replicate,
-            type(exc).__name__,
-            exc,
-            shown(url),
-            study.files.dir,
-        )
+    files, added = study.files.evaluation(evaluation), 0
+    if study.archive is not None:
+        records = []
+        for path in response_paths(study, evaluation):
+            replicate = ReplicateFiles(path.parent)
+            try:
+                sim, responses = (
+                    SimulationRecord.read(replicate.simulation),
+                    ResponsesRecord.read(path),
+                )
+            except SimulationFailed:
+                continue  # its extract job failed: nothing to record
+            if sim.ran:
+                records.append(from_results(study, sim, responses, replicate.partial))
+        try:
+            with Archive(study.archive) as store:
+                added = store.add(records)
+        except Exception as exc:  # noqa: BLE001  (whatever the archive's fault, the evaluation stands)
+            log.warning(
+                "the simulations of %s not archived (%s: %s); 'demcal archive import --url %s "
+                "%s' records them from the results files",
+                evaluation,
+                type(exc).__name__,
+                exc,
+                shown(study.archive),
+                study.files.dir,
+            )
+    files.archived.touch()
+    return added
 
 
 def _responses(study: Study, sim: SimulationRecord, workdir: Path) -> dict[str, float]:
@@ -418,6 +436,8 @@ def run_snakemake_job(smk: ScriptJob, stage: str) -> None:
         force=True,
         format="%(asctime)s %(levelname)s %(message)s",
     )
+    where = os.environ.get("SLURM_JOB_ID")
+    log.info("%s job on %s%s", stage, platform.node(), f", SLURM job {where}" if where else "")
     try:
         study = load_frozen(smk.params.study_file)
         w = smk.wildcards
@@ -425,6 +445,8 @@ def run_snakemake_job(smk: ScriptJob, stage: str) -> None:
             simulate(study, w.evaluation, w.scene, int(w.replicate))
         elif stage == "extract":
             extract(study, Path(smk.input[0]))
+        elif stage == "archive":
+            archive(study, w.evaluation)
         else:
             objective(study, w.evaluation, [Path(p) for p in smk.input])
     except DemcalError as exc:

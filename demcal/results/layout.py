@@ -89,6 +89,11 @@ class EvaluationFiles:
         return self.dir / "rescored.json"
 
     @property
+    def archived(self) -> Path:
+        """Marks that the archive job has recorded the evaluation's simulations."""
+        return self.dir / "archived"
+
+    @property
     def launch(self) -> Path:
         return self.dir / "launch.json"
 

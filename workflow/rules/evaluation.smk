@@ -25,6 +25,7 @@ localrules:
     extract,
     objective,
     release,
+    archive,
 
 
 rule centre_point:
@@ -51,7 +52,22 @@ rule objective:
         "../scripts/objective.py"
 
 
-# A finished simulation is extracted (and archived) before the next one starts: with many
+# The simulations of an evaluation go into the study's archive from this machine (an SQLite
+# archive must not be written from several nodes).
+rule archive:
+    input:
+        lambda w: [str(path) for path in response_paths(STUDY, w.evaluation)],
+    output:
+        str(EVAL.archived),
+    log:
+        str(EVAL.job_log("archive")),
+    params:
+        study_file=STUDY_FILE,
+    script:
+        "../scripts/archive.py"
+
+
+# A finished simulation is extracted before the next one starts: with many
 # evaluations under one Snakemake (demcal sample) the simulations would otherwise take every
 # core first.
 rule extract:
@@ -64,6 +80,8 @@ rule extract:
     priority: 10
     group:
         "run"
+    resources:
+        runtime=5,  # minutes, added to the simulation's in the SLURM job of the group
     params:
         study_file=STUDY_FILE,
     script:
