@@ -102,7 +102,12 @@ def test_failed_simulation_is_recorded_not_raised(tmp_path, analytic_config, sta
         sliding_friction_pp=0.85,
         rolling_friction_pp=0.1,
     )
-    proc = run_snakemake(tmp_path, analytic_config, "results/unit/evals/bad/objective.json")
+    proc = run_snakemake(
+        tmp_path,
+        analytic_config,
+        "results/unit/evals/bad/objective.json",
+        "results/unit/evals/bad/archived",  # the archive job, as the daemon's child builds it
+    )
     assert proc.returncode == 0, proc.stderr[-3000:]
     record = json.loads((evaldir / "objective.json").read_text())
     assert record["status"] == "failed"

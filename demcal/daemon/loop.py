@@ -517,13 +517,15 @@ class Calibration:
         over the reporting ones, jumps then)."""
         files, scenes = self.files.evaluation(evaluation), list(self.study.scenes)
         done = share_done(files, scenes, self.study.replicates)
-        reporting = sum(map(len, latest_estimates(files, scenes, self.study.replicates).values()))
+        estimates = latest_estimates(files, scenes, self.study.replicates)
+        reporting = sum(map(len, estimates.values()))
         history = self.estimate_history.setdefault(evaluation, [])
         if history and history[-1][2] != reporting:
             history.clear()
         if not history or history[-1][:2] != (done, estimate):
             history.append((done, estimate, reporting))
-        return RunProgress(done, estimate_heading([(d, e) for d, e, _ in history]))
+        heading = estimate_heading([(d, e) for d, e, _ in history])
+        return RunProgress(done, heading, tuple(sorted(estimates)))
 
     def _estimate(self, evaluation: str) -> float | None:
         """Objective estimate of a running evaluation from its replicates' early estimates."""

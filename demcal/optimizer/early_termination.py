@@ -28,7 +28,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .responses import replicate_scatter
+from demcal.study.objective import objective_values
+
+from .responses import ESTIMATE_RELATIVE_SD, replicate_scatter
 
 if TYPE_CHECKING:
     from demcal.study.objective import ResponseObjective
@@ -44,11 +46,13 @@ RULES = ("weighed", "eq_3_4")
 @dataclass(frozen=True)
 class RunProgress:
     """Where a running evaluation stands: ``done``, the share of its simulation work behind
-    it (0-1), and ``heading``, where its estimate's trend points at the end of the run (None
-    without a trend)."""
+    it (0-1), ``heading``, where its estimate's trend points at the end of the run (None
+    without a trend), and ``estimated``, the targeted responses (``scene.response``) its
+    estimate covers (empty: not known, as all)."""
 
     done: float
     heading: float | None = None
+    estimated: tuple[str, ...] = ()
 
 
 def estimate_heading(
@@ -150,17 +154,18 @@ def reference(
     records: list[Evaluation],
     predictor: Callable[[], ResponsePredictor | None],
     objective: ResponseObjective | None,
+    estimated: Sequence[str] = (),
 ) -> float | None:
     """The best objective f* a running evaluation is compared with (thesis eq. 3.4).
 
     With response models (``best`` chosen by them): their best prediction at
     an evaluated point plus the objective's noise floor, the larger of the
     mean objective of the models' residuals at the evaluated points and
-    :func:`single_run_noise` (what simulation noise alone adds to the
-    objective of the simulations a running evaluation's estimate comes
-    from). A lucky noisy sample does not set the bar, and once the best
-    prediction is below the noise, a run is not stopped for being as noisy
-    as every run is. Else ``best_observed``, the best observed value.
+    :func:`estimate_noise` of the ``estimated`` responses (what noise alone
+    puts into a running evaluation's estimate). A lucky noisy sample does
+    not set the bar, and once the best prediction is below the noise, a run
+    is not stopped for being as noisy as every run is. Else
+    ``best_observed``, the best observed value.
     """
     if best is None or best.chosen_by != "response models":
         return best_observed
@@ -175,22 +180,30 @@ def reference(
         key: np.array([r.responses[key].mean for r in finished]) - predicted[key] + target.value
         for key, target in zip(objective.keys, objective.targets)
     }
-    floor = max(float(np.mean(objective(residuals))), single_run_noise(finished, objective))
+    floor = max(
+        float(np.mean(objective(residuals))), estimate_noise(finished, objective, estimated)
+    )
     return best_predicted + floor
 
 
-def single_run_noise(records: list[Evaluation], objective: ResponseObjective) -> float:
-    """The objective of one simulation at the targets from simulation noise alone: eq. 3.3 of
-    responses one single-run standard deviation (``replicate_scatter``) off each target; 0
-    where no point was simulated twice.
+def estimate_noise(
+    records: list[Evaluation], objective: ResponseObjective, estimated: Sequence[str] = ()
+) -> float:
+    """What noise alone puts into the objective estimate of a running evaluation at the
+    targets: eq. 3.3 over the ``estimated`` responses (all when empty), each one standard
+    deviation off its target, that of one simulation (``replicate_scatter``, pooled over the
+    replicated points) and of an early estimate (``ESTIMATE_RELATIVE_SD`` of the target)
+    combined.
 
-    A running evaluation is judged by the estimates of the simulations reporting so far (in
-    a staged study replicate 0 alone): as noisy as one run, while the best it is compared
-    with is a mean over every replicate (Samuelsson 2023, sec. 5.1.2 judged the first of
-    five so).
+    A running evaluation is judged by the early estimates of the simulations reporting so
+    far (in a staged study replicate 0 alone, as Samuelsson 2023, sec. 5.1.2, judged the
+    first of five): as noisy as one run and then some, while the best it is compared with
+    is a mean over every replicate of finished runs.
     """
+    targets = [t for t in objective.targets if not estimated or t.key in estimated]
     off = {
-        t.key: np.array([t.value + np.sqrt(replicate_scatter(records, t.key))])
-        for t in objective.targets
+        t.key: t.value
+        + np.sqrt(replicate_scatter(records, t.key) + (ESTIMATE_RELATIVE_SD * t.value) ** 2)
+        for t in targets
     }
-    return float(np.asarray(objective(off))[0])
+    return float(objective_values(targets, off, objective.form))

@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 
 from demcal.optimizer import RunProgress, early_termination_decision, estimate_heading
-from demcal.optimizer.early_termination import single_run_noise, termination_factor
+from demcal.optimizer.early_termination import estimate_noise, termination_factor
 from demcal.optimizer.evaluation import Evaluation, ObservedResponse
+from demcal.optimizer.responses import ESTIMATE_RELATIVE_SD
 from demcal.results.records import Status
 from demcal.study.objective import ResponseObjective, Target
 
@@ -85,10 +86,10 @@ def test_no_heading_from_too_few_or_too_close_estimates():
     ) == pytest.approx(0.5)
 
 
-def test_a_single_run_is_judged_against_the_noise_of_a_single_run():
-    """Five replicates per point, 0.1 sd each on a target of 1 (relative form): one run at the
-    target shows an objective of 0.01 on average, which the bar of a running evaluation's
-    estimate includes; none without replicated points."""
+def test_a_running_estimate_is_judged_against_the_noise_it_carries():
+    """Five replicates per point, 0.1 sd each on a target of 1 (relative form): an early
+    estimate at the target carries that and an early estimate's own 5 %, (0.1^2 + 0.05^2)
+    on average; over only the responses it estimates; the 5 % alone without replicates."""
     rng = np.random.default_rng(3)
     targets = (Target("s", "a", 1.0), Target("s", "b", 2.0))
     objective = ResponseObjective(targets, "relative")
@@ -105,12 +106,14 @@ def test_a_single_run_is_judged_against_the_noise_of_a_single_run():
         )
         for i in range(40)
     ]
-    noise = single_run_noise(records, objective)
-    assert noise == pytest.approx(0.01, rel=0.15)  # (0.1 / 1)^2 + 0
+    early = ESTIMATE_RELATIVE_SD**2
+    assert estimate_noise(records, objective, ["s.a"]) == pytest.approx(0.01 + early, rel=0.15)
+    assert estimate_noise(records, objective) == pytest.approx(0.01 + 2 * early, rel=0.15)
+    assert estimate_noise(records, objective, ["s.b"]) == pytest.approx(early)
     once = [
         dataclasses.replace(
             r, responses={k: ObservedResponse(v.values[:1]) for k, v in r.responses.items()}
         )
         for r in records
     ]
-    assert single_run_noise(once, objective) == 0.0
+    assert estimate_noise(once, objective, ["s.a"]) == pytest.approx(early)
