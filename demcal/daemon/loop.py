@@ -517,15 +517,16 @@ class Calibration:
         over the reporting ones, jumps then)."""
         files, scenes = self.files.evaluation(evaluation), list(self.study.scenes)
         done = share_done(files, scenes, self.study.replicates)
-        estimates = latest_estimates(files, scenes, self.study.replicates)
-        reporting = sum(map(len, estimates.values()))
+        estimates = partial_responses(files, scenes, self.study.replicates)
+        reporting = sum(len(estimate["values"]) for estimate in estimates.values())
         history = self.estimate_history.setdefault(evaluation, [])
         if history and history[-1][2] != reporting:
             history.clear()
         if not history or history[-1][:2] != (done, estimate):
             history.append((done, estimate, reporting))
         heading = estimate_heading([(d, e) for d, e, _ in history])
-        return RunProgress(done, heading, tuple(sorted(estimates)))
+        provisional = [key for key, estimate in estimates.items() if not estimate["final"]]
+        return RunProgress(done, heading, tuple(sorted(estimates)), tuple(sorted(provisional)))
 
     def _estimate(self, evaluation: str) -> float | None:
         """Objective estimate of a running evaluation from its replicates' early estimates."""

@@ -56,7 +56,7 @@ is for adding a strategy, see below)::
     opt.response_predictor(objective=None) -> ResponsePredictor | None
         # one model per targeted response, the objective on top
     opt.early_termination(id, partial_estimate, run=None) -> EarlyTerminationDecision
-        # run: RunProgress(done, heading, estimated), where the evaluation stands
+        # run: RunProgress(done, heading, estimated, provisional), where it stands
     opt.stop_reason(elapsed_seconds) -> str | None
     opt.confirm() -> list[Proposal]      # after the stop: the best point again
     opt.confirmation() -> Confirmation | None  # what the confirmation runs found

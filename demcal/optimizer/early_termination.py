@@ -47,12 +47,14 @@ RULES = ("weighed", "eq_3_4")
 class RunProgress:
     """Where a running evaluation stands: ``done``, the share of its simulation work behind
     it (0-1), ``heading``, where its estimate's trend points at the end of the run (None
-    without a trend), and ``estimated``, the targeted responses (``scene.response``) its
-    estimate covers (empty: not known, as all)."""
+    without a trend), ``estimated``, the targeted responses (``scene.response``) its
+    estimate covers (empty: not known, as all), and ``provisional``, those of them not final
+    yet (early estimates)."""
 
     done: float
     heading: float | None = None
     estimated: tuple[str, ...] = ()
+    provisional: tuple[str, ...] = ()
 
 
 def estimate_heading(
@@ -154,15 +156,15 @@ def reference(
     records: list[Evaluation],
     predictor: Callable[[], ResponsePredictor | None],
     objective: ResponseObjective | None,
-    estimated: Sequence[str] = (),
+    run: RunProgress | None = None,
 ) -> float | None:
     """The best objective f* a running evaluation is compared with (thesis eq. 3.4).
 
     With response models (``best`` chosen by them): their best prediction at
     an evaluated point plus the objective's noise floor, the larger of the
     mean objective of the models' residuals at the evaluated points and
-    :func:`estimate_noise` of the ``estimated`` responses (what noise alone
-    puts into a running evaluation's estimate). A lucky noisy sample does
+    :func:`estimate_noise` of the responses the ``run``'s estimate covers
+    (what noise alone puts into it). A lucky noisy sample does
     not set the bar, and once the best prediction is below the noise, a run
     is not stopped for being as noisy as every run is. Else
     ``best_observed``, the best observed value.
@@ -180,20 +182,25 @@ def reference(
         key: np.array([r.responses[key].mean for r in finished]) - predicted[key] + target.value
         for key, target in zip(objective.keys, objective.targets)
     }
+    covered = RunProgress(0.0) if run is None else run
     floor = max(
-        float(np.mean(objective(residuals))), estimate_noise(finished, objective, estimated)
+        float(np.mean(objective(residuals))),
+        estimate_noise(finished, objective, covered.estimated, covered.provisional),
     )
     return best_predicted + floor
 
 
 def estimate_noise(
-    records: list[Evaluation], objective: ResponseObjective, estimated: Sequence[str] = ()
+    records: list[Evaluation],
+    objective: ResponseObjective,
+    estimated: Sequence[str] = (),
+    provisional: Sequence[str] = (),
 ) -> float:
     """What noise alone puts into the objective estimate of a running evaluation at the
     targets: eq. 3.3 over the ``estimated`` responses (all when empty), each one standard
     deviation off its target, that of one simulation (``replicate_scatter``, pooled over the
-    replicated points) and of an early estimate (``ESTIMATE_RELATIVE_SD`` of the target)
-    combined.
+    replicated points) and, for a ``provisional`` one, of an early estimate
+    (``ESTIMATE_RELATIVE_SD`` of the target) combined.
 
     A running evaluation is judged by the early estimates of the simulations reporting so
     far (in a staged study replicate 0 alone, as Samuelsson 2023, sec. 5.1.2, judged the
@@ -203,7 +210,10 @@ def estimate_noise(
     targets = [t for t in objective.targets if not estimated or t.key in estimated]
     off = {
         t.key: t.value
-        + np.sqrt(replicate_scatter(records, t.key) + (ESTIMATE_RELATIVE_SD * t.value) ** 2)
+        + np.sqrt(
+            replicate_scatter(records, t.key)
+            + (ESTIMATE_RELATIVE_SD * t.value * (t.key in provisional)) ** 2
+        )
         for t in targets
     }
     return float(objective_values(targets, off, objective.form))

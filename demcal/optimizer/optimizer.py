@@ -535,7 +535,7 @@ class Optimizer:
                 self.records,
                 self.response_predictor,
                 self.objective,
-                () if run is None else run.estimated,
+                run,
             ),
             partial_estimate,
             progress,

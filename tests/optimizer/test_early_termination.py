@@ -89,7 +89,7 @@ def test_no_heading_from_too_few_or_too_close_estimates():
 def test_a_running_estimate_is_judged_against_the_noise_it_carries():
     """Five replicates per point, 0.1 sd each on a target of 1 (relative form): an early
     estimate at the target carries that and an early estimate's own 5 %, (0.1^2 + 0.05^2)
-    on average; over only the responses it estimates; the 5 % alone without replicates."""
+    on average, a final one the 0.1 alone; over only the responses it estimates."""
     rng = np.random.default_rng(3)
     targets = (Target("s", "a", 1.0), Target("s", "b", 2.0))
     objective = ResponseObjective(targets, "relative")
@@ -107,13 +107,18 @@ def test_a_running_estimate_is_judged_against_the_noise_it_carries():
         for i in range(40)
     ]
     early = ESTIMATE_RELATIVE_SD**2
-    assert estimate_noise(records, objective, ["s.a"]) == pytest.approx(0.01 + early, rel=0.15)
-    assert estimate_noise(records, objective) == pytest.approx(0.01 + 2 * early, rel=0.15)
-    assert estimate_noise(records, objective, ["s.b"]) == pytest.approx(early)
+    a = ["s.a"]
+    assert estimate_noise(records, objective, a, a) == pytest.approx(0.01 + early, rel=0.15)
+    assert estimate_noise(records, objective, a) == pytest.approx(0.01, rel=0.15)  # final
+    assert estimate_noise(records, objective, (), ["s.a", "s.b"]) == pytest.approx(
+        0.01 + 2 * early, rel=0.15
+    )
+    assert estimate_noise(records, objective, ["s.b"], ["s.b"]) == pytest.approx(early)
     once = [
         dataclasses.replace(
             r, responses={k: ObservedResponse(v.values[:1]) for k, v in r.responses.items()}
         )
         for r in records
     ]
-    assert estimate_noise(once, objective, ["s.a"]) == pytest.approx(early)
+    assert estimate_noise(once, objective, a, a) == pytest.approx(early)
+    assert estimate_noise(once, objective, a) == 0.0
