@@ -12,11 +12,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from demcal.archive.record import ArchivedSimulation, from_results
+from demcal.archive.record import ArchivedSimulation, replicate_record
 from demcal.archive.store import Archive
 from demcal.errors import ConfigError, SimulationFailed
 from demcal.results.layout import ReplicateFiles, StudyFiles
-from demcal.results.records import ResponsesRecord, SimulationRecord
 from demcal.study.model import load_frozen
 
 #: Records stored per transaction by an import.
@@ -48,20 +47,10 @@ def import_results(archive: Archive, folder: Path) -> ImportReport:
     report = ImportReport(Path(folder), study.name)
     records: list[ArchivedSimulation] = []
     for path in sorted(files.evals.glob("*/*/rep*/simulation.json")):
-        replicate = ReplicateFiles(path.parent)
-        if not replicate.responses.is_file():
-            report.skipped.append(f"{replicate.dir}: no responses.json yet")
-            continue
         try:
-            simulation = SimulationRecord.read(replicate.simulation)
-            responses = ResponsesRecord.read(replicate.responses)
+            records.append(replicate_record(study, ReplicateFiles(path.parent), "import"))
         except SimulationFailed as exc:
             report.skipped.append(str(exc))
-            continue
-        if not simulation.ran:
-            report.skipped.append(f"{replicate.dir}: never started ({simulation.reason})")
-            continue
-        records.append(from_results(study, simulation, responses, replicate.partial, "import"))
     report.found = len(records)
     for start in range(0, len(records), BATCH):
         report.added += archive.add(records[start : start + BATCH])

@@ -14,6 +14,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from demcal.daemon.termination import LatestReports
+from demcal.errors import SimulationFailed
+from demcal.results.layout import ReplicateFiles
 from demcal.results.records import ResponsesRecord, SimulationRecord, Status
 from demcal.study.catalogue import CATALOG
 from demcal.study.model import Study, demcal_version
@@ -117,6 +119,21 @@ def partial_estimates(partial_csv: Path) -> dict[str, tuple[float, bool]]:
     reports = LatestReports(partial_csv)
     reports.read_on()
     return dict(reports.latest)
+
+
+def replicate_record(
+    study: Study, replicate: ReplicateFiles, source: str = "job"
+) -> ArchivedSimulation:
+    """The record of one scene replicate from its results files (:func:`from_results`);
+    SimulationFailed saying why there is none: no responses yet, a damaged file, or a
+    simulation that never started."""
+    if not replicate.responses.is_file():
+        raise SimulationFailed(f"{replicate.dir}: no responses.json yet")
+    simulation = SimulationRecord.read(replicate.simulation)
+    responses = ResponsesRecord.read(replicate.responses)
+    if not simulation.ran:
+        raise SimulationFailed(f"{replicate.dir}: never started ({simulation.reason})")
+    return from_results(study, simulation, responses, replicate.partial, source)
 
 
 def from_results(

@@ -240,7 +240,7 @@ def archive(study: Study, evaluation: str) -> int:
     nodes. A failure is a warning in the job's log, never the evaluation's: the results
     files stay, and ``demcal archive import`` records them later.
     """
-    from demcal.archive.record import from_results
+    from demcal.archive.record import replicate_record
     from demcal.archive.store import Archive
     from demcal.archive.url import shown
 
@@ -248,16 +248,10 @@ def archive(study: Study, evaluation: str) -> int:
     if study.archive is not None:
         records = []
         for path in response_paths(study, evaluation):
-            replicate = ReplicateFiles(path.parent)
             try:
-                sim, responses = (
-                    SimulationRecord.read(replicate.simulation),
-                    ResponsesRecord.read(path),
-                )
+                records.append(replicate_record(study, ReplicateFiles(path.parent)))
             except SimulationFailed:
-                continue  # its extract job failed: nothing to record
-            if sim.ran:
-                records.append(from_results(study, sim, responses, replicate.partial))
+                continue  # not run, or its extract job failed: nothing to record
         try:
             with Archive(study.archive) as store:
                 added = store.add(records)
