@@ -97,7 +97,10 @@ rule release:
         ],
     output:
         str(REPLICATE.released),
+    log:
+        str(EVAL.job_log("release", "{scene}", "{replicate}")),
     run:
+        Path(log[0]).write_text(f"released after {', '.join(input)}\n")
         Path(output[0]).touch()
 
 
