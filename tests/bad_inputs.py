@@ -409,6 +409,13 @@ NON_FINITE = [
         {"name": "analytic", "noise": float("inf")},
         r"engine.noise: inf is not a finite number",
     ),
+    _field(
+        "material_of_no_calibration",
+        ["material"],
+        "never-calibrated",
+        r"material: 'never-calibrated' names no calibration with an answer",
+    ),
+    _field("material_empty", ["material"], "", r"material: '' should be non-empty"),
 ]
 
 #: The command engine deletes responses_file before each run: no path may leave the run directory.

@@ -1,1 +1,2 @@
-"""The study: its model, the parameter catalogue, the config reader and the objective."""
+"""The study: its model, the parameter catalogue, the config reader, the objective and a
+material taken from a calibration (``material``)."""

@@ -29,6 +29,7 @@ from demcal.resources import SCHEMA_PATH
 from demcal.scenes import SCENES, Scene
 from demcal.scenes.base import variable_settings
 from demcal.study.catalogue import CATALOG, SPLIT_PARAMETERS
+from demcal.study.material import load_material
 from demcal.study.model import FreeParameter, Study
 from demcal.study.objective import DEFAULT_FORM, Target
 
@@ -271,6 +272,56 @@ def _parameters(config: dict, scenes: dict[str, Scene]) -> tuple[list[FreeParame
     return free, {**defaults, **fixed}
 
 
+def _with_material(config: dict, scenes: dict[str, Scene]) -> tuple[dict, dict | None, list[str]]:
+    """The study file with the calibrated material (``material:``) filled in wherever the
+    file neither fixes nor frees a value; the material's provenance, and warnings for each
+    calibrated value the file replaces and each parameter the calibration did not have."""
+    if "material" not in config:
+        return config, None, []
+    material = load_material(config["material"])
+    free, warnings = config["parameters"], []
+    fixed = dict(config.get("fixed", {}))
+    source = f"the calibration {material.study!r}"
+    if material.engine != config["engine"]["name"]:
+        warnings.append(
+            f"material: {source} simulated with {material.engine}, this study with "
+            f"{config['engine']['name']}; their contact models differ, so its values may not "
+            f"carry over"
+        )
+    for name in sorted({p for s in scenes.values() for p in s.parameters} - set(free)):
+        if name not in material.parameters:
+            if name not in fixed:
+                warnings.append(
+                    f"material: {source} did not simulate with {name}; its default "
+                    f"{CATALOG[name].default:g} is used (give it under fixed)"
+                )
+        elif name in fixed:
+            if fixed[name] != material.parameters[name]:
+                warnings.append(
+                    f"fixed.{name} = {fixed[name]:g} replaces {material.parameters[name]:g} "
+                    f"of {source}"
+                )
+        else:
+            fixed[name] = material.parameters[name]
+    scene_config = {
+        name: {**entry, "settings": dict(entry.get("settings") or {})}
+        for name, entry in config.get("scenes", {}).items()
+    }
+    for setting, value in material.settings.items():
+        for name in (n for n, scene in scenes.items() if setting in scene.settings):
+            given = scene_config.setdefault(name, {"settings": {}})["settings"]
+            if setting in free:
+                continue
+            if setting not in given:
+                given[setting] = value
+            elif given[setting] != value:
+                warnings.append(
+                    f"scenes.{name}.settings.{setting} = {given[setting]:g} replaces "
+                    f"{value:g} of {source}"
+                )
+    return {**config, "fixed": fixed, "scenes": scene_config}, material.provenance(), warnings
+
+
 def _settings(config: dict, scenes: dict[str, Scene], free: list[FreeParameter]) -> dict:
     """Each scene's resolved settings. A free setting is not given among them (its default
     stands in); the scene's cross-setting checks hold at every corner of the free settings'
@@ -373,6 +424,7 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
     validate_schema(config)
     scenes = _scenes_of(config)
     targets = _targets(config, scenes)
+    config, material, material_warnings = _with_material(config, scenes)
     free, fixed = _parameters(config, scenes)
     settings = _settings(config, scenes, free)
     fraction = float(config.get("timestep_fraction", default("timestep_fraction")))
@@ -437,9 +489,10 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
             "poll_seconds": default("calibration", "poll_seconds"),
             **config.get("calibration", {}),
         },
-        warnings=[warning] if warning else [],
+        warnings=([warning] if warning else []) + material_warnings,
         archive=archive,
         reuse=_reuse(config, archive),
+        material=material,
     )
 
 

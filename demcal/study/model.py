@@ -98,6 +98,8 @@ class Study:
     archive: str | None = None
     #: "archive": start from the archive's compatible simulations (docs/archive.md); None: off
     reuse: str | None = None
+    #: where the material came from when a calibration gave it (``CalibratedMaterial``)
+    material: dict | None = None
 
     @property
     def objective(self) -> ResponseObjective:
@@ -284,6 +286,7 @@ def study_record(study: Study) -> dict:
         "warnings": study.warnings,
         "archive": {"url": study.archive},
         **({"reuse": study.reuse} if study.reuse else {}),
+        **({"material": study.material} if study.material else {}),
     }
 
 
@@ -318,6 +321,7 @@ def study_from_record(record: dict) -> Study:
         warnings=record["warnings"],
         archive=record["archive"]["url"] if "archive" in record else _default_archive(),
         reuse=record.get("reuse"),
+        material=record.get("material"),
     )
 
 
@@ -347,14 +351,15 @@ def incompatible_changes(old: dict, new: dict) -> list[str]:
 
     Allowed: the budget and stopping rules (``RESUMABLE_OPTIMIZER_SETTINGS``),
     the daemon's ``calibration`` settings, warnings, the demcal version, the
-    objective's form, the archive, and target values, weights and spreads when the same
+    objective's form, the archive, where the material came from (its values are compared as
+    fixed parameters and settings), and target values, weights and spreads when the same
     responses are targeted (stored simulations are then re-scored).
     """
     changed = [
         path
         for path in _differences(old, new, "")
         if not path.startswith(
-            ("demcal_version", "warnings", "calibration", "objective", "archive")
+            ("demcal_version", "warnings", "calibration", "objective", "archive", "material")
         )
         and not any(
             path == f"optimizer.{name}" or path.startswith(f"optimizer.{name}.")

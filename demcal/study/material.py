@@ -1,0 +1,126 @@
+"""A study's material taken from a finished calibration (``material:`` in the study file).
+
+A design study optimises a machine for a material that an earlier calibration
+found: ``material: quickstart`` (a study name, read from ``results/quickstart/``)
+or ``material: path/to/best.json``. The material is that calibration's best
+point (``best.json``) over its fixed parameters (``study.json``): every
+material parameter it simulated with, and the particle-size settings it
+varied (``d50``, ``sigma_ln``). The values are filled in where the new study
+gives none; what the new study fixes or frees itself wins. Where the values
+came from is kept with the study (``Study.material``).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+from demcal.errors import ConfigError, SimulationFailed
+from demcal.results.layout import StudyFiles
+from demcal.results.records import BestRecord
+from demcal.results.storage import read_json
+from demcal.study.catalogue import CATALOG, upgrade_parameters
+
+
+@dataclass(frozen=True)
+class CalibratedMaterial:
+    """A calibration's answer as a material: its parameters and particle-size settings."""
+
+    #: name of the calibration study, and the engine it simulated with
+    study: str
+    engine: str
+    #: the best.json read, and a fingerprint of its content
+    best_file: str
+    best_sha256: str
+    #: the evaluation that is the answer, and its objective
+    evaluation: str
+    objective: float
+    #: whether the calibration had ended (finished.json), or its best so far was taken
+    finished: bool
+    #: every material parameter the answer was simulated with (SI units)
+    parameters: dict[str, float]
+    #: free scene settings of the calibration at its answer (particle size: d50 [m], ...)
+    settings: dict[str, float]
+
+    def provenance(self) -> dict:
+        """What ``study.json`` keeps of it."""
+        return {
+            "study": self.study,
+            "engine": self.engine,
+            "best": self.best_file,
+            "best_sha256": self.best_sha256,
+            "evaluation": self.evaluation,
+            "objective": self.objective,
+            "finished": self.finished,
+            "parameters": self.parameters,
+            "settings": self.settings,
+        }
+
+
+def calibration_folder(reference: str) -> tuple[Path, Path]:
+    """The results folder and best.json that ``material:`` names: a study name
+    (``results/<name>/best.json``), a study's results folder, or a best.json file."""
+    path = Path(reference)
+    if path.suffix == ".json":
+        return path.parent, path
+    if re.fullmatch(r"[A-Za-z][A-Za-z0-9_-]*", reference) and not path.exists():
+        files = StudyFiles.of(reference)
+        return files.dir, files.best
+    return path, StudyFiles(path).best
+
+
+def load_material(reference: str) -> CalibratedMaterial:
+    """The answer of the calibration that ``reference`` names; a ConfigError naming
+    ``material`` when there is none to take."""
+    folder, best_path = calibration_folder(reference)
+    study_path = StudyFiles(folder).study
+    try:
+        best = BestRecord.read(best_path)
+        fingerprint = hashlib.sha256(best_path.read_bytes()).hexdigest()
+        calibration = read_json(study_path, "study.json")
+        free = {p["name"]: bool(p.get("scene_setting")) for p in calibration["parameters"]}
+        fixed = upgrade_parameters(calibration["fixed"])
+        name, engine = str(calibration["study"]), str(calibration["engine"]["name"])
+    except SimulationFailed as exc:
+        raise ConfigError(
+            f"material: {reference!r} names no calibration with an answer ({exc}); give a "
+            f"study name whose calibration has run (results/<study>/best.json) or the path "
+            f"of its best.json"
+        ) from None
+    except (KeyError, TypeError, AttributeError, OSError) as exc:
+        raise ConfigError(
+            f"material: {study_path} is not a study written by demcal ({type(exc).__name__}: {exc})"
+        ) from None
+    missing = sorted(set(free) - set(best.parameters))
+    if missing:
+        raise ConfigError(
+            f"material: {best_path} gives no value of {', '.join(missing)}, free in the "
+            f"calibration {name!r}; it belongs to another study"
+        )
+    parameters = {**fixed}
+    settings = {}
+    for parameter, is_setting in free.items():
+        value = float(best.parameters[parameter])
+        if is_setting:
+            settings[parameter] = value
+        else:
+            parameters[parameter] = value
+    for parameter, value in parameters.items():
+        if parameter not in CATALOG or not CATALOG[parameter].contains(value):
+            raise ConfigError(
+                f"material: {parameter} = {value!r} from {best_path} is not a material "
+                f"parameter of this demcal in its allowed range"
+            )
+    return CalibratedMaterial(
+        study=name,
+        engine=engine,
+        best_file=str(best_path),
+        best_sha256=fingerprint,
+        evaluation=best.evaluation,
+        objective=float(best.objective),
+        finished=StudyFiles(folder).finished.exists(),
+        parameters=parameters,
+        settings=settings,
+    )

@@ -1,0 +1,116 @@
+"""A study's material from a finished calibration (issue 24, item 1): ``material:``."""
+
+from __future__ import annotations
+
+import copy
+
+import pytest
+from conftest import ANALYTIC_STUDY
+
+from demcal.errors import ConfigError
+from demcal.results.records import BestRecord
+from demcal.study.config import load_study
+from demcal.study.model import freeze, study_from_record, study_record
+
+ANSWER = {"sliding_friction_pp": 0.42, "rolling_friction_pp": 0.11, "d50": 2.2e-3}
+
+
+@pytest.fixture
+def calibrated(tmp_path, monkeypatch):
+    """results/lab/: a frozen calibration with d50 free, and its best.json."""
+    monkeypatch.chdir(tmp_path)
+    config = copy.deepcopy(ANALYTIC_STUDY)
+    config["study"] = "lab"
+    config["parameters"]["d50"] = {"lower": 1.5e-3, "upper": 2.5e-3}
+    study = freeze(load_study(config))
+    BestRecord("e0007", dict(ANSWER), objective=0.003).write(study.files.best)
+    return study
+
+
+def design(**fields) -> dict:
+    """A study that takes its material from ``lab`` and frees the wall friction only."""
+    config = copy.deepcopy(ANALYTIC_STUDY)
+    config.update(study="chute", parameters={"sliding_friction_pw": {"lower": 0.2, "upper": 0.8}})
+    del config["fixed"]
+    return {**config, "material": "lab", **fields}
+
+
+def test_the_calibrated_answer_and_fixed_values_become_the_material(calibrated):
+    study = load_study(design())
+    assert study.fixed["sliding_friction_pp"] == 0.42
+    assert study.fixed["rolling_friction_pp"] == 0.11
+    assert study.fixed["restitution_pp"] == 0.5  # fixed in the calibration
+    assert "sliding_friction_pw" not in study.fixed  # free here
+    assert study.settings["cylinder_lift"]["d50"] == 2.2e-3
+    assert study.material is not None
+    assert study.material["study"] == "lab" and study.material["evaluation"] == "e0007"
+    assert study.material["finished"] is False and len(study.material["best_sha256"]) == 64
+    assert study.warnings == []
+    assert study_from_record(study_record(study)).material == study.material
+
+
+@pytest.mark.parametrize("reference", ["results/lab", "results/lab/best.json"])
+def test_a_folder_or_a_best_file_names_the_calibration_too(calibrated, reference):
+    assert load_study(design(material=reference)).fixed["sliding_friction_pp"] == 0.42
+
+
+def test_what_the_study_fixes_itself_wins_with_a_warning(calibrated):
+    study = load_study(
+        design(
+            fixed={"sliding_friction_pp": 0.5},
+            scenes={"cylinder_lift": {"settings": {"d50": 2.0e-3}}},
+        )
+    )
+    assert study.fixed["sliding_friction_pp"] == 0.5
+    assert study.settings["cylinder_lift"]["d50"] == 2.0e-3
+    assert study.warnings == [
+        "fixed.sliding_friction_pp = 0.5 replaces 0.42 of the calibration 'lab'",
+        "scenes.cylinder_lift.settings.d50 = 0.002 replaces 0.0022 of the calibration 'lab'",
+    ]
+
+
+def test_a_material_from_another_engine_is_taken_with_a_warning(calibrated):
+    study = load_study(design(engine={"name": "lammps"}), check_engine=False)
+    assert study.fixed["sliding_friction_pp"] == 0.42
+    assert study.warnings == [
+        "material: the calibration 'lab' simulated with analytic, this study with lammps; "
+        "their contact models differ, so its values may not carry over"
+    ]
+
+
+def test_a_free_setting_of_the_design_is_not_filled_in(calibrated):
+    study = load_study(
+        design(parameters={"d50": {"lower": 1.0e-3, "upper": 3.0e-3}}),
+    )
+    assert "d50" in [p.name for p in study.free]
+    assert study.fixed["sliding_friction_pp"] == 0.42
+
+
+@pytest.mark.parametrize(
+    "reference, message",
+    [
+        ("nowhere", r"material: 'nowhere' names no calibration with an answer"),
+        ("results/lab/other.json", r"material: 'results/lab/other.json' names no calibration"),
+    ],
+)
+def test_a_calibration_without_an_answer_is_a_clear_error(calibrated, reference, message):
+    with pytest.raises(ConfigError, match=message):
+        load_study(design(material=reference))
+
+
+def test_a_best_file_of_another_study_is_refused(calibrated):
+    BestRecord("e0001", {"sliding_friction_pp": 0.3}, objective=0.1).write(calibrated.files.best)
+    with pytest.raises(ConfigError, match=r"gives no value of d50, rolling_friction_pp"):
+        load_study(design())
+
+
+def test_resume_takes_a_new_provenance_but_refuses_new_values(calibrated):
+    first = freeze(load_study(design()))
+    (calibrated.files.finished).write_text("{}")
+    assert freeze(load_study(design())).material["finished"] is True
+    BestRecord("e0009", {**ANSWER, "sliding_friction_pp": 0.45}, objective=0.002).write(
+        calibrated.files.best
+    )
+    with pytest.raises(ConfigError, match=r"fixed.sliding_friction_pp: 0.42 -> 0.45"):
+        freeze(load_study(design()))
+    assert first.material is not None
