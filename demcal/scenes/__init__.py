@@ -18,7 +18,7 @@ SCENES: Registry[Entry] = Registry(
     "scene",
     {
         name: Entry(f"demcal.scenes.{name}:SCENE")
-        for name in ("cylinder_lift", "calibration_device", "shear_box")
+        for name in ("cylinder_lift", "calibration_device", "shear_box", "transfer_chute")
     },
 )
 
