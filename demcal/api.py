@@ -248,8 +248,9 @@ class StudyFile:
 
     @property
     def targets(self) -> pd.DataFrame:
-        """The targets: scene, response, ``value``, ``unit``, ``weight`` and ``spread`` (the
-        measurement's sd, None if not given), by ``scene.response``."""
+        """The targets: scene, response, ``value``, ``unit``, ``weight``, ``spread`` (the
+        measurement's sd, None if not given) and the bounds ``at_least`` and ``at_most`` of a
+        target kept within them (None if it has none), by ``scene.response``."""
         study = self.study
         return pd.DataFrame(
             [
@@ -261,10 +262,22 @@ class StudyFile:
                     study.scenes[t.scene].responses[t.response].unit,
                     t.weight,
                     t.spread,
+                    t.lower,
+                    t.upper,
                 )
                 for t in study.targets
             ],
-            columns=["target", "scene", "response", "value", "unit", "weight", "spread"],
+            columns=[
+                "target",
+                "scene",
+                "response",
+                "value",
+                "unit",
+                "weight",
+                "spread",
+                "at_least",
+                "at_most",
+            ],
         ).set_index("target")
 
     @property

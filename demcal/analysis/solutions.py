@@ -116,11 +116,10 @@ def membership_probability(
     for t in targets:
         half_width = band_half_width(t, noise_sd[t.key], k)
         mean, sd = np.asarray(means[t.key], float), np.asarray(stds[t.key], float)
-        inside = (np.abs(mean - t.value) <= half_width).astype(float)
+        low, high = t.accepted(half_width)
+        inside = ((low <= mean) & (mean <= high)).astype(float)
         with np.errstate(divide="ignore", invalid="ignore"):
-            spread = norm.cdf((t.value + half_width - mean) / sd) - norm.cdf(
-                (t.value - half_width - mean) / sd
-            )
+            spread = norm.cdf((high - mean) / sd) - norm.cdf((low - mean) / sd)
         p = np.where(sd > 0.0, spread, inside)
         probability = p if probability is None else probability * p
     assert probability is not None, "an objective has at least one target"
@@ -151,7 +150,8 @@ def log_likelihood(
     for t in targets:
         variance = tolerance_sd(t, noise_sd[t.key], stds[t.key]) ** 2
         variance = np.maximum(variance, np.finfo(float).tiny)
-        total -= 0.5 * ((means[t.key] - t.value) ** 2 / variance + np.log(variance))
+        miss = means[t.key] - t.nearest(means[t.key])  # 0 inside a target's bounds
+        total -= 0.5 * (miss**2 / variance + np.log(variance))
     return total
 
 

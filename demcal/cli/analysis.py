@@ -61,7 +61,7 @@ def print_point_check(study: Study, analysis: SolutionAnalysis, values: dict[str
         mean, sd = check.predicted[t.key]
         unit = study.scenes[t.scene].responses[t.response].unit
         print(
-            f"  {t.key}: predicted {mean:.4g} ±{sd:.2g} {unit}, target {t.value:g} "
+            f"  {t.key}: predicted {mean:.4g} ±{sd:.2g} {unit}, target {t.shown()} "
             f"±{check.half_width[t.key]:.2g} ({analysis.solutions.k:g} sd of spread and noise)"
         )
     return 0

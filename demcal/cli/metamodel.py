@@ -22,6 +22,7 @@ from demcal.resources import DEFAULT_CONFIG
 from demcal.results.storage import write_json
 from demcal.study.config import load_study_file
 from demcal.study.model import Study, load_frozen
+from demcal.study.objective import relative_miss
 from demcal.workflow import LOCAL_PROFILE, check_profile
 
 
@@ -236,8 +237,7 @@ def calibrate_command(args: argparse.Namespace) -> int:
         )
     for target in material.targets:
         print(
-            f"  {target.key}: predicted {best.predicted[target.key]:.4g}, target "
-            f"{target.value:g}" + (f" ± {target.spread:g}" if target.spread else "")
+            f"  {target.key}: predicted {best.predicted[target.key]:.4g}, target {target.shown()}"
         )
     solutions = result.analysis.solutions
     likely = int(np.sum(solutions.likely))
@@ -307,7 +307,10 @@ def no_solution_reason(result: metamodel.MetamodelCalibration, material: Study) 
     band = {
         t.key: band_half_width(t, solutions.noise_sd[t.key], solutions.k) for t in material.targets
     }
-    if all(abs(best.predicted[t.key] - t.value) <= band[t.key] for t in material.targets):
+    if all(
+        (accepted := t.accepted(band[t.key]))[0] <= best.predicted[t.key] <= accepted[1]
+        for t in material.targets
+    ):
         widths = ", ".join(
             f"{key} sd {best.predicted_sd[key]:.3g} against ±{band[key]:.3g}" for key in band
         )
@@ -367,7 +370,7 @@ def validate_answer(
         errors[target.key] = {
             "simulated": simulated,
             "mean": mean,
-            "error_against_target": (mean - target.value) / target.value,
+            "error_against_target": relative_miss(target, mean),
             "error_against_metamodel": (mean - predicted) / predicted,
         }
         print(

@@ -43,7 +43,7 @@ from demcal.results.records import (
 )
 from demcal.scenes.base import Scene
 from demcal.study.model import Study, load_frozen
-from demcal.study.objective import relative_error, replicate_mean, replicate_spread
+from demcal.study.objective import relative_miss, replicate_mean, replicate_spread
 
 log = logging.getLogger("demcal")
 
@@ -393,7 +393,7 @@ def score(
         responses=means,
         replicates=replicates,
         spread={key: replicate_spread(v) for key, v in replicates.items()},
-        relative_errors={t.key: relative_error(means[t.key], t.value) for t in study.targets},
+        relative_errors={t.key: relative_miss(t, means[t.key]) for t in study.targets},
         scored_with=objective.version,
     )
 

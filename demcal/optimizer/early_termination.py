@@ -179,7 +179,9 @@ def reference(
     assert models is not None and objective is not None, "best was chosen by the response models"
     predicted, _ = models.predict(np.array([r.x for r in finished]))
     residuals = {
-        key: np.array([r.responses[key].mean for r in finished]) - predicted[key] + target.value
+        key: target.missed_by(
+            np.abs(np.array([r.responses[key].mean for r in finished]) - predicted[key])
+        )
         for key, target in zip(objective.keys, objective.targets)
     }
     covered = RunProgress(0.0) if run is None else run
@@ -209,10 +211,11 @@ def estimate_noise(
     """
     targets = [t for t in objective.targets if not estimated or t.key in estimated]
     off = {
-        t.key: t.value
-        + np.sqrt(
-            replicate_scatter(records, t.key)
-            + (ESTIMATE_RELATIVE_SD * t.value * (t.key in provisional)) ** 2
+        t.key: t.missed_by(
+            np.sqrt(
+                replicate_scatter(records, t.key)
+                + (ESTIMATE_RELATIVE_SD * t.value * (t.key in provisional)) ** 2
+            )
         )
         for t in targets
     }

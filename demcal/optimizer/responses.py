@@ -190,7 +190,7 @@ class ResponsePredictor:
     def noise_level(self) -> float:
         """The objective of responses that each miss their target by :meth:`allowed_miss`:
         what noise alone makes of the objective, the scale an improvement is judged on."""
-        missed = {t.key: t.value + self.allowed_miss(t) for t in self.objective.targets}
+        missed = {t.key: t.missed_by(self.allowed_miss(t)) for t in self.objective.targets}
         return float(np.asarray(self.objective(missed)))
 
     def meets_targets(self, x: np.ndarray) -> bool:
@@ -198,7 +198,7 @@ class ResponsePredictor:
         :meth:`allowed_miss` of their target."""
         means, _ = self.predict(np.atleast_2d(x)[:1])
         return all(
-            abs(float(means[t.key][0]) - t.value) <= self.allowed_miss(t)
+            (band := t.accepted(self.allowed_miss(t)))[0] <= float(means[t.key][0]) <= band[1]
             for t in self.objective.targets
         )
 

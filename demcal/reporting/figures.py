@@ -177,8 +177,13 @@ def plot_responses_vs_targets(
     for ax, t in zip(axes, study.targets):
         unit = study.scenes[t.scene].responses[t.response].unit
         ax.plot(ok["number"], ok[t.key], "o", color="tab:blue", markersize=4, label="simulated")
-        ax.axhline(t.value, color="green", lw=1.5, label="target")
-        if t.spread:
+        if t.lower is not None and t.upper is not None:
+            ax.axhspan(t.lower, t.upper, color="green", alpha=0.15, label="target bounds")
+        elif t.is_band:
+            ax.axhline(t.value, color="green", lw=1.5, ls="--", label=f"bound ({t.shown()})")
+        else:
+            ax.axhline(t.value, color="green", lw=1.5, label="target")
+        if t.spread and not t.is_band:
             ax.axhspan(
                 t.value - t.spread,
                 t.value + t.spread,
@@ -359,7 +364,7 @@ def best_point_table(study: Study) -> pd.DataFrame:
                 "value": best.responses.get(t.key),
                 "predicted": predicted.get(t.key, {}).get("mean", ""),
                 "predicted_sd": predicted.get(t.key, {}).get("sd", ""),
-                "target": t.value,
+                "target": t.shown() if t.is_band else t.value,
                 "target_spread": "" if t.spread is None else t.spread,
                 "relative_error_percent": 100 * best.relative_errors.get(t.key, np.nan),
                 "unit": study.scenes[t.scene].responses[t.response].unit,

@@ -16,7 +16,7 @@ from pathlib import Path
 import pandas as pd
 
 from demcal.analysis.solutions import posterior_line
-from demcal.reporting.terminal import CHOSEN_BY, duration, with_sd
+from demcal.reporting.terminal import CHOSEN_BY, duration, target_text, with_sd
 from demcal.results.records import BestRecord, FinishedRecord, Status
 from demcal.study.model import Study
 
@@ -120,7 +120,7 @@ def _best_responses(study: Study, best: BestRecord) -> list[str]:
                 f"{t.key} [{unit}]",
                 with_sd(best.responses.get(t.key), None),
                 with_sd(model.get("mean"), model.get("sd")),
-                with_sd(t.value, t.spread),
+                target_text(t),
                 f"{100 * best.relative_errors.get(t.key, float('nan')):+.1f} %",
             ]
         )
@@ -153,7 +153,7 @@ def _confirmation(study: Study, best: BestRecord) -> list[str]:
         entry = confirmation["responses"].get(t.key)
         if entry:
             mean = with_sd(entry["mean"], entry["sd"])
-            rows.append([t.key, mean, str(entry["count"]), with_sd(t.value, t.spread)])
+            rows.append([t.key, mean, str(entry["count"]), target_text(t)])
     return [
         f"**Confirmed** by {len(confirmation['evaluations'])} more simulations of the best "
         "point (new seeds; mean ± sd of their responses):",

@@ -8,7 +8,7 @@ from pathlib import Path
 from demcal.errors import SimulationFailed
 from demcal.results.records import BestRecord, ObjectiveRecord, Status
 from demcal.study.model import Study
-from demcal.study.objective import relative_error
+from demcal.study.objective import Target, relative_miss
 from demcal.workflow import report_command
 
 
@@ -38,6 +38,11 @@ def with_sd(value: float | None, sd: float | None) -> str:
     if value in (None, ""):
         return "–"
     return f"{value:.4g}" + (f" ±{sd:.2g}" if sd else "")
+
+
+def target_text(target: Target) -> str:
+    """A target as the reports show it: its value ± spread, or its bounds."""
+    return target.shown() if target.is_band else with_sd(target.value, target.spread)
 
 
 def _given(value) -> str:
@@ -91,8 +96,7 @@ def evaluation_summary(
             if predicted:
                 line += f" {with_sd(predicted[t.key]['mean'], predicted[t.key]['sd']):>16s}"
             lines.append(
-                line + f" {with_sd(t.value, t.spread):>14s} "
-                f"{100 * record.relative_errors[t.key]:>+7.1f}%"
+                line + f" {target_text(t):>14s} {100 * record.relative_errors[t.key]:>+7.1f}%"
             )
     else:
         lines.append(f"  reason: {record.reason}")
@@ -118,8 +122,8 @@ def confirmation_summary(study: Study, best: BestRecord) -> str | None:
             lines.append(
                 f"  {t.key + ' [' + unit + ']':34s} mean "
                 f"{with_sd(entry['mean'], entry['sd']):>16s} (n = {entry['count']})  target "
-                f"{with_sd(t.value, t.spread)}  "
-                f"{100 * relative_error(entry['mean'], t.value):+.1f}%"
+                f"{target_text(t)}  "
+                f"{100 * relative_miss(t, entry['mean']):+.1f}%"
             )
     return "\n".join(lines)
 

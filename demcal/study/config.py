@@ -26,7 +26,7 @@ from demcal.optimizer import OptimizerSettings
 from demcal.optimizer.registry import STRATEGIES
 from demcal.physics.timestep import RAYLEIGH_PARAMETERS, check_fraction
 from demcal.resources import SCHEMA_PATH
-from demcal.scenes import SCENES, Scene
+from demcal.scenes import SCENES, ResponseSpec, Scene
 from demcal.scenes.base import variable_settings
 from demcal.study.catalogue import CATALOG, SPLIT_PARAMETERS
 from demcal.study.material import load_material
@@ -152,14 +152,15 @@ def _targets(config: dict, scenes: dict[str, Scene]) -> list[Target]:
         if key in seen:
             raise ConfigError(f"targets[{i}]: {t['scene']}.{t['response']} is targeted twice")
         seen.add(key)
-        value, spread = _target_value(t, i)
         response = scene.responses[t["response"]]
-        if not response.lower <= value <= response.upper:
-            raise ConfigError(
-                f"targets[{i}]{'' if 'repeats' in t else '.value'}: {value:g} "
-                f"{unit} is not a possible {t['response']}; it lies in "
-                f"[{response.lower:g}, {response.upper:g}] {unit}"
-            )
+        lower, upper = _target_bounds(t, i, response)
+        if lower is None and upper is None:
+            value, spread = _target_value(t, i)
+            where = f"targets[{i}]{'' if 'repeats' in t else '.value'}"
+            _check_possible(value, where, t["response"], response)
+        else:
+            value = next(bound for bound in (lower, upper) if bound is not None)
+            spread = t.get("spread")
         targets.append(
             Target(
                 t["scene"],
@@ -167,9 +168,65 @@ def _targets(config: dict, scenes: dict[str, Scene]) -> list[Target]:
                 value,
                 float(t.get("weight", default("targets", "weight"))),
                 spread,
+                lower,
+                upper,
             )
         )
     return targets
+
+
+def _check_possible(value: float, where: str, name: str, response: ResponseSpec) -> None:
+    """ConfigError unless ``response`` (named ``name``) can take ``value`` (given at
+    ``where``)."""
+    if not response.lower <= value <= response.upper:
+        raise ConfigError(
+            f"{where}: {value:g} {response.unit} is not a possible {name}; it lies in "
+            f"[{response.lower:g}, {response.upper:g}] {response.unit}"
+        )
+
+
+def _target_bounds(
+    target: dict, index: int, response: ResponseSpec
+) -> tuple[float | None, float | None]:
+    """The bounds of a target given as ``at_least``/``at_most`` or as a ``goal`` (a target at
+    the response's own bound); (None, None) for a target ``value`` or ``repeats``."""
+    kinds = [
+        name
+        for name, keys in (
+            ("value", ("value", "repeats")),
+            ("bounds", ("at_least", "at_most")),
+            ("goal", ("goal",)),
+        )
+        if any(k in target for k in keys)
+    ]
+    if len(kinds) > 1:
+        raise ConfigError(
+            f"targets[{index}]: give one of a value (value or repeats), bounds (at_least, "
+            f"at_most) or a goal (minimise, maximise), not {' and '.join(kinds)}"
+        )
+    where = f"targets[{index}]"
+    if "goal" in target:
+        goal = response.lower if target["goal"] == "minimise" else response.upper
+        if not math.isfinite(goal):
+            raise ConfigError(
+                f"{where}.goal: {target['response']} has no {'lowest' if goal < 0 else 'highest'}"
+                f" possible value to {target['goal']} it towards; give a value to reach or bounds"
+                f" (at_least, at_most)"
+            )
+        return (None, goal) if target["goal"] == "minimise" else (goal, None)
+    lower, upper = target.get("at_least"), target.get("at_most")
+    for name, bound in (("at_least", lower), ("at_most", upper)):
+        if bound is not None:
+            _check_possible(float(bound), f"{where}.{name}", target["response"], response)
+    if lower is not None and upper is not None and not lower < upper:
+        raise ConfigError(
+            f"{where}.at_most: {upper:g} {response.unit} is not above at_least "
+            f"({lower:g} {response.unit})"
+        )
+    return (
+        None if lower is None else float(lower),
+        None if upper is None else float(upper),
+    )
 
 
 def _target_value(target: dict, index: int) -> tuple[float, float | None]:

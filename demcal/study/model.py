@@ -37,7 +37,7 @@ from demcal.study.catalogue import (
     ParameterSpec,
     upgrade_parameters,
 )
-from demcal.study.objective import DEFAULT_FORM, ResponseObjective, Target
+from demcal.study.objective import DEFAULT_FORM, ResponseObjective, Target, bounds_of
 
 #: Optimizer settings a resumed calibration takes from the current study file.
 RESUMABLE_OPTIMIZER_SETTINGS = (
@@ -53,7 +53,7 @@ RESUMABLE_OPTIMIZER_SETTINGS = (
     "calm_proposals",
 )
 #: Target fields that may change on resume (stored simulations are re-scored).
-RESCORABLE_TARGET_FIELDS = ("value", "weight", "spread", "unit")
+RESCORABLE_TARGET_FIELDS = ("value", "weight", "spread", "unit", "lower", "upper")
 
 
 @dataclass(frozen=True)
@@ -272,6 +272,7 @@ def study_record(study: Study) -> dict:
                 "unit": study.scenes[t.scene].responses[t.response].unit,
                 "weight": t.weight,
                 "spread": t.spread,
+                **bounds_of(t),
             }
             for t in study.targets
         ],
@@ -307,7 +308,15 @@ def study_from_record(record: dict) -> Study:
         ],
         fixed=upgrade_parameters(record["fixed"]),
         targets=[
-            Target(t["scene"], t["response"], t["value"], t["weight"], t["spread"])
+            Target(
+                t["scene"],
+                t["response"],
+                t["value"],
+                t["weight"],
+                t["spread"],
+                t.get("lower"),
+                t.get("upper"),
+            )
             for t in record["targets"]
         ],
         replicates=record["replicates"],

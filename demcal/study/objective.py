@@ -39,17 +39,66 @@ Values = TypeVar("Values", float, np.ndarray)
 
 @dataclass(frozen=True)
 class Target:
-    """A measured response the simulation must match."""
+    """A response the simulation must match (``value``), or keep within bounds.
+
+    With ``lower`` and/or ``upper`` (a design's constraint or one-sided goal: a throughput
+    of at least, a spillage of at most), any response inside [lower, upper] meets the
+    target and the error is the distance to the bound it passes; ``value`` is then the
+    bound (the lower one when both are given), the reference a relative error is taken to.
+    """
 
     scene: str
     response: str
     value: float
     weight: float = 1.0
     spread: float | None = None  # measurement standard deviation, same unit as value
+    lower: float | None = None
+    upper: float | None = None
 
     @property
     def key(self) -> str:
         return f"{self.scene}.{self.response}"
+
+    @property
+    def is_band(self) -> bool:
+        return self.lower is not None or self.upper is not None
+
+    def nearest(self, simulated: float | np.ndarray) -> np.ndarray:
+        """The acceptable response nearest to ``simulated``: the value, or ``simulated``
+        clipped into the bounds."""
+        y = np.asarray(simulated, float)
+        if not self.is_band:
+            return np.full(y.shape, self.value)
+        low, high = self.accepted()
+        clipped: np.ndarray = np.clip(y, low, high)
+        return clipped
+
+    def accepted(self, margin: float | np.ndarray = 0.0) -> tuple:
+        """The responses that meet the target within ``margin``: (low, high), ±inf if open."""
+        if not self.is_band:
+            return self.value - margin, self.value + margin
+        low = -np.inf if self.lower is None else self.lower - margin
+        high = np.inf if self.upper is None else self.upper + margin
+        return low, high
+
+    def missed_by(self, miss: Values) -> Values:
+        """A response that misses the target by ``miss`` (>= 0): past its upper bound where it
+        has one, else below its lower bound, else above its value."""
+        if self.upper is not None:
+            return self.upper + miss
+        if self.lower is not None:
+            return self.lower - miss
+        return self.value + miss
+
+    def shown(self) -> str:
+        """The target as a person reads it: 25 ± 0.6, ≥ 50, ≤ 0.01 or 0.45 … 0.55."""
+        if self.lower is not None and self.upper is not None:
+            return f"{self.lower:.4g} … {self.upper:.4g}"
+        if self.lower is not None:
+            return f"≥ {self.lower:.4g}"
+        if self.upper is not None:
+            return f"≤ {self.upper:.4g}"
+        return f"{self.value:.4g}" + (f" ± {self.spread:.2g}" if self.spread else "")
 
 
 def relative_error(simulated: Values, target: float) -> Values:
@@ -57,6 +106,12 @@ def relative_error(simulated: Values, target: float) -> Values:
     if target == 0.0:
         return simulated - target
     return (simulated - target) / target
+
+
+def relative_miss(target: Target, simulated: float) -> float:
+    """How far a response misses its target, relative to the value or the bound it passes
+    (0 inside a target's bounds; the absolute miss where that reference is 0)."""
+    return float(relative_error(simulated, float(target.nearest(simulated))))
 
 
 def replicate_mean(values: list[float]) -> float:
@@ -104,6 +159,15 @@ def target_error(
     """The error of one response in the objective's form: (y - r) / r (Rackl & Hanley 2017, eq. 9;
     y - r where r is 0), or (y - r) / s in units of the target's spread (precision form)."""
     y = np.asarray(simulated, float)
+    if target.is_band:
+        reference = target.nearest(y)
+        if form == "precision":
+            assert target.spread is not None, "the study's config requires spreads for this form"
+            scale = np.full(y.shape, target.spread)
+        else:  # relative to the bound passed; absolute where that bound is 0
+            scale = np.where(reference == 0.0, 1.0, np.abs(reference))
+        gap: np.ndarray = (y - reference) / scale
+        return gap
     if form == "precision":
         assert target.spread is not None, "the study's config requires spreads for this form"
         return (y - target.value) / target.spread
@@ -182,6 +246,7 @@ class ResponseObjective:
                     "value": t.value,
                     "weight": t.weight,
                     "spread": t.spread,
+                    **bounds_of(t),
                 }
                 for t in self.targets
             ],
@@ -190,6 +255,16 @@ class ResponseObjective:
     @classmethod
     def from_dict(cls, record: dict) -> ResponseObjective:
         return cls(tuple(Target(**t) for t in record["targets"]), record["form"])
+
+
+def bounds_of(target: Target) -> dict[str, float]:
+    """The bounds a target has, for a record (none for a plain target: its records stay as
+    they were before bounds existed)."""
+    return {
+        name: bound
+        for name, bound in (("lower", target.lower), ("upper", target.upper))
+        if bound is not None
+    }
 
 
 def replicate_objectives(
