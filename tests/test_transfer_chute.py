@@ -11,13 +11,15 @@ import pytest
 from demcal.engines.base import RunMonitor, SimulationJob
 from demcal.engines.lammps import LammpsEngine
 from demcal.errors import ConfigError, SimulationFailed
-from demcal.results.records import Status
+from demcal.reporting.figures import answer_histories, plot_answer_history
+from demcal.results.records import BestRecord, SimulationRecord, Status
 from demcal.results.storage import read_partial
 from demcal.scenes import SCENES
 from demcal.scenes.transfer_chute import DESIGN_SETTINGS, chute_geometry, expected_particle_mass
 from demcal.scenes.transfer_chute.lammps import flow_responses, window_rate
 from demcal.study.catalogue import CATALOG
 from demcal.study.config import load_study
+from demcal.study.model import freeze
 
 SCENE = SCENES.load("transfer_chute")
 MATERIAL = {name: spec.default for name, spec in CATALOG.items()}
@@ -173,3 +175,49 @@ def test_moving_the_funnel_moves_the_flow(tmp_path):
         assert result.status == Status.OK, result.reason
         splits[offset] = result.measurements["split"]
     assert splits[-0.4] > 0.8 and splits[0.4] < 0.2
+
+
+# -- the report's figure of the answer over time -----------------------------------
+def saved_run(study, evaluation: str, rate_left: float, rate_right: float) -> None:
+    """A finished replicate of ``evaluation`` with a steady delivery, as the driver saves it."""
+    files = study.files.evaluation(evaluation).replicate("transfer_chute", 0)
+    files.dir.mkdir(parents=True)
+    times = np.arange(0, 3.01, 0.05)
+    np.savez(
+        files.state,
+        delivery_time=times,
+        delivered_left=rate_left * times,
+        delivered_right=rate_right * times,
+    )
+    SimulationRecord(
+        evaluation,
+        "transfer_chute",
+        0,
+        "lammps",
+        "x",
+        study.settings["transfer_chute"],
+        0.25,
+        ["flow_difference"],
+        0.0,
+        Status.OK,
+        state_file="state.npz",
+    ).write(files.simulation)
+
+
+def test_the_answer_over_time_gathers_its_runs_and_confirmations(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    study = freeze(load_study(CHUTE_DESIGN))
+    assert study.keeps_history
+    saved_run(study, "e0004", 70.0, 80.0)
+    saved_run(study, "e0011", 74.0, 76.0)
+    best = BestRecord(
+        "e0004", {}, objective=1.0, confirmation={"of": "e0004", "evaluations": ["e0011", "e0012"]}
+    )
+    series = answer_histories(study, best)  # e0012 has no saved run: skipped
+    assert sorted(series) == ["transfer_chute.mass_flow_left", "transfer_chute.mass_flow_right"]
+    left = series["transfer_chute.mass_flow_left"]
+    assert len(left) == 2
+    assert left[0][1] == pytest.approx(70.0) and left[1][1] == pytest.approx(74.0)
+    plot_answer_history(study, best, tmp_path / "answer.png")
+    plot_answer_history(study, None, tmp_path / "none.png")
+    assert (tmp_path / "answer.png").stat().st_size > 0 and (tmp_path / "none.png").exists()

@@ -27,9 +27,10 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from demcal.daemon.termination import ESTIMATE_COLUMNS  # noqa: E402
+from demcal.errors import SimulationFailed  # noqa: E402
 from demcal.reporting.terminal import time_unit  # noqa: E402
 from demcal.results.layout import proposal_id  # noqa: E402
-from demcal.results.records import BestRecord, Status  # noqa: E402
+from demcal.results.records import BestRecord, SimulationRecord, Status  # noqa: E402
 from demcal.results.storage import read_json  # noqa: E402
 from demcal.study.model import Study, load_frozen  # noqa: E402
 from demcal.workflow import dag_command  # noqa: E402
@@ -328,6 +329,68 @@ def write_plots(study: Study, outdir: Path) -> list[Path]:
         study, load_estimates(study), evaluation_statuses(table), paths["early_termination"]
     )
     return list(paths.values())
+
+
+def answer_runs(study: Study, best: BestRecord) -> list[str]:
+    """The evaluations that simulated the answer: its own and its confirmations (none for
+    an answer taken from the archive, whose files are another study's)."""
+    if best.reused:
+        return []
+    return [best.evaluation, *((best.confirmation or {}).get("evaluations") or [])]
+
+
+def answer_histories(study: Study, best: BestRecord) -> dict[str, list[tuple]]:
+    """Per ``scene.response``, the (times, values) of every saved run of the answer, from the
+    scenes that keep a time series (``Scene.history``)."""
+    series: dict[str, list[tuple]] = {}
+    for name, scene in study.scenes.items():
+        if scene.history is None:
+            continue
+        for evaluation in answer_runs(study, best):
+            for replicate in range(study.replicates):
+                files = study.files.evaluation(evaluation).replicate(name, replicate)
+                try:
+                    settings = SimulationRecord.read(files.simulation).settings
+                    with np.load(files.state) as data:
+                        state = {key: data[key] for key in data.files}
+                except (SimulationFailed, OSError, ValueError):
+                    continue  # not run, failed, or no state kept: nothing to draw
+                for response, run in scene.history(state, settings).items():
+                    series.setdefault(f"{name}.{response}", []).append(run)
+    return series
+
+
+def plot_answer_history(study: Study, best: BestRecord | None, path: Path) -> None:
+    """The responses of the answer over simulated time: the mean and ±1 sd over its runs
+    (replicates and confirmations), as Samuelsson (2023, Figure 5.5b) shows the flows of his
+    chute's answer."""
+    fig, ax = plt.subplots(figsize=(7.0, 4.0))
+    series = {} if best is None else answer_histories(study, best)
+    for key, runs in series.items():
+        length = min(len(times) for times, _ in runs)
+        times = np.asarray(runs[0][0][:length], float)
+        values = np.array([np.asarray(v, float)[:length] for _, v in runs])
+        mean = values.mean(axis=0)
+        sd = values.std(axis=0, ddof=1) if len(runs) > 1 else np.zeros(length)
+        (line,) = ax.plot(times, mean, lw=1.5, label=f"{key} (mean of {len(runs)} runs)")
+        ax.fill_between(times, mean - sd, mean + sd, color=line.get_color(), alpha=0.2)
+    if series:
+        scene, response = next(iter(series)).split(".", 1)
+        ax.set_ylabel(f"[{study.scenes[scene].responses[response].unit}]")
+        ax.legend(fontsize=8)
+    else:
+        ax.text(0.5, 0.5, "no saved run of an answer", ha="center", transform=ax.transAxes)
+    ax.set_xlabel("simulated time [s]")
+    answer = "no answer" if best is None else f"the answer, {best.evaluation}"
+    ax.set_title(f"{answer}: responses over time (band: ±1 sd)", fontsize=9)
+    ax.grid(True, alpha=0.3)
+    _save(fig, path)
+
+
+def write_answer_history(smk) -> None:
+    """Entry point of the workflow's answer_history job."""
+    study = load_frozen(smk.params.study_file)
+    plot_answer_history(study, BestRecord.read_if_any(study.files.best), Path(smk.output[0]))
 
 
 def best_point_table(study: Study) -> pd.DataFrame:

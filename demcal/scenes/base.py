@@ -181,6 +181,10 @@ class Scene:
     #: The setting that sets the simulated amount of material (particle count or a scale
     #: factor), varied by the convergence study.
     size_setting: str = "particle_count"
+    #: Responses over simulated time from a run's saved state, for the report's figure of
+    #: the answer: (state, settings) -> {response: (times [s], values)}; None: the scene has
+    #: no time series worth showing.
+    history: Callable[[dict, dict], dict[str, tuple]] | None = None
 
     def driver(self, engine: str) -> Callable | None:
         """What the engine named ``engine`` runs for this scene; None if the scene has none.

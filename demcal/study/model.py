@@ -117,6 +117,12 @@ class Study:
         """Paths of this study's results (``results/<study>/``)."""
         return StudyFiles.of(self.name)
 
+    @property
+    def keeps_history(self) -> bool:
+        """Whether a scene of the study keeps its responses over time (the report's figure of
+        the answer over time)."""
+        return any(scene.history is not None for scene in self.scenes.values())
+
     def responses_needed(self, scene: str) -> list[str]:
         """Responses of ``scene`` that some target asks for, in declaration order."""
         wanted = {t.response for t in self.targets if t.scene == scene}

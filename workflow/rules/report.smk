@@ -51,6 +51,26 @@ rule plots:
         "../scripts/plots.py"
 
 
+# Only for studies whose scenes keep a time series (Scene.history; the transfer chute's
+# flows): the answer's responses over simulated time.
+rule answer_history:
+    input:
+        str(FILES.finished),
+    output:
+        report(
+            str(PLOTS / "answer_over_time.png"),
+            caption="../report/answer_over_time.rst",
+            category="Best point",
+        ),
+    log:
+        str(FILES.logs / "answer_history.log"),
+    localrule: True
+    params:
+        study_file=STUDY_FILE,
+    script:
+        "../scripts/answer_history.py"
+
+
 rule solutions:
     input:
         str(FILES.finished),

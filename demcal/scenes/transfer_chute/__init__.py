@@ -46,6 +46,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
 from scipy.stats import norm
 
 from demcal.errors import ConfigError
@@ -55,6 +56,8 @@ from demcal.scenes.transfer_chute.analytic import analytic_model
 
 #: The design variables of the thesis (Table 4.7), as settings a study may free.
 DESIGN_SETTINGS = ("funnel_angle", "funnel_y", "funnel_z", "belt_speed")
+#: Width of the moving window the mass flows over time are taken over [s].
+HISTORY_WINDOW = 0.2
 #: Spare particles sampled beyond the expected count of the feed (the PSD's mean mass is
 #: that of the sample only on average).
 FEED_MARGIN = 1.25
@@ -118,6 +121,22 @@ def expected_particle_mass(settings: dict, density: float) -> float:
         / (norm.cdf(k) - norm.cdf(-k))
     )
     return density * math.pi / 6.0 * settings["d50"] ** 3 * cube
+
+
+def flow_history(state: dict, settings: dict) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """The mass flows left and right [kg/s] over time: the delivered mass over the last
+    ``HISTORY_WINDOW`` (at least one count) before each count, per second (the thesis'
+    Figure 5.5b)."""
+    times = np.asarray(state["delivery_time"], float)
+    lag = max(1, round(HISTORY_WINDOW / settings["sample_interval"]))
+    span = times[lag:] - times[:-lag]
+    return {
+        side: (times[lag:], (delivered[lag:] - delivered[:-lag]) / span)
+        for side, delivered in (
+            ("mass_flow_left", np.asarray(state["delivered_left"], float)),
+            ("mass_flow_right", np.asarray(state["delivered_right"], float)),
+        )
+    }
 
 
 def check_chute(settings: dict, field_prefix: str) -> None:
@@ -220,4 +239,5 @@ SCENE = Scene(
     drivers={"lammps": f"{__name__}.lammps:run"},
     check_settings=check_chute,
     size_setting="feed_rate",
+    history=flow_history,
 )
