@@ -46,11 +46,11 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def noise_level(config: dict) -> float | None:
     """The objective of responses one spread off every target; None if a spread is missing."""
-    form = config.get("objective", "relative")
+    if any(t.get("spread") is None for t in config["targets"]):
+        return None
+    form = config.get("objective", "auto")  # auto: precision, as every target has a spread
     total = 0.0
     for t in config["targets"]:
-        if t.get("spread") is None:
-            return None
         error = 1.0 if form == "precision" else t["spread"] / (t["value"] or 1.0)
         total += t.get("weight", 1.0) * error * error
     return total

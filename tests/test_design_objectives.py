@@ -135,3 +135,13 @@ def test_a_design_study_finds_a_point_that_splits_within_the_bounds(
     assert 0.45 <= split <= 0.55, (reason, best.parameters, split)
     assert best.objective == pytest.approx(0.0, abs=1e-12)
     assert best.relative_errors["transfer_chute.split"] == 0.0
+
+
+def test_a_miss_of_a_zero_target_is_shown_in_the_response_unit_not_in_per_cent():
+    from demcal.reporting.terminal import error_text
+
+    zero = Target("s", "r", 0.0, spread=2.8)
+    assert error_text(zero, 1.99, relative_miss(zero, 1.99), "kg/s") == "+1.99 kg/s"
+    band = Target("s", "r", 0.45, lower=0.45, upper=0.55)
+    assert error_text(band, 0.66, relative_miss(band, 0.66), "-") == "+20.0%"
+    assert error_text(band, None, None, "-") == "–"

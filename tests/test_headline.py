@@ -71,7 +71,7 @@ def test_headline_of_a_finished_calibration(study):
                 f"{simulated:.4g}",
                 f"{predicted['mean']:.4g} ±{predicted['sd']:.2g}",
                 "25",
-                f"{error:+.1f} %",
+                f"{error:+.1f}%",
             ]
         )
         in headline
@@ -171,7 +171,7 @@ def test_headline_from_files_written_by_hand(study):
     assert table_row(["rolling_friction_pp", "0.3", "0.02 – 0.3 **on its upper bound**"]) in (
         headline
     )
-    assert table_row([f"{DENSITY} [kg/m^3]", "1430", "–", "1450", "-1.4 %"]) in headline
+    assert table_row([f"{DENSITY} [kg/m^3]", "1430", "–", "1450", "-1.4%"]) in headline
     assert "**Confirmed** by 2 more simulations of the best point" in headline
     assert table_row([ANGLE, "25.25 ±0.35", "2", "25"]) in headline
     assert "scatter of single simulations is not" not in headline  # the confirmations measure it

@@ -16,7 +16,7 @@ from pathlib import Path
 import pandas as pd
 
 from demcal.analysis.solutions import posterior_line
-from demcal.reporting.terminal import CHOSEN_BY, duration, target_text, with_sd
+from demcal.reporting.terminal import CHOSEN_BY, duration, error_text, target_text, with_sd
 from demcal.results.records import BestRecord, FinishedRecord, Status
 from demcal.study.model import Study
 
@@ -121,7 +121,7 @@ def _best_responses(study: Study, best: BestRecord) -> list[str]:
                 with_sd(best.responses.get(t.key), None),
                 with_sd(model.get("mean"), model.get("sd")),
                 target_text(t),
-                f"{100 * best.relative_errors.get(t.key, float('nan')):+.1f} %",
+                error_text(t, best.responses.get(t.key), best.relative_errors.get(t.key), unit),
             ]
         )
     unmeasured = study.replicates == 1 and not best.confirmation

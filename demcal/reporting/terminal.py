@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import subprocess
 from pathlib import Path
 
@@ -43,6 +44,17 @@ def with_sd(value: float | None, sd: float | None) -> str:
 def target_text(target: Target) -> str:
     """A target as the reports show it: its value ± spread, or its bounds."""
     return target.shown() if target.is_band else with_sd(target.value, target.spread)
+
+
+def error_text(target: Target, simulated: float | None, error: float | None, unit: str) -> str:
+    """A response's miss as the reports show it: in per cent of the value or bound it misses,
+    or in the response's unit where that is 0 (a relative error of a 0 target is its absolute
+    miss, ``relative_miss``)."""
+    if simulated is None or error is None or not math.isfinite(error):
+        return "–"
+    if float(target.nearest(simulated)) == 0.0:
+        return f"{error:+.3g} {unit}"
+    return f"{100 * error:+.1f}%"
 
 
 def _given(value) -> str:
@@ -95,9 +107,8 @@ def evaluation_summary(
             )
             if predicted:
                 line += f" {with_sd(predicted[t.key]['mean'], predicted[t.key]['sd']):>16s}"
-            lines.append(
-                line + f" {target_text(t):>14s} {100 * record.relative_errors[t.key]:>+7.1f}%"
-            )
+            error = error_text(t, record.responses[t.key], record.relative_errors[t.key], unit)
+            lines.append(line + f" {target_text(t):>14s} {error:>8s}")
     else:
         lines.append(f"  reason: {record.reason}")
     lines.append(f"  simulation CPU time {record.cost.get('cpu_s', 0):.0f} s; files in {where}/")
@@ -123,7 +134,7 @@ def confirmation_summary(study: Study, best: BestRecord) -> str | None:
                 f"  {t.key + ' [' + unit + ']':34s} mean "
                 f"{with_sd(entry['mean'], entry['sd']):>16s} (n = {entry['count']})  target "
                 f"{target_text(t)}  "
-                f"{100 * relative_miss(t, entry['mean']):+.1f}%"
+                f"{error_text(t, entry['mean'], relative_miss(t, entry['mean']), unit)}"
             )
     return "\n".join(lines)
 
