@@ -145,3 +145,27 @@ def test_a_miss_of_a_zero_target_is_shown_in_the_response_unit_not_in_per_cent()
     band = Target("s", "r", 0.45, lower=0.45, upper=0.55)
     assert error_text(band, 0.66, relative_miss(band, 0.66), "-") == "+20.0%"
     assert error_text(band, None, None, "-") == "–"
+
+
+def test_a_design_study_takes_its_material_from_a_calibration_end_to_end(tmp_path, monkeypatch):
+    """Calibrate the analytic cylinder lift, then design the chute for its answer."""
+    from conftest import ANALYTIC_STUDY
+
+    monkeypatch.chdir(tmp_path)
+    lab = copy.deepcopy(ANALYTIC_STUDY)
+    lab.update(
+        study="lab",
+        optimizer={"max_evaluations": 8, "early_termination": {"enabled": False}},
+        calibration={"poll_seconds": 0.001, "retries": 1},
+    )
+    calibration, _, _ = calibrate(lab)
+    answer = BestRecord.read(calibration.study.files.best)
+    design, _, _ = calibrate(chute(material="lab"))
+    study = design.study
+    assert study.material["study"] == "lab"
+    assert study.material["evaluation"] == answer.evaluation
+    for name, value in answer.parameters.items():
+        assert study.fixed[name] == value
+    assert study.fixed["restitution_pp"] == ANALYTIC_STUDY["fixed"]["restitution_pp"]
+    split = BestRecord.read(study.files.best).responses["transfer_chute.split"]
+    assert 0.45 <= split <= 0.55
