@@ -416,6 +416,12 @@ NON_FINITE = [
         r"material: 'never-calibrated' names no calibration with an answer",
     ),
     _field("material_empty", ["material"], "", r"material: '' should be non-empty"),
+    _field(
+        "material_robust_not_a_flag",
+        ["material"],
+        {"calibration": "lab", "robust": "yes"},
+        r"material.robust: 'yes' is not of type boolean",
+    ),
 ]
 
 #: The command engine deletes responses_file before each run: no path may leave the run directory.

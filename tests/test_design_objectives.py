@@ -169,3 +169,46 @@ def test_a_design_study_takes_its_material_from_a_calibration_end_to_end(tmp_pat
     assert study.fixed["restitution_pp"] == ANALYTIC_STUDY["fixed"]["restitution_pp"]
     split = BestRecord.read(study.files.best).responses["transfer_chute.split"]
     assert 0.45 <= split <= 0.55
+
+
+def test_a_robust_design_study_simulates_each_replicate_with_its_drawn_material(
+    tmp_path, monkeypatch
+):
+    """A calibration that left the wall friction loose; the design draws it per replicate
+    and scores each evaluation by the loss over the draws."""
+    from conftest import ANALYTIC_STUDY
+
+    from demcal.results.records import ObjectiveRecord, SimulationRecord
+    from demcal.study.model import freeze
+
+    monkeypatch.chdir(tmp_path)
+    lab = copy.deepcopy(ANALYTIC_STUDY)
+    lab.update(study="lab", parameters={"sliding_friction_pw": {"lower": 0.1, "upper": 0.9}})
+    calibration = freeze(load_study(lab))
+    BestRecord("e0003", {"sliding_friction_pw": 0.5}, objective=0.01).write(calibration.files.best)
+    rows = [f"{0.2 + 0.1 * i},0.9" for i in range(7)]
+    calibration.files.solutions.write_text(
+        "sliding_friction_pw,membership_probability\n" + "\n".join(rows) + "\n"
+    )
+    design, _, _ = calibrate(
+        chute(
+            material={"calibration": "lab", "robust": True},
+            replicates=3,
+            optimizer={"max_evaluations": 6, "early_termination": {"enabled": False}},
+        )
+    )
+    study = design.study
+    assert study.optimizer.strategy == "dycors" and len(study.material_draws) == 3
+    objective = study.objective
+    spread_counted = []
+    for files in design.files.evaluations():
+        record = ObjectiveRecord.read(files.objective)
+        for replicate, draw in enumerate(study.material_draws):
+            simulated = SimulationRecord.read(
+                files.replicate("transfer_chute", replicate).simulation
+            )
+            assert simulated.parameters["sliding_friction_pw"] == draw["sliding_friction_pw"]
+        each = objective.per_replicate(record.replicates)
+        assert record.objective == pytest.approx(sum(each) / 3)
+        spread_counted.append(record.objective - objective.of_means(record.responses))
+    assert min(spread_counted) >= 0.0 and max(spread_counted) > 0.0  # the draws' spread counts

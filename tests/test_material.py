@@ -11,6 +11,7 @@ from demcal.errors import ConfigError
 from demcal.results.records import BestRecord
 from demcal.study.config import load_study
 from demcal.study.model import freeze, study_from_record, study_record
+from demcal.study.objective import ResponseObjective, Target
 
 ANSWER = {"sliding_friction_pp": 0.42, "rolling_friction_pp": 0.11, "d50": 2.2e-3}
 
@@ -114,3 +115,95 @@ def test_resume_takes_a_new_provenance_but_refuses_new_values(calibrated):
     with pytest.raises(ConfigError, match=r"fixed.sliding_friction_pp: 0.42 -> 0.45"):
         freeze(load_study(design()))
     assert first.material is not None
+
+
+def write_solution_set(study, rows: list[tuple[float, float, float]]) -> None:
+    """solutions.csv of ``study``: (sliding_friction_pp, rolling_friction_pp, probability)."""
+    lines = ["sliding_friction_pp,rolling_friction_pp,d50,membership_probability"]
+    lines += [f"{s},{r},2.2e-3,{p}" for s, r, p in rows]
+    study.files.solutions.write_text("\n".join(lines) + "\n")
+
+
+#: Six likely materials and two the calibration's targets rule out.
+SOLUTION_SET = [(0.3 + 0.02 * i, 0.05 + 0.01 * i, 0.9) for i in range(6)] + [
+    (0.8, 0.25, 0.2),
+    (0.1, 0.02, 0.01),
+]
+
+
+def robust(**fields) -> dict:
+    return design(**{"material": {"calibration": "lab", "robust": True}, "replicates": 3, **fields})
+
+
+def test_a_robust_study_draws_one_likely_material_per_replicate(calibrated):
+    write_solution_set(calibrated, SOLUTION_SET)
+    study = load_study(robust())
+    likely = {(s, r) for s, r, p in SOLUTION_SET if p >= 0.5}
+    draws = study.material_draws
+    assert len(draws) == 3 and len({tuple(d.items()) for d in draws}) == 3
+    assert all(set(d) == {"sliding_friction_pp", "rolling_friction_pp"} for d in draws)
+    assert all((d["sliding_friction_pp"], d["rolling_friction_pp"]) in likely for d in draws)
+    point = {"sliding_friction_pw": 0.4}
+    for replicate, draw in enumerate(draws):
+        parameters = study.parameters_for(point, replicate)
+        assert parameters["sliding_friction_pp"] == draw["sliding_friction_pp"]
+        assert parameters["rolling_friction_pp"] == draw["rolling_friction_pp"]
+        assert parameters["sliding_friction_pw"] == 0.4
+        assert parameters["restitution_pp"] == 0.5
+    # the objective is the loss over the draws, which the response models do not model
+    assert study.objective.expected_loss and study.response_objective is None
+    assert study.optimizer.strategy == "dycors"
+    assert study.material is not None and len(study.material["solutions_sha256"]) == 64
+    assert study_from_record(study_record(study)).material_draws == draws
+    assert load_study(robust()).material_draws == draws  # the study's seed fixes the draws
+    assert load_study(robust(seed=4)).material_draws != draws
+
+
+def test_what_the_study_fixes_itself_is_not_drawn(calibrated):
+    write_solution_set(calibrated, SOLUTION_SET)
+    study = load_study(robust(fixed={"rolling_friction_pp": 0.1}))
+    assert all(set(d) == {"sliding_friction_pp"} for d in study.material_draws)
+    assert study.parameters_for({"sliding_friction_pw": 0.4}, 2)["rolling_friction_pp"] == 0.1
+
+
+@pytest.mark.parametrize(
+    "fields, rows, message",
+    [
+        (
+            {"replicates": 1},
+            SOLUTION_SET,
+            r"replicates: 1; material.robust .* needs replicates >= 2",
+        ),
+        ({}, None, r"material.robust: no solution set of the calibration in results/lab/solutions"),
+        ({"replicates": 7}, SOLUTION_SET, r"has 6 likely points, fewer than the 7 replicates"),
+        (
+            {"optimizer": {"strategy": "response_ei"}},
+            SOLUTION_SET,
+            r"optimizer.strategy: response_ei models the responses, .*material.robust",
+        ),
+    ],
+)
+def test_a_robust_study_that_cannot_draw_is_a_clear_error(calibrated, fields, rows, message):
+    if rows:
+        write_solution_set(calibrated, rows)
+    with pytest.raises(ConfigError, match=message):
+        load_study(robust(**fields))
+
+
+def test_resume_refuses_other_draws(calibrated):
+    write_solution_set(calibrated, SOLUTION_SET)
+    freeze(load_study(robust()))
+    write_solution_set(calibrated, [(s + 0.01, r, p) for s, r, p in SOLUTION_SET])
+    with pytest.raises(ConfigError, match=r"drawn_materials"):
+        freeze(load_study(robust()))
+
+
+def test_the_expected_loss_counts_the_spread_over_materials():
+    target = Target("chute", "flow_difference", 0.0, spread=2.0)
+    replicates = {"chute.flow_difference": [-2.0, 2.0]}
+    assert ResponseObjective((target,), "precision").of_replicates(replicates) == 0.0
+    robust = ResponseObjective((target,), "precision", expected_loss=True)
+    assert robust.of_replicates(replicates) == pytest.approx(1.0)  # ((-1)^2 + 1^2) / 2
+    assert robust.version != ResponseObjective((target,), "precision").version
+    with pytest.raises(ValueError, match="not all finite"):
+        robust.of_replicates({"chute.flow_difference": [1.0, float("inf")]})

@@ -132,7 +132,7 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> Simul
     try:
         point = PointRecord.read(files.params)
         attempt = point.attempt
-        parameters = study.parameters_for(point.parameters)
+        parameters = study.parameters_for(point.parameters, replicate)
         settings = study.settings_for(scene, point.parameters)
         avoid = reused_seeds(study)
     except (ConfigError, SimulationFailed) as exc:
@@ -381,7 +381,7 @@ def score(
     objective = study.objective
     means = {key: replicate_mean(v) for key, v in replicates.items()}  # Samuelsson 2023, 2.5
     try:
-        value = objective.of_means(means, timestep_cost)
+        value = objective.of_replicates(replicates, timestep_cost)
     except ValueError as exc:
         return replace(record, status=Status.FAILED, reason=str(exc))
     return replace(

@@ -29,7 +29,7 @@ from demcal.resources import SCHEMA_PATH
 from demcal.scenes import SCENES, ResponseSpec, Scene
 from demcal.scenes.base import variable_settings
 from demcal.study.catalogue import CATALOG, SPLIT_PARAMETERS
-from demcal.study.material import load_material
+from demcal.study.material import CalibratedMaterial, load_material, load_robust_material
 from demcal.study.model import FreeParameter, Study
 from demcal.study.objective import DEFAULT_FORM, Target
 
@@ -329,13 +329,17 @@ def _parameters(config: dict, scenes: dict[str, Scene]) -> tuple[list[FreeParame
     return free, {**defaults, **fixed}
 
 
-def _with_material(config: dict, scenes: dict[str, Scene]) -> tuple[dict, dict | None, list[str]]:
+def _with_material(
+    config: dict, scenes: dict[str, Scene]
+) -> tuple[dict, dict | None, tuple[dict[str, float], ...], list[str]]:
     """The study file with the calibrated material (``material:``) filled in wherever the
-    file neither fixes nor frees a value; the material's provenance, and warnings for each
-    calibrated value the file replaces and each parameter the calibration did not have."""
+    file neither fixes nor frees a value; the material's provenance; with ``robust``, the
+    materials drawn for the replicates (the values this study takes from the calibration);
+    and warnings for each calibrated value the file replaces and each parameter the
+    calibration did not have."""
     if "material" not in config:
-        return config, None, []
-    material = load_material(config["material"])
+        return config, None, (), []
+    material = _load_material(config)
     free, warnings = config["parameters"], []
     fixed = dict(config.get("fixed", {}))
     source = f"the calibration {material.study!r}"
@@ -360,6 +364,8 @@ def _with_material(config: dict, scenes: dict[str, Scene]) -> tuple[dict, dict |
                 )
         else:
             fixed[name] = material.parameters[name]
+    taken = set(fixed) - set(config.get("fixed", {}))
+    draws = tuple({k: v for k, v in draw.items() if k in taken} for draw in material.draws)
     scene_config = {
         name: {**entry, "settings": dict(entry.get("settings") or {})}
         for name, entry in config.get("scenes", {}).items()
@@ -376,7 +382,29 @@ def _with_material(config: dict, scenes: dict[str, Scene]) -> tuple[dict, dict |
                     f"scenes.{name}.settings.{setting} = {given[setting]:g} replaces "
                     f"{value:g} of {source}"
                 )
-    return {**config, "fixed": fixed, "scenes": scene_config}, material.provenance(), warnings
+    return (
+        {**config, "fixed": fixed, "scenes": scene_config},
+        material.provenance(),
+        draws,
+        warnings,
+    )
+
+
+def _load_material(config: dict) -> CalibratedMaterial:
+    """The calibration ``material:`` names (a reference, or ``{calibration, robust}``)."""
+    spec = config["material"]
+    if isinstance(spec, str):
+        return load_material(spec)
+    if not spec.get("robust", False):
+        return load_material(spec["calibration"])
+    replicates = int(config.get("replicates", default("replicates")))
+    if replicates < 2:
+        raise ConfigError(
+            f"replicates: {replicates}; material.robust draws one material from the "
+            f"calibration's solution set per replicate, so it needs replicates >= 2"
+        )
+    seed = int(config.get("seed", default("seed")))
+    return load_robust_material(spec["calibration"], replicates, seed)
 
 
 def _settings(config: dict, scenes: dict[str, Scene], free: list[FreeParameter]) -> dict:
@@ -481,7 +509,7 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
     validate_schema(config)
     scenes = _scenes_of(config)
     targets = _targets(config, scenes)
-    config, material, material_warnings = _with_material(config, scenes)
+    config, material, material_draws, material_warnings = _with_material(config, scenes)
     free, fixed = _parameters(config, scenes)
     settings = _settings(config, scenes, free)
     fraction = float(config.get("timestep_fraction", default("timestep_fraction")))
@@ -504,22 +532,27 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
             f"target a spread > 0 (its measurement standard deviation), or use "
             f"objective: relative"
         )
-    # The response models do not model the Rayleigh cost term yet: with it, a
-    # study's default is the optimizer's own (dycors), and response_ei is refused.
-    strategy = (
-        default("optimizer", "strategy") if cost_weight == 0.0 else OptimizerSettings().strategy
+    # The response models model neither the Rayleigh cost term nor the expected loss over
+    # drawn materials: with either, a study's default is the optimizer's own (dycors), and
+    # the strategies on response models are refused.
+    values_only = (
+        f"rayleigh_cost_weight {cost_weight:g}"
+        if cost_weight > 0.0
+        else "material.robust (the loss over the drawn materials)"
+        if material_draws
+        else ""
     )
+    strategy = OptimizerSettings().strategy if values_only else default("optimizer", "strategy")
     try:
         optimizer = OptimizerSettings.from_dict(
             {"strategy": strategy, **config.get("optimizer", {})}
         )
     except ValueError as exc:
         raise ConfigError(str(exc)) from None
-    if cost_weight > 0.0 and STRATEGIES[optimizer.strategy].needs_targets:
+    if values_only and STRATEGIES[optimizer.strategy].needs_targets:
         raise ConfigError(
-            f"optimizer.strategy: {optimizer.strategy} does not model the Rayleigh "
-            f"time-step cost yet; with rayleigh_cost_weight {cost_weight:g} use "
-            f"dycors or kriging_ei"
+            f"optimizer.strategy: {optimizer.strategy} models the responses, which does not "
+            f"capture {values_only}; use dycors or kriging_ei"
         )
     archive = _archive(config)
     engine_config = dict(config["engine"])
@@ -550,6 +583,7 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
         archive=archive,
         reuse=_reuse(config, archive),
         material=material,
+        material_draws=material_draws,
     )
 
 

@@ -8,15 +8,26 @@ material parameter it simulated with, and the particle-size settings it
 varied (``d50``, ``sigma_ln``). The values are filled in where the new study
 gives none; what the new study fixes or frees itself wins. Where the values
 came from is kept with the study (``Study.material``).
+
+``material: {calibration: quickstart, robust: true}`` carries the
+calibration's uncertainty into the design: replicate ``r`` of every
+evaluation simulates with the ``r``-th of ``replicates`` materials drawn
+from the calibration's likely solution set (``solutions.csv``, what its
+targets cannot tell apart), and the evaluation's objective is the expected
+loss over them (``ResponseObjective.expected_loss``).
 """
 
 from __future__ import annotations
 
 import hashlib
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+import numpy as np
+import pandas as pd
+
+from demcal.analysis.solutions import LIKELY
 from demcal.errors import ConfigError, SimulationFailed
 from demcal.results.layout import StudyFiles
 from demcal.results.records import BestRecord
@@ -43,6 +54,11 @@ class CalibratedMaterial:
     parameters: dict[str, float]
     #: free scene settings of the calibration at its answer (particle size: d50 [m], ...)
     settings: dict[str, float]
+    #: robust: materials drawn from the solution set, one per replicate (the calibration's
+    #: free material parameters only), and the solutions.csv they came from with its SHA-256
+    draws: list[dict[str, float]] = field(default_factory=list)
+    solutions_file: str = ""
+    solutions_sha256: str = ""
 
     def provenance(self) -> dict:
         """What ``study.json`` keeps of it."""
@@ -56,6 +72,15 @@ class CalibratedMaterial:
             "finished": self.finished,
             "parameters": self.parameters,
             "settings": self.settings,
+            **(
+                {
+                    "solutions": self.solutions_file,
+                    "solutions_sha256": self.solutions_sha256,
+                    "draws": self.draws,
+                }
+                if self.draws
+                else {}
+            ),
         }
 
 
@@ -124,3 +149,44 @@ def load_material(reference: str) -> CalibratedMaterial:
         parameters=parameters,
         settings=settings,
     )
+
+
+def draw_materials(
+    folder: Path, names: list[str], count: int, seed: int
+) -> tuple[list[dict[str, float]], Path, str]:
+    """``count`` materials drawn without replacement (seeded) from the likely part of the
+    calibration's solution set in ``folder``: the values of ``names`` of each, the
+    solutions.csv and its SHA-256. A ConfigError naming ``material`` if there are too few."""
+    path = StudyFiles(folder).solutions
+    try:
+        table = pd.read_csv(path)
+        likely = table[table["membership_probability"] >= LIKELY][names]
+    except (OSError, KeyError, ValueError, pd.errors.ParserError) as exc:
+        raise ConfigError(
+            f"material.robust: no solution set of the calibration in {path} "
+            f"({type(exc).__name__}: {exc}); run its report (demcal solutions CONFIG) first"
+        ) from None
+    if len(likely) < count:
+        raise ConfigError(
+            f"material.robust: the solution set in {path} has {len(likely)} likely points, "
+            f"fewer than the {count} replicates to draw materials for; lower replicates"
+        )
+    rows = np.random.default_rng(seed).choice(len(likely), size=count, replace=False)
+    draws = [{name: float(likely.iloc[i][name]) for name in names} for i in sorted(rows)]
+    return draws, path, hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def load_robust_material(reference: str, count: int, seed: int) -> CalibratedMaterial:
+    """The calibration's answer (``load_material``) with ``count`` materials drawn from its
+    solution set for the replicates (``draw_materials``)."""
+    material = load_material(reference)
+    folder, _ = calibration_folder(reference)
+    names = sorted(set(material.parameters) & _free_material(folder))
+    draws, path, fingerprint = draw_materials(folder, names, count, seed)
+    return replace(material, draws=draws, solutions_file=str(path), solutions_sha256=fingerprint)
+
+
+def _free_material(folder: Path) -> set[str]:
+    """The material parameters the calibration in ``folder`` left free."""
+    calibration = read_json(StudyFiles(folder).study, "study.json")
+    return {p["name"] for p in calibration["parameters"] if not p.get("scene_setting")}

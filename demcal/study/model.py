@@ -100,17 +100,23 @@ class Study:
     reuse: str | None = None
     #: where the material came from when a calibration gave it (``CalibratedMaterial``)
     material: dict | None = None
+    #: robust material: replicate r simulates with draw r over the fixed values, and the
+    #: objective is the expected loss over the draws (docs/studies.md); empty: one material
+    material_draws: tuple[dict[str, float], ...] = ()
 
     @property
     def objective(self) -> ResponseObjective:
         """The objective of this study's targets in its form (the one computation of it)."""
-        return ResponseObjective(tuple(self.targets), self.objective_form)
+        return ResponseObjective(
+            tuple(self.targets), self.objective_form, expected_loss=bool(self.material_draws)
+        )
 
     @property
     def response_objective(self) -> ResponseObjective | None:
-        """The objective the optimizer applies to responses; None with the Rayleigh cost term,
-        which the response models do not model yet (the optimizer then works on values only)."""
-        return None if self.rayleigh_cost_weight else self.objective
+        """The objective the optimizer applies to responses; None with the Rayleigh cost term
+        or drawn materials, which the response models do not model (the optimizer then works
+        on values only)."""
+        return None if self.rayleigh_cost_weight or self.material_draws else self.objective
 
     @property
     def files(self) -> StudyFiles:
@@ -167,9 +173,10 @@ class Study:
         )
         return term * term
 
-    def parameters_for(self, free_values: dict[str, float]) -> dict[str, float]:
-        """The material parameters of a point: the fixed ones overlaid with its free material
-        values; every free value, settings included, is checked."""
+    def parameters_for(self, free_values: dict[str, float], replicate: int = 0) -> dict[str, float]:
+        """The material parameters of a point's ``replicate``: the fixed ones, overlaid with
+        that replicate's drawn material if any, then with the point's free material values;
+        every free value, settings included, is checked."""
         missing = [p.name for p in self.free if p.name not in free_values]
         unknown = sorted(set(free_values) - {p.name for p in self.free})
         if missing or unknown:
@@ -190,7 +197,14 @@ class Study:
                     f"range {p.spec.allowed()}"
                 )
         material = {p.name for p in self.free if not p.spec.scene_setting}
-        return {**self.fixed, **{k: float(v) for k, v in free_values.items() if k in material}}
+        drawn = (
+            self.material_draws[replicate % len(self.material_draws)] if self.material_draws else {}
+        )
+        return {
+            **self.fixed,
+            **drawn,
+            **{k: float(v) for k, v in free_values.items() if k in material},
+        }
 
     def settings_for(self, scene: str, free_values: dict[str, float]) -> dict:
         """The settings ``scene`` runs a point with: its resolved settings overlaid with the
@@ -294,6 +308,8 @@ def study_record(study: Study) -> dict:
         "archive": {"url": study.archive},
         **({"reuse": study.reuse} if study.reuse else {}),
         **({"material": study.material} if study.material else {}),
+        # compared on resume, unlike the material's provenance
+        **({"drawn_materials": list(study.material_draws)} if study.material_draws else {}),
     }
 
 
@@ -336,6 +352,7 @@ def study_from_record(record: dict) -> Study:
         warnings=record["warnings"],
         archive=record["archive"]["url"] if "archive" in record else _default_archive(),
         reuse=record.get("reuse"),
+        material_draws=tuple(record.get("drawn_materials", ())),
         material=record.get("material"),
     )
 

@@ -201,6 +201,9 @@ class ResponseObjective:
 
     targets: tuple[Target, ...]
     form: str = DEFAULT_FORM
+    #: score an evaluation by the mean of its replicates' objectives, the expected loss
+    #: (bias² + variance) over materials drawn per replicate, not by its mean responses
+    expected_loss: bool = False
 
     def __call__(self, responses: Mapping[str, float | np.ndarray]) -> float | np.ndarray:
         return objective_values(self.targets, responses, self.form)
@@ -222,7 +225,14 @@ class ResponseObjective:
 
     def of_replicates(self, replicates: Mapping[str, list[float]], cost: float = 0.0) -> float:
         """The objective of an evaluation: its replicates averaged per response first
-        (Samuelsson 2023, sec. 2.5), then eq. 3.3, plus ``cost``. ValueError if not finite."""
+        (Samuelsson 2023, sec. 2.5), then eq. 3.3, plus ``cost``; with ``expected_loss``, the
+        mean of the replicates' own objectives. ValueError if not finite."""
+        each = self.per_replicate(replicates, cost) if self.expected_loss else []
+        if each:
+            value = sum(each) / len(each)
+            if not math.isfinite(value):
+                raise ValueError(f"the replicates' objectives {each} are not all finite")
+            return value
         return self.of_means({key: replicate_mean(v) for key, v in replicates.items()}, cost)
 
     def per_replicate(
@@ -239,6 +249,7 @@ class ResponseObjective:
     def to_dict(self) -> dict:
         return {
             "form": self.form,
+            **({"expected_loss": True} if self.expected_loss else {}),
             "targets": [
                 {
                     "scene": t.scene,
@@ -254,7 +265,11 @@ class ResponseObjective:
 
     @classmethod
     def from_dict(cls, record: dict) -> ResponseObjective:
-        return cls(tuple(Target(**t) for t in record["targets"]), record["form"])
+        return cls(
+            tuple(Target(**t) for t in record["targets"]),
+            record["form"],
+            record.get("expected_loss", False),
+        )
 
 
 def bounds_of(target: Target) -> dict[str, float]:
