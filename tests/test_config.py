@@ -138,6 +138,27 @@ def test_simulator_file_in_a_subfolder_is_fine(analytic_config):
     assert load_study(analytic_config, check_engine=False).engine.name == "command"
 
 
+def test_early_termination_is_skipped_with_a_note_where_no_estimate_comes(analytic_config):
+    """A command engine without a partial file reports no early estimate: nothing to judge,
+    so replicates are not staged for it either."""
+    analytic_config["engine"] = {
+        "name": "command",
+        "command": "python3 sim.py",
+        "responses_file": "out.json",
+        "partial_file": "progress.csv",
+    }
+    with_estimates = load_study(analytic_config, check_engine=False)
+    assert with_estimates.optimizer.early_termination.enabled and with_estimates.staging == ()
+    assert with_estimates.warnings == []
+    del analytic_config["engine"]["partial_file"]
+    study = load_study(analytic_config, check_engine=False)
+    assert not study.optimizer.early_termination.enabled and study.staging is None
+    assert study.warnings == [
+        "optimizer.early_termination: skipped, as the command engine gives no early estimate "
+        "of a response (no engine.partial_file); every simulation runs to its end"
+    ]
+
+
 def test_rayleigh_cost_keeps_a_strategy_that_models_it(analytic_config):
     """The response models leave the Rayleigh cost out: such studies default to dycors."""
     analytic_config["parameters"]["particle_density"] = {"lower": 2000.0, "upper": 3000.0}

@@ -179,6 +179,11 @@ class Engine(ABC):
     def check(self, scenes: list) -> None:  # noqa: B027  (optional: most engines need no check)
         """Raise ConfigError if this engine cannot run these scenes here (binary missing, ...)."""
 
+    def gives_estimates(self) -> bool:
+        """Whether its simulations report early estimates of their responses while they run,
+        which early termination judges (Samuelsson 2023, sec. 3.6.1)."""
+        return True
+
     def version(self) -> str:
         return "unknown"
 

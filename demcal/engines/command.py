@@ -171,6 +171,10 @@ class CommandEngine(Engine):
                     f"and the simulator's responses/partial file); rename it"
                 )
 
+    def gives_estimates(self) -> bool:
+        """Only through ``partial_file``."""
+        return "partial_file" in self.settings
+
     def check(self, scenes: list) -> None:
         template = self.settings["command"]
         try:

@@ -13,6 +13,7 @@ import math
 import re
 import statistics
 from collections.abc import Hashable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -21,6 +22,7 @@ import yaml
 
 from demcal.archive.url import check_url
 from demcal.engines import make_engine
+from demcal.engines.base import Engine
 from demcal.errors import ConfigError
 from demcal.optimizer import OptimizerSettings
 from demcal.optimizer.registry import STRATEGIES
@@ -390,6 +392,20 @@ def _with_material(
     )
 
 
+def _without_estimates(
+    optimizer: OptimizerSettings, engine: Engine
+) -> tuple[OptimizerSettings, list[str]]:
+    """The optimizer's settings with early termination off, and a note saying so, where the
+    engine gives no early estimate to judge (replicates then run side by side, not staged)."""
+    if not optimizer.early_termination.enabled or engine.gives_estimates():
+        return optimizer, []
+    off = replace(optimizer.early_termination, enabled=False)
+    return replace(optimizer, early_termination=off), [
+        f"optimizer.early_termination: skipped, as the {engine.name} engine gives no early "
+        f"estimate of a response (no engine.partial_file); every simulation runs to its end"
+    ]
+
+
 def _load_material(config: dict) -> CalibratedMaterial:
     """The calibration ``material:`` names (a reference, or ``{calibration, robust}``)."""
     spec = config["material"]
@@ -559,6 +575,7 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
     engine = make_engine(engine_config.pop("name"), engine_config)
     if check_engine:
         engine.check(list(scenes.values()))
+    optimizer, skipped = _without_estimates(optimizer, engine)
     return Study(
         name=config["study"],
         engine=engine,
@@ -579,7 +596,7 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
             "poll_seconds": default("calibration", "poll_seconds"),
             **config.get("calibration", {}),
         },
-        warnings=([warning] if warning else []) + material_warnings,
+        warnings=([warning] if warning else []) + material_warnings + skipped,
         archive=archive,
         reuse=_reuse(config, archive),
         material=material,
