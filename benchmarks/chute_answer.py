@@ -23,9 +23,10 @@ from demcal.study.model import load_frozen
 SCENE = "transfer_chute"
 
 
-def run_flows(study, evaluation: str) -> dict[str, float] | None:
-    """The four flow responses of replicate 0 of one evaluation, or None if it kept no state."""
-    files = study.files.evaluation(evaluation).replicate(SCENE, 0)
+def run_flows(study, evaluation: str, replicate: int) -> dict[str, float] | None:
+    """The four flow responses of one replicate of an evaluation, or None if it kept no
+    state."""
+    files = study.files.evaluation(evaluation).replicate(SCENE, replicate)
     try:
         settings = SimulationRecord.read(files.simulation).settings
         with np.load(files.state) as state:
@@ -56,11 +57,11 @@ def main() -> None:
     study = load_frozen(args.folder / "study.json")
     best = BestRecord.read(study.files.best)
     evaluations = answer_runs(study, best)
-    flows = {e: run_flows(study, e) for e in evaluations}
-    kept = {e: f for e, f in flows.items() if f is not None}
+    flows = {(e, r): run_flows(study, e, r) for e in evaluations for r in range(study.replicates)}
+    kept = {run: f for run, f in flows.items() if f is not None}
     print(f"answer {best.evaluation}: {best.parameters}")
-    print(f"runs with a saved state: {', '.join(kept) or 'none'}")
-    confirmations = [f for e, f in kept.items() if e != best.evaluation]
+    print(f"runs with a saved state: {', '.join(f'{e}/rep{r}' for e, r in kept) or 'none'}")
+    confirmations = [f for (e, _), f in kept.items() if e != best.evaluation]
     if confirmations:
         print(f"the {len(confirmations)} confirmations [kg/s; split: left share]:")
         print(summary(confirmations))

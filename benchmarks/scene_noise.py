@@ -1,7 +1,7 @@
 """Noise and cost of a scene at one point: several seeds, the study's engine (real LAMMPS).
 
     python benchmarks/scene_noise.py CONFIG [--scene NAME] [--seeds 5] [--jobs 2]
-                                    [--point NAME=VALUE ...] [--tag TAG]
+                                    [--point NAME=VALUE ...] [--replicates N] [--tag TAG]
 
 Runs one point (default: the middle of the free parameters' bounds; --point
 overrides single parameters) once per seed through the same simulate ->
@@ -10,6 +10,10 @@ Prints a markdown table of each targeted response (mean, standard deviation,
 min, max), seconds per simulation and particle-steps per second, and writes
 the raw figures to benchmarks/results/noise_<study>_<scene>[_<tag>].json.
 Synthetic-truth targets are the means of such a run at the chosen true point.
+``--replicates N`` overrides the study's replicates: with a robust material
+(``material: {calibration: ..., robust: true}``) N materials are drawn from
+the calibration's solution set and run k simulates with the k-th, so the
+spread is over materials (and seeds).
 """
 
 from __future__ import annotations
@@ -25,16 +29,18 @@ from pathlib import Path
 
 from demcal.jobs.evaluation import extract, simulate
 from demcal.results.records import PointRecord
-from demcal.study.config import load_study_file
+from demcal.results.storage import write_json
+from demcal.study.config import load_study, read_study_yaml
+from demcal.study.model import load_frozen, study_record
 
 ROOT = Path(__file__).resolve().parents[1]
 EVALUATION = "noise"
 
 
-def run_seed(config: str, scene: str, replicate: int) -> dict:
+def run_seed(frozen: str, scene: str, replicate: int) -> dict:
     """One simulate -> extract of replicate ``replicate`` (its own seed) in the
-    current directory."""
-    study = load_study_file(config)
+    current directory, of the study frozen in ``frozen``."""
+    study = load_frozen(frozen)
     start = time.monotonic()
     sim = simulate(study, EVALUATION, scene, replicate)
     responses = extract(
@@ -45,10 +51,16 @@ def run_seed(config: str, scene: str, replicate: int) -> dict:
         "seed": sim.seed,
         "status": sim.status,
         "reason": sim.reason,
+        "material": {name: sim.parameters[name] for name in drawn_names(study)},
         "wall_s": time.monotonic() - start,
         **sim.cost,
         **responses.responses,
     }
+
+
+def drawn_names(study) -> list[str]:
+    """The material parameters a robust study draws per replicate (none otherwise)."""
+    return sorted({name for draw in study.material_draws for name in draw})
 
 
 def summary(rows: list[dict], responses: list[str]) -> str:
@@ -61,7 +73,9 @@ def summary(rows: list[dict], responses: list[str]) -> str:
                 f"| {key} | {statistics.fmean(values):.4g} | {sd:.3g} | "
                 f"{min(values):.4g} | {max(values):.4g} |"
             )
-    rate = [r["particle_steps"] / r["cpu_s"] for r in rows if r.get("cpu_s")]
+    rate = [
+        r["particle_steps"] / r["cpu_s"] for r in rows if r.get("cpu_s") and "particle_steps" in r
+    ]
     if rate:
         lines.append(
             f"| particle-steps per CPU second | {statistics.fmean(rate):.3g} | | "
@@ -77,18 +91,24 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=5)
     parser.add_argument("--jobs", type=int, default=2, help="simulations at a time")
     parser.add_argument("--point", nargs="*", default=[], metavar="NAME=VALUE")
+    parser.add_argument("--replicates", type=int, help="the study's replicates instead")
     parser.add_argument("--tag", default="", help="suffix of the result file")
     args = parser.parse_args()
     config = str(Path(args.config).resolve())
-    study = load_study_file(config)
+    raw = read_study_yaml(config)
+    if args.replicates:
+        raw["replicates"] = args.replicates
+    study = load_study(raw)  # here: a calibrated material is found from this folder
     scene = args.scene or next(iter(study.scenes))
     point = study.centre_point(args.point)
     with tempfile.TemporaryDirectory() as scratch:
         os.chdir(scratch)
+        frozen = str(Path(scratch) / "study.json")
+        write_json(Path(frozen), study_record(study))
         PointRecord(point).write(study.files.evaluation(EVALUATION).params)
         with ProcessPoolExecutor(args.jobs) as pool:
             rows = list(
-                pool.map(run_seed, [config] * args.seeds, [scene] * args.seeds, range(args.seeds))
+                pool.map(run_seed, [frozen] * args.seeds, [scene] * args.seeds, range(args.seeds))
             )
     for row in rows:
         print(json.dumps(row))
@@ -103,6 +123,7 @@ def main() -> None:
                 "point": point,
                 "settings": study.settings[scene],
                 "timestep_fraction": study.timestep_fraction,
+                "materials": list(study.material_draws),
                 "runs": rows,
             },
             indent=2,

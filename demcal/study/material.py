@@ -27,7 +27,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from demcal.analysis.solutions import LIKELY
 from demcal.errors import ConfigError, SimulationFailed
 from demcal.results.layout import StudyFiles
 from demcal.results.records import BestRecord
@@ -157,6 +156,10 @@ def draw_materials(
     """``count`` materials drawn without replacement (seeded) from the likely part of the
     calibration's solution set in ``folder``: the values of ``names`` of each, the
     solutions.csv and its SHA-256. A ConfigError naming ``material`` if there are too few."""
+    # imported here: the solution analysis brings scipy, which the Snakefile's start
+    # (it loads every study's material) should not pay for
+    from demcal.analysis.solutions import LIKELY
+
     path = StudyFiles(folder).solutions
     try:
         table = pd.read_csv(path)
