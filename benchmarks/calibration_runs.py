@@ -51,7 +51,7 @@ def noise_level(config: dict) -> float | None:
     form = config.get("objective", "auto")  # auto: precision, as every target has a spread
     total = 0.0
     for t in config["targets"]:
-        error = 1.0 if form == "precision" else t["spread"] / (t["value"] or 1.0)
+        error = 1.0 if form in ("precision", "auto") else t["spread"] / (t["value"] or 1.0)
         total += t.get("weight", 1.0) * error * error
     return total
 
