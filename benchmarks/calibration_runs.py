@@ -41,27 +41,25 @@ from pathlib import Path
 import pandas as pd
 import yaml
 
+from demcal.study.model import Study, load_frozen
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def noise_level(config: dict) -> float | None:
-    """The objective of responses one spread off every target; None if a spread is missing."""
-    if any(t.get("spread") is None for t in config["targets"]):
+def noise_level(study: Study) -> float | None:
+    """The study's objective of responses one spread off every target (in its own form: the
+    precision form gives the sum of the weights); None if a target has no spread."""
+    if any(t.spread is None for t in study.targets):
         return None
-    form = config.get("objective", "auto")  # auto: precision, as every target has a spread
-    total = 0.0
-    for t in config["targets"]:
-        error = 1.0 if form in ("precision", "auto") else t["spread"] / (t["value"] or 1.0)
-        total += t.get("weight", 1.0) * error * error
-    return total
+    return float(study.objective.of_means({t.key: t.missed_by(t.spread) for t in study.targets}))
 
 
-def trace(evaluations: pd.DataFrame, config: dict) -> dict:
+def trace(evaluations: pd.DataFrame, config: dict, study: Study) -> dict:
     """Per evaluation (in evaluation order): status, point, responses, objective, running best.
 
     Also the noise level and the simulations until the running best first fell below it.
     """
-    noise = noise_level(config)
+    noise = noise_level(study)
     names = list(config["parameters"])
     keys = [f"{t['scene']}.{t['response']}" for t in config["targets"]]
     evaluations = evaluations.sort_values("evaluation")
@@ -132,7 +130,7 @@ def run_one(
         "best_parameters": best["parameters"],
         "best_responses": best["responses"],
         "targets": best["targets"],
-        **trace(evaluations, config),
+        **trace(evaluations, config, load_frozen(results / "study.json")),
     }
 
 
