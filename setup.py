@@ -11,7 +11,14 @@ from setuptools import find_packages, setup
 PROJECT_FILES = {
     "demcal.project.workflow": (
         "workflow",
-        ["Snakefile", "rules/*.smk", "scripts/*.py", "report/*.rst", "schemas/*.yaml"],
+        [
+            "Snakefile",
+            "rules/*.smk",
+            "scripts/*.py",
+            "report/*.rst",
+            "report/*.css",
+            "schemas/*.yaml",
+        ],
     ),
     "demcal.project.profiles": ("profiles", ["*/config.yaml"]),
 }

@@ -6,7 +6,9 @@
 
 Every study file of tests/bad_inputs.py goes through ``demcal run`` and the
 README's ``snakemake --profile profiles/<local|slurm> --configfile=FILE``;
-the hand-written points through ``snakemake --profile profiles/local
+the command lines of tests/bad_commands.py through ``demcal ...`` (archive, reuse,
+campaigns, metamodels, psd fit, solutions), as the route "demcal commands"; the
+hand-written points through ``snakemake --profile profiles/local
 results/.../objective.json``. Verdicts (tests/bad_inputs.py, Outcome.verdict):
 clean (one line, naming what tests/bad_inputs.py expects), other message
 (one demcal line, other words), several lines, traceback, silent, wrongly
@@ -27,7 +29,11 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from bad_commands import gathered_cases, run_command  # noqa: E402
 from bad_inputs import CASES, POINTS, ROOT, ROUTES, route_command, run_route, write_point  # noqa: E402
+
+#: The route of tests/bad_commands.py's cases: demcal's other commands.
+COMMANDS_ROUTE = "demcal commands"
 
 
 def point_verdict(root: Path, point, folder: Path, env: dict) -> str:
@@ -58,7 +64,7 @@ def main() -> None:
     args = parser.parse_args()
     root = args.root.resolve()
     env = {**os.environ, "PYTHONPATH": str(root)}  # that checkout's demcal before the installed one
-    counts = {route: collections.Counter() for route in (*ROUTES, "params.json")}
+    counts = {route: collections.Counter() for route in (*ROUTES, "params.json", COMMANDS_ROUTE)}
     misses = []
     with tempfile.TemporaryDirectory() as scratch, ThreadPoolExecutor(2) as pool:
         jobs = {
@@ -87,8 +93,20 @@ def main() -> None:
                 )
         for job in points.values():
             counts["params.json"][job.result()] += 1
+    commands = gathered_cases()
+    with tempfile.TemporaryDirectory() as scratch:  # one at a time: some measure their memory
+        for case in commands:
+            outcome = run_command(case, Path(scratch) / case.name, root)
+            verdict = outcome.verdict(case)
+            counts[COMMANDS_ROUTE][verdict] += 1
+            if verdict != "clean":
+                shown = " | ".join(outcome.lines[-3:])[:160]
+                misses.append(f"{COMMANDS_ROUTE:16s} {case.name:28s} {verdict}: {shown}")
     verdicts = sorted({v for c in counts.values() for v in c})
-    print(f"{len(CASES)} study files, {len(POINTS)} hand-written points; code of {root}")
+    print(
+        f"{len(CASES)} study files, {len(POINTS)} hand-written points, {len(commands)} "
+        f"command lines; code of {root}"
+    )
     print(f"{'route':18s}" + "".join(f"{v:>18s}" for v in verdicts))
     for route, count in counts.items():
         print(f"{route:18s}" + "".join(f"{count[v]:>18d}" for v in verdicts))

@@ -25,14 +25,19 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import logging
+import math
+import numbers
+import operator
+import os
+import reprlib
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, SupportsIndex
 
 import pandas as pd
 
-from demcal.errors import ConfigError, DemcalError
+from demcal.errors import ConfigError, DemcalError, bounded_reason
 from demcal.results.layout import RESULTS, StudyFiles
 from demcal.results.records import BestRecord, FinishedRecord
 from demcal.results.tables import evaluation_columns
@@ -47,6 +52,9 @@ __all__ = ["Results", "StudyFile", "load", "open"]
 
 #: The columns of evaluations.csv that hold times (ISO 8601 in UTC).
 TIME_COLUMNS = ("started_at", "ended_at")
+#: The fewest and most Sobol points a solution analysis samples over the box (a million
+#: points of a 2-parameter study take about 10 s and 300 MB).
+SOLUTION_SAMPLES = (64, 2**20)
 
 
 @dataclass
@@ -61,21 +69,58 @@ class _StudyIn(Study):
         return StudyFiles(self.folder)
 
 
-def _results_folder(where: str | Path) -> Path:
+def _path_argument(value: object, argument: str, allowed: str) -> Path:
+    """The path a caller gave as ``argument`` (a str, bytes or os.PathLike); a ConfigError
+    naming the argument and ``allowed`` for anything else, an empty path or one with a NUL."""
+    try:
+        text = os.fsdecode(value)  # type: ignore[arg-type]
+    except TypeError:
+        raise ConfigError(
+            f"{argument} is {reprlib.repr(value)} ({type(value).__name__}); give {allowed}"
+        ) from None
+    if not text or "\0" in text:
+        raise ConfigError(f"{argument} is {reprlib.repr(text)}, not a path; give {allowed}")
+    return Path(text)
+
+
+def _whole_number(value: object, argument: str, low: int, high: float = math.inf) -> int:
+    """``value`` if it is a whole number from ``low`` to ``high``, else a ConfigError naming
+    ``argument`` and the range."""
+    if isinstance(value, bool) or not isinstance(value, SupportsIndex):  # 2.0, "2", True
+        number = low - 1
+    else:  # int, NumPy's integers
+        number = operator.index(value)
+    if not low <= number <= high:
+        upto = f"from {low} to {high}" if high < math.inf else f"of {low} or more"
+        raise ConfigError(f"{argument} is {reprlib.repr(value)}; give a whole number {upto}")
+    return number
+
+
+#: What demcal.open takes.
+OPEN_TAKES = "a results folder (a str or Path such as 'results/quickstart') or a study's name"
+
+
+def _results_folder(where: object) -> Path:
     """The folder ``where`` names: itself, else ``results/<where>`` for a study's name."""
-    path = Path(where)
-    if path.is_dir():
-        return path
-    if path.exists():
-        raise DemcalError(
-            f"{path} is a file, not a results folder (a study's results are in "
-            f"results/<study>/; demcal.load() reads a study file)"
-        )
-    if len(path.parts) == 1:  # a study's name
-        named = StudyFiles.of(path.name).dir
-        if named.is_dir():
-            return named
-        raise DemcalError(f"no results folder {path} nor {named}: the study has not run here")
+    path = _path_argument(where, "demcal.open: where", OPEN_TAKES)
+    try:
+        if path.is_dir():
+            return path
+        if path.exists():
+            raise DemcalError(
+                f"{path} is a file, not a results folder (a study's results are in "
+                f"results/<study>/; demcal.load() reads a study file)"
+            )
+        if len(path.parts) == 1:  # a study's name
+            named = StudyFiles.of(path.name).dir
+            if named.is_dir():
+                return named
+            raise DemcalError(f"no results folder {path} nor {named}: the study has not run here")
+    except OSError as exc:  # a name too long for the file system, a folder it may not read
+        raise ConfigError(
+            f"demcal.open: where is {reprlib.repr(str(path))}: {exc.strerror or exc}; give "
+            f"{OPEN_TAKES}"
+        ) from None
     raise DemcalError(f"no results folder {path}: the study has not run here")
 
 
@@ -89,6 +134,7 @@ def open(where: str | Path) -> Results:
         The study's results, read from disk whenever an attribute is read.
 
     Raises:
+        ConfigError: ``where`` is not a path or a name (None, a number, an empty string).
         DemcalError: the folder does not exist, or it is not a demcal results folder
             (it has no ``study.json``); the message names the path and what is missing.
     """
@@ -134,12 +180,14 @@ class Results:
                 f"{files.evaluations_csv} is missing: study {self.study.name!r} has no "
                 f"evaluations yet"
             )
-        table = pd.read_csv(files.evaluations_csv)
-        for column in TIME_COLUMNS:
-            table[column] = pd.to_datetime(table[column], utc=True)
+        with _damaged(files.evaluations_csv):
+            table = pd.read_csv(files.evaluations_csv)
+            for column in TIME_COLUMNS:
+                table[column] = pd.to_datetime(table[column], utc=True)
         if files.evaluations_columns.is_file():
-            columns = pd.read_csv(files.evaluations_columns, dtype=str, keep_default_na=False)
-            units = dict(zip(columns["column"], columns["unit"]))
+            with _damaged(files.evaluations_columns):
+                columns = pd.read_csv(files.evaluations_columns, dtype=str, keep_default_na=False)
+                units = dict(zip(columns["column"], columns["unit"]))
         else:  # a folder written before the sidecar existed: the study's own columns
             units = {column: unit for column, unit, _ in evaluation_columns(self.study)}
         table.attrs["units"] = units
@@ -186,7 +234,7 @@ class Results:
         Args:
             k: tolerance in combined standard deviations (target spread, simulation
                 noise and model sd).
-            samples: Sobol points sampled over the parameter box (at least 64).
+            samples: Sobol points sampled over the parameter box (64 to 2**20).
             seed: seed of the sampling.
 
         Returns:
@@ -195,9 +243,14 @@ class Results:
         """
         from demcal.analysis.solution_report import analyse
 
-        if not (k > 0 and samples >= 64):
-            raise ConfigError(f"solutions: k {k} must be > 0 and samples {samples} at least 64")
-        return analyse(self.study, k, samples, seed)
+        given: object = k  # whatever the caller passed
+        if isinstance(given, bool) or not isinstance(given, numbers.Real) or not 0 < k < math.inf:
+            raise ConfigError(
+                f"solutions: k is {reprlib.repr(k)}; give a number of standard deviations above 0"
+            )
+        samples = _whole_number(samples, "solutions: samples", *SOLUTION_SAMPLES)
+        seed = _whole_number(seed, "solutions: seed", 0)
+        return analyse(self.study, float(k), samples, seed)
 
     def __repr__(self) -> str:
         finished = self.finished
@@ -216,10 +269,11 @@ def load(path: str | Path) -> StudyFile:
             [`StudyFile.run`][demcal.api.StudyFile.run].
 
     Raises:
-        ConfigError: the file is missing or invalid; the message names the field, its
-            value and what is allowed.
+        ConfigError: ``path`` is not a path (None, a dict, an empty string), or the file is
+            missing or invalid; the message names the field, its value and what is allowed.
     """
-    return StudyFile(Path(path), load_study_file(path))
+    where = _path_argument(path, "demcal.load: path", "the study's YAML file (a str or Path)")
+    return StudyFile(where, load_study_file(where))
 
 
 @dataclass(frozen=True, repr=False)
@@ -308,7 +362,13 @@ class StudyFile:
         from demcal.cli.run import calibrate, locked_study
         from demcal.workflow import LOCAL_PROFILE
 
-        chosen = LOCAL_PROFILE if profile is None else Path(profile)
+        if workers is not None:
+            workers = _whole_number(workers, "run: workers", 1)
+        chosen = (
+            LOCAL_PROFILE
+            if profile is None
+            else _path_argument(profile, "run: profile", "a Snakemake profile's folder")
+        )
         with locked_study(self.path) as study, _daemon_log(study):
             reason = calibrate(study, chosen, workers)
         print(f"demcal: calibration of {study.name!r} finished: {reason}", file=sys.stderr)
@@ -320,6 +380,19 @@ class StudyFile:
             f"<demcal study {self.name!r} from {self.path}: {free} free parameters, "
             f"{targets} targets>"
         )
+
+
+@contextlib.contextmanager
+def _damaged(path: Path) -> Iterator[None]:
+    """Reading the table ``path`` in the block: a file that is not the table demcal wrote (not
+    UTF-8, not CSV, a column missing) ends as a DemcalError naming it."""
+    try:
+        yield
+    except (OSError, ValueError, KeyError) as exc:
+        raise DemcalError(
+            f"{path}: not the table demcal writes ({type(exc).__name__}: "
+            f"{bounded_reason(str(exc))}); the file is damaged"
+        ) from None
 
 
 @contextlib.contextmanager

@@ -9,23 +9,32 @@ profile (SLURM included), and every simulation lands in the study's archive. Run
 command again to resume it (finished simulations are not run again, failed ones are, with a
 new seed); give a larger ``--n``
 to extend it: the design's next points follow (:func:`demcal.optimizer.designs.extend_design`),
-so the whole stays space-filling.
+so the whole stays space-filling. A campaign runs at most :data:`MAX_SIMULATIONS`
+simulations. Its Snakemake ends with the demcal that started it, even a killed one
+(:data:`GUARD`), and a run that finds one of an earlier run still going ends it first.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
-import signal
 import subprocess
+import sys
 import time
 import zlib
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from statistics import median
+from typing import Any
 
 import numpy as np
 
+from demcal.archive.store import Archive
+from demcal.archive.url import missing_file
+from demcal.daemon.launcher import is_snakemake_for
+from demcal.engines.base import GRACE_SECONDS
 from demcal.errors import ConfigError, SimulationFailed
 from demcal.jobs.evaluation import response_paths
 from demcal.optimizer.designs import (
@@ -35,6 +44,7 @@ from demcal.optimizer.designs import (
     minimum_pairwise_distance,
 )
 from demcal.optimizer.registry import DESIGNS
+from demcal.reporting.terminal import duration
 from demcal.results.layout import evaluation_id
 from demcal.results.records import CampaignRecord, PointRecord, ResponsesRecord, Status
 from demcal.study.model import Study
@@ -46,6 +56,33 @@ CAMPAIGN_DESIGNS = ("fssf_f", "sobol", "halton", "latin_hypercube")
 FAIL_FAST = 5
 #: Seconds between looks at the simulations that have finished.
 POLL_S = 2.0
+#: Simulations one campaign may hold (points x replicates x scenes): its Snakemake takes each
+#: as a target on its command line, which the kernel bounds (2 MB on Linux), and the design's
+#: quality measures hold the distances between every two points.
+MAX_SIMULATIONS = 5000
+#: Archived simulations of a scene whose median wall time is a campaign's cost per simulation.
+COST_SAMPLE = 200
+#: What a campaign's demcal tells the guard of its Snakemake once that has ended.
+ENDED = b"ended"
+#: The guard of a campaign's Snakemake session (arguments: the session, the grace time [s]):
+#: a small process of its own, so that it outlives its demcal, even a killed one. When its
+#: stdin closes without ENDED, it ends the session as Ctrl-C in a terminal would: SIGTERM to
+#: Snakemake and its jobs (Snakemake alone would let its jobs finish first), then SIGKILL
+#: after the grace time.
+GUARD = f"""
+import os, signal, sys, time
+session, grace = int(sys.argv[1]), float(sys.argv[2])
+if sys.stdin.buffer.read() != {ENDED!r}:
+    try:
+        os.killpg(session, signal.SIGTERM)
+        deadline = time.monotonic() + grace
+        while time.monotonic() < deadline:
+            time.sleep(0.1)
+            os.killpg(session, 0)
+        os.killpg(session, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
+"""
 
 
 def unit_to_box(study: Study, unit: np.ndarray) -> list[dict[str, float]]:
@@ -56,13 +93,22 @@ def unit_to_box(study: Study, unit: np.ndarray) -> list[dict[str, float]]:
     return [{p.name: float(v) for p, v in zip(study.free, row)} for row in values]
 
 
-def check_request(size: int, design: str, bundle: int = 1) -> None:
+def simulations_per_point(study: Study) -> int:
+    """The simulations of one design point: a replicate set of every scene."""
+    return study.replicates * len(study.scenes)
+
+
+def check_request(size: int, design: str, bundle: int = 1, per_point: int = 1) -> None:
     """A ConfigError for a design size or kind, or a bundle of simulations per cluster job,
-    that no campaign can have."""
+    that no campaign can have; ``per_point``: the simulations of each point."""
     if design not in CAMPAIGN_DESIGNS:
         raise ConfigError(f"--design {design}: use one of {', '.join(CAMPAIGN_DESIGNS)}")
-    if size < 2:
-        raise ConfigError(f"--n {size}: give at least 2 points")
+    most = MAX_SIMULATIONS // per_point
+    if not 2 <= size <= most:
+        raise ConfigError(
+            f"--n {size}: give 2 to {most} points (a campaign runs at most {MAX_SIMULATIONS} "
+            f"simulations, here {per_point} per point)"
+        )
     if bundle < 1:
         raise ConfigError(f"--bundle {bundle}: give at least 1 simulation per cluster job")
 
@@ -78,7 +124,7 @@ def plan(study: Study, size: int, design: str) -> CampaignRecord:
     """The campaign of ``size`` points: the one on disk, extended if ``size`` is larger, or a
     new design. A ConfigError says why a campaign cannot become what was asked, and refuses a
     study folder that holds evaluations of something else (a calibration)."""
-    check_request(size, design)
+    check_request(size, design, per_point=simulations_per_point(study))
     dimension, existing = len(study.free), CampaignRecord.read_if_any(study.files.campaign)
     if existing is None and study.files.evals.is_dir() and any(study.files.evals.iterdir()):
         raise ConfigError(
@@ -116,16 +162,19 @@ def write_points(study: Study, campaign: CampaignRecord) -> list[str]:
     evaluation's name. campaign.json is written first, so that a run killed while writing the
     points is still taken for a campaign when it is run again."""
     campaign.write(study.files.campaign)
-    names = []
-    for index, point in enumerate(unit_to_box(study, np.asarray(campaign.unit_points))):
-        name = evaluation_id(index)
+    names = point_names(campaign)
+    for name, point in zip(names, unit_to_box(study, np.asarray(campaign.unit_points))):
         files = study.files.evaluation(name)
         if not files.params.exists():
             PointRecord(point, proposed_by=f"campaign ({campaign.design})").write(files.params)
         else:
             retry_failed(study, name)
-        names.append(name)
     return names
+
+
+def point_names(campaign: CampaignRecord) -> list[str]:
+    """The evaluation of each point of the design, in its order: e0000, e0001, ..."""
+    return [evaluation_id(index) for index in range(len(campaign.unit_points))]
 
 
 def retry_failed(study: Study, name: str) -> None:
@@ -203,6 +252,102 @@ def design_quality(campaign: CampaignRecord) -> tuple[float, float]:
     return minimum_pairwise_distance(points), cover_measure(points)
 
 
+def simulation_times(study: Study) -> dict[str, tuple[float, int]]:
+    """Per scene of the study, the median wall time [s] of the archive's ok simulations of it
+    on the study's engine (the first COST_SAMPLE), and how many that is; a scene the archive
+    holds none of is left out."""
+    if study.archive is None or missing_file(study.archive) is not None:
+        return {}
+    times = {}
+    with Archive(study.archive) as archive:
+        for scene in study.scenes:
+            walls = [
+                float(record.cost["wall_s"])
+                for record in archive.records(
+                    scene=scene, engine=study.engine.name, statuses=[Status.OK], limit=COST_SAMPLE
+                )
+                if isinstance(record.cost.get("wall_s"), int | float)
+            ]
+            if walls:
+                times[scene] = (median(walls), len(walls))
+    return times
+
+
+def runs_at_once(settings: Mapping[str, Any]) -> int:
+    """Simulations a campaign's Snakemake runs at a time with a profile's ``settings``: its
+    ``jobs`` on a cluster, its ``cores`` on this machine (all of them when it sets none)."""
+    local = settings.get("executor", "local") == "local"
+    value = settings.get("cores" if local else "jobs")
+    if isinstance(value, int) and value > 0:
+        return value
+    return (os.cpu_count() or 1) if local else 1
+
+
+def forecast(study: Study, campaign: CampaignRecord, settings: Mapping[str, Any]) -> str:
+    """How many of the campaign's simulations are still to run (the failed ones run again),
+    and how long they take ``runs_at_once`` at a time at the archive's median wall time per
+    simulation of each scene; or that the archive does not know that time yet."""
+    state = tally(study, point_names(campaign))
+    left = state.total - state.finished + state.statuses[Status.FAILED]
+    parallel = runs_at_once(settings)
+    head = f"{left} of {state.total} simulations to run, {parallel} at a time"
+    if left == 0:
+        return head
+    times = simulation_times(study)
+    unknown = [scene for scene in study.scenes if scene not in times]
+    if unknown:
+        return (
+            f"{head}; how long they take is not known yet: the archive holds no finished "
+            f"{', '.join(unknown)} simulation on {study.engine.name}"
+        )
+    each = sum(wall for wall, _ in times.values()) / len(times)  # every point runs every scene
+    measured = ", ".join(
+        f"{scene} {duration(wall)} ({count} runs)" for scene, (wall, count) in times.items()
+    )
+    return (
+        f"{head}: about {duration(left * each / parallel)}, at the median wall time of the "
+        f"archive's simulations on {study.engine.name}: {measured}"
+    )
+
+
+def guard(session: int) -> subprocess.Popen[bytes]:
+    """A :data:`GUARD` over the Snakemake session ``session``, in a session of its own."""
+    return subprocess.Popen(
+        [sys.executable, "-I", "-c", GUARD, str(session), str(GRACE_SECONDS)],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
+
+
+def release(watch: subprocess.Popen[bytes], ended: bool) -> None:
+    """Close the stdin of the guard ``watch``, saying whether its Snakemake has ``ended``: if
+    not, the guard ends it."""
+    assert watch.stdin is not None  # guard() opens it
+    with contextlib.suppress(OSError):  # a guard gone already
+        if ended:
+            watch.stdin.write(ENDED)
+        watch.stdin.close()
+
+
+def end_earlier_runs(study: Study) -> list[int]:
+    """End every Snakemake of an earlier run of this campaign still going, found in /proc by
+    the study file on its command line, as its guard would; returns their pids."""
+    argument = f"study_file={study.files.study.resolve()}"
+    stale = [
+        int(entry.name)
+        for entry in Path("/proc").glob("[0-9]*")
+        if is_snakemake_for(int(entry.name), argument)
+    ]
+    guards = [guard(pid) for pid in stale]
+    for watch in guards:
+        release(watch, ended=False)
+    for watch in guards:
+        watch.wait()
+    return stale
+
+
 def run(
     study: Study, names: list[str], profile: Path, show: Callable[[Tally], None], bundle: int = 1
 ) -> Tally:
@@ -211,7 +356,9 @@ def run(
     tally is then the one that decided it: Snakemake removes what its killed jobs were
     writing). An interrupt (Ctrl-C) ends the Snakemake and is raised again. Through a cluster,
     each job runs ``bundle`` simulations (with their extraction: group ``run``) one after
-    another on one core (Snakemake's ``--group-components``), its time limit their sum."""
+    another on one core (Snakemake's ``--group-components``), its time limit their sum. The
+    Snakemake of an earlier run still going is ended first (:func:`end_earlier_runs`), and
+    this one has a :func:`guard` that ends it when this process ends, however."""
     targets = [str(path) for name in names for path in response_paths(study, name)]
     targets += [str(study.files.evaluation(name).archived) for name in names]
     bundling = []
@@ -225,23 +372,27 @@ def run(
     )
     before = tally(study, names)
     with open(study.files.campaign_log, "a") as log:
+        for pid in end_earlier_runs(study):
+            print(
+                f"demcal: ended the Snakemake of an earlier run still going (pid {pid})", file=log
+            )
+        log.flush()
         process = subprocess.Popen(
             command, stdout=log, stderr=subprocess.STDOUT, start_new_session=True
         )
+    watch = guard(process.pid)
     try:
         while process.poll() is None:
             time.sleep(POLL_S)
             state = tally(study, names)
             show(state)
             if state.hopeless(before):
-                os.killpg(process.pid, signal.SIGTERM)
-                process.wait()
                 state.stopped = True
                 return state
-    except KeyboardInterrupt:
-        os.killpg(process.pid, signal.SIGTERM)
+    finally:  # the Snakemake has ended, or the guard ends it (stopped, interrupted, an error)
+        release(watch, ended=process.poll() is not None)
         process.wait()
-        raise
+        watch.wait()
     state = tally(study, names)
     show(state)
     return state

@@ -1,5 +1,8 @@
 """Errors that reach a user as a message, never as a traceback."""
 
+import difflib
+from collections.abc import Iterable
+
 
 class DemcalError(Exception):
     """Base class: the message is meant for the user as it stands."""
@@ -27,3 +30,13 @@ def bounded_reason(text: str) -> str:
     return (
         f"{text[:half]} [... {len(text) - 2 * half} characters cut; see the log ...] {text[-half:]}"
     )
+
+
+def unknown_field(name: str, allowed: Iterable[str]) -> str:
+    """The message for a field ``name`` (its full path) that is not one of ``allowed``: the
+    closest allowed name when it looks misspelt, else every allowed name."""
+    allowed = sorted(allowed)
+    close = difflib.get_close_matches(name.rsplit(".", 1)[-1], allowed, n=1)
+    if close:
+        return f"{name}: unknown field; did you mean {close[0]}?"
+    return f"{name}: unknown field; allowed here: {', '.join(allowed) or 'none'}"

@@ -81,7 +81,8 @@ def domain_data(
     """The study's domain and its compatible simulations (as for reuse:
     :func:`demcal.archive.reuse.compatible_simulations`): without those of the studies
     ``exclude`` names (a held-out validation campaign), or those of the studies ``only``
-    names alone."""
+    names alone. A damaged simulation is left out, or gives only its sound responses, as the
+    archive reads it (:meth:`Archive.warn_damaged` names them)."""
     names = [p.name for p in study.free]
     rows: dict[str, tuple[list, list, list]] = {t.key: ([], [], []) for t in study.targets}
     records = compatible_simulations(
@@ -89,6 +90,7 @@ def domain_data(
         archive,
         lambda name: name not in exclude and (only is None or name in only),
     )
+    archive.warn_damaged()
     for record in records:
         for target in study.targets:
             if target.scene == record.scene and record.final.get(target.response):

@@ -31,7 +31,7 @@ from typing import Any
 import yaml
 
 from demcal.errors import DemcalError
-from demcal.resources import PROFILES_DIR, SNAKEFILE
+from demcal.resources import PROFILES_DIR, SNAKEFILE, WORKFLOW_DIR
 
 #: The profile of ``demcal run`` and of child Snakemakes when none is given.
 LOCAL_PROFILE = PROFILES_DIR / "local"
@@ -108,9 +108,22 @@ def child_command(
     )
 
 
+#: demcal's stylesheet for Snakemake's report: pages start at the top, so the landing page
+#: opens with the answer (Snakemake's centring hides the top of a page taller than the window).
+REPORT_STYLESHEET = WORKFLOW_DIR / "report" / "report.css"
+
+
 def report_command(study_file: Path | str, report: Path | str) -> list[str]:
-    """``snakemake --report`` of the calibration (figures flagged in the rules)."""
-    return snakemake_command(study_file, "--nolock", "--report", str(report))
+    """``snakemake --report`` of the calibration (figures flagged in the rules), with
+    :data:`REPORT_STYLESHEET`."""
+    return snakemake_command(
+        study_file,
+        "--nolock",
+        "--report",
+        str(report),
+        "--report-stylesheet",
+        str(REPORT_STYLESHEET),
+    )
 
 
 def dag_command(study_file: Path | str, target: Path | str) -> list[str]:

@@ -112,6 +112,25 @@ def _base_yaml(extra: str = "") -> str:
 #: Config cases: wrong values of a field, each refused with its own message.
 FIELDS = [
     _field("unknown_field", ["colour"], "red", r"colour: unknown field; allowed here: .*engine"),
+    _field(
+        "misspelt_field",
+        ["paramters"],
+        {"sliding_friction_pp": {"lower": 0.1, "upper": 0.9}},
+        r"paramters: unknown field; did you mean parameters\?$",
+    ),
+    _field(
+        "misspelt_optimizer_field",
+        ["optimizer", "max_evaluation"],
+        5,
+        r"optimizer.max_evaluation: unknown field; did you mean max_evaluations\?$",
+    ),
+    _field(
+        "spread_as_percentage",
+        ["targets", 0, "spread"],
+        "3%",
+        r"targets\[0\].spread: '3%' is text, not a number \(number\); a percentage is not "
+        r"read: give the number in the field's unit",
+    ),
     _field("no_targets", ["targets"], KeyError, r"missing required field 'targets'"),
     _field("study_name_escapes", ["study"], "../escape", r"study: '../escape' is not a valid name"),
     _field(
@@ -174,8 +193,9 @@ FIELDS = [
     _field(
         "target_unit",
         ["targets", 0, "unit"],
-        "rad",
-        r"targets\[0\].unit: 'rad' but angle_of_repose is measured in deg",
+        "km",
+        r"targets\[0\].unit: 'km' but angle_of_repose is measured in deg; give the value in "
+        r"deg or in one of .*rad",
     ),
     _field(
         "timestep_too_large",
@@ -339,6 +359,15 @@ FIELDS = [
     ),
     _field("no_parameters", ["parameters"], {}, r"parameters: none given; give at least 1"),
     _field("empty_targets", ["targets"], [], r"targets: none given; give at least 1"),
+    *(
+        _field(
+            f"archive_url_{scheme}",
+            ["archive"],
+            {"url": f"{scheme}://host/archive"},
+            rf"archive.url: {scheme}:// is not a database demcal can keep an archive in",
+        )
+        for scheme in ("http", "file")
+    ),
 ]
 
 #: YAML's .nan and .inf pass JSON Schema's range checks; every field refuses them by name.
@@ -493,6 +522,14 @@ FILES = [
     ),
     _yaml("a_list", "- study: a\n", r"a_list.yaml: a study file is a YAML mapping"),
     _yaml("empty_file", "", r"empty_file.yaml: a study file is a YAML mapping"),
+    _yaml(
+        "reuse_of_an_unnamed_command",
+        yaml.safe_dump(
+            {**BASE, "engine": _command("python3 sim.py {seed}"), "reuse": "archive"},
+            sort_keys=False,
+        ),
+        r"reuse: 'archive' needs engine.version: name the simulator's version",
+    ),
     _yaml(
         "yte_template",
         "__use_yte__: true\n" + _base_yaml(),

@@ -71,7 +71,7 @@ def test_figures_and_solutions_land_in_the_folder_wherever_it_is(calibrated, tmp
     analysis = results.solutions(samples=256)
     assert [verdict.name for verdict in analysis.verdicts] == analysis.names
     assert analysis.points().shape[1] == 2
-    with pytest.raises(ConfigError, match="samples 8 at least 64"):
+    with pytest.raises(ConfigError, match=r"samples is 8; give a whole number from 64 to"):
         results.solutions(samples=8)
 
 
@@ -108,6 +108,166 @@ def test_open_names_the_path_and_what_is_missing(tmp_path, monkeypatch):
     (tmp_path / "study.yaml").write_text("study: x\n")
     with pytest.raises(DemcalError, match=r"study.yaml is a file, not a results folder"):
         demcal.open("study.yaml")
+
+
+@pytest.fixture
+def frozen(tmp_path, monkeypatch):
+    """results/unit/ of a study frozen but not run, under tmp_path (the working directory)."""
+    monkeypatch.chdir(tmp_path)
+    from demcal.study.config import load_study
+    from demcal.study.model import freeze
+
+    return freeze(load_study(dict(ANALYTIC_STUDY))).files.dir.resolve()
+
+
+def damaged(folder, name):
+    """``folder`` with binary bytes in its file ``name``."""
+    (folder / name).write_bytes(bytes(range(128, 256)) * 4)
+    return folder
+
+
+OPEN_TAKES = r"give a results folder \(a str or Path such as 'results/quickstart'\) or a study's"
+LOAD_TAKES = r"give the study's YAML file \(a str or Path\)"
+
+
+#: Odd arguments of the API: each ends as a DemcalError naming the argument and what it takes.
+ODD_ARGUMENTS = [
+    (
+        "open_a_long_name",
+        lambda f: demcal.open("x" * 10_000),
+        r"where is 'x+\.\.\.x+': File name too long; " + OPEN_TAKES,
+    ),
+    (
+        "open_none",
+        lambda f: demcal.open(None),
+        r"demcal.open: where is None \(NoneType\); " + OPEN_TAKES,
+    ),
+    (
+        "open_a_number",
+        lambda f: demcal.open(42),
+        r"demcal.open: where is 42 \(int\); " + OPEN_TAKES,
+    ),
+    (
+        "open_a_list",
+        lambda f: demcal.open([f]),
+        r"demcal.open: where is \[.*\] \(list\); " + OPEN_TAKES,
+    ),
+    (
+        "open_an_empty_path",
+        lambda f: demcal.open(""),
+        r"demcal.open: where is '', not a path; " + OPEN_TAKES,
+    ),
+    (
+        "open_a_nul",
+        lambda f: demcal.open("un\0it"),
+        r"demcal.open: where is 'un\\x00it', not a path",
+    ),
+    (
+        "open_a_folder_without_a_study",
+        lambda f: demcal.open(f.parent),
+        r"results is not the results folder of a demcal study: study.json is missing",
+    ),
+    (
+        "open_a_binary_table",
+        lambda f: demcal.open(damaged(f, "evaluations.csv")).evaluations,
+        r"evaluations.csv: not the table demcal writes \(UnicodeDecodeError: .*\); the file is "
+        r"damaged",
+    ),
+    (
+        "open_a_binary_units_table",
+        lambda f: (
+            demcal.open(
+                damaged(damaged(f, "evaluations.csv"), "evaluations.columns.csv")
+            ).evaluations
+        ),
+        r"evaluations.(columns.)?csv: not the table demcal writes",
+    ),
+    (
+        "load_none",
+        lambda f: demcal.load(None),
+        r"demcal.load: path is None \(NoneType\); " + LOAD_TAKES,
+    ),
+    (
+        "load_a_dict",
+        lambda f: demcal.load({"study": "unit"}),
+        r"demcal.load: path is \{'study': 'unit'\} \(dict\); " + LOAD_TAKES,
+    ),
+    ("load_a_number", lambda f: demcal.load(42), r"demcal.load: path is 42 \(int\); " + LOAD_TAKES),
+    (
+        "load_an_empty_path",
+        lambda f: demcal.load(""),
+        r"demcal.load: path is '', not a path; " + LOAD_TAKES,
+    ),
+    (
+        "load_a_nul",
+        lambda f: demcal.load("study\0.yaml"),
+        r"demcal.load: path is 'study\\x00.yaml', not a path",
+    ),
+    (
+        "load_a_folder",
+        lambda f: demcal.load(f),
+        r"results/unit is a directory; give the study's YAML file",
+    ),
+    (
+        "solutions_k_as_text",
+        lambda f: demcal.open(f).solutions(k="2"),
+        r"solutions: k is '2'; give a number of standard deviations above 0",
+    ),
+    (
+        "solutions_k_infinite",
+        lambda f: demcal.open(f).solutions(k=float("inf")),
+        r"solutions: k is inf; give a number",
+    ),
+    (
+        "solutions_samples_as_text",
+        lambda f: demcal.open(f).solutions(samples="100"),
+        r"solutions: samples is '100'; give a whole number from 64 to 1048576",
+    ),
+    (
+        "solutions_samples_huge",
+        lambda f: demcal.open(f).solutions(samples=10**10),
+        r"solutions: samples is 10000000000; give a whole number from 64 to 1048576",
+    ),
+    (
+        "solutions_samples_a_float",
+        lambda f: demcal.open(f).solutions(samples=100.0),
+        r"solutions: samples is 100.0; give a whole number",
+    ),
+    (
+        "solutions_seed_negative",
+        lambda f: demcal.open(f).solutions(seed=-1),
+        r"solutions: seed is -1; give a whole number of 0 or more",
+    ),
+]
+
+
+@pytest.mark.parametrize(
+    "call, message", [c[1:] for c in ODD_ARGUMENTS], ids=[c[0] for c in ODD_ARGUMENTS]
+)
+def test_an_odd_argument_is_a_demcal_error_naming_it(frozen, call, message):
+    with pytest.raises(DemcalError, match=message):
+        call(frozen)
+
+
+def test_a_path_may_be_bytes_or_any_path_like(frozen):
+    assert demcal.open(bytes(frozen)).files.dir == frozen
+    assert demcal.open(frozen).study.name == "unit"
+
+
+@pytest.mark.parametrize(
+    "options, message",
+    [
+        ({"workers": "two"}, r"run: workers is 'two'; give a whole number of 1 or more"),
+        ({"workers": 0}, r"run: workers is 0; give a whole number of 1 or more"),
+        ({"profile": 42}, r"run: profile is 42 \(int\); give a Snakemake profile's folder"),
+    ],
+)
+def test_run_names_an_odd_option_before_it_starts(tmp_path, monkeypatch, options, message):
+    monkeypatch.chdir(tmp_path)
+    study = demcal.load(write_study(tmp_path / "tiny.yaml"))
+    with pytest.raises(ConfigError, match=message):
+        study.run(**options)
+    assert not (tmp_path / "results").exists()
 
 
 def write_study(path, **changes):

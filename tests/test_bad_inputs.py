@@ -16,6 +16,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
+from bad_commands import gathered_cases, run_command
 from bad_inputs import CASES, POINTS, ROUTES, BadInput, route_command, run_route, write_point
 
 from demcal.errors import ConfigError
@@ -131,3 +132,10 @@ def test_an_internal_error_says_where_its_traceback_is(tmp_path, monkeypatch, ca
     assert where, err
     text = err if where.group(1) == "above" else open(where.group(2)).read()
     assert "Traceback (most recent call last)" in text and "a bug" in text
+
+
+@pytest.mark.parametrize("case", gathered_cases(), ids=lambda c: c.name)
+@pytest.mark.slow
+def test_every_other_command_refuses_bad_input_in_one_line_or_warns_and_goes_on(tmp_path, case):
+    outcome = run_command(case, tmp_path)
+    assert outcome.verdict(case) == "clean", outcome.lines[-20:]

@@ -1,10 +1,12 @@
 """Study configuration: the shipped configs load; each kind of bad config has its own message."""
 
+import copy
 from pathlib import Path
 
 import pytest
 import yaml
 from bad_inputs import BASE, ESCAPING, FIELDS, FILES, NON_FINITE
+from conftest import ANALYTIC_STUDY
 
 from demcal.errors import ConfigError
 from demcal.results.records import BestRecord
@@ -190,3 +192,27 @@ def test_restitution_and_rolling_damping_reach_each_contact(analytic_config):
     table_1 = {"restitution_pp": 0.89, "restitution_pw": 0.6, "rolling_damping_ratio": 0.25}
     study = load_study({**analytic_config, "fixed": table_1})
     assert {name: study.fixed[name] for name in table_1} == table_1
+
+
+@pytest.mark.parametrize(
+    ("target", "expected"),
+    [
+        ({"response": "angle_of_repose", "value": 0.5, "unit": "rad", "spread": 0.02}, 28.65),
+        ({"response": "bulk_density", "value": 1.45, "unit": "g/cm^3", "spread": 0.01}, 1450.0),
+        ({"response": "bulk_density", "repeats": [1.44, 1.46], "unit": "t/m3"}, 1450.0),
+    ],
+)
+def test_a_target_in_a_convertible_unit_is_converted_and_said(target, expected):
+    """A lab sheet's units (issue 36, item 8): converted once, with a note naming both."""
+    config = copy.deepcopy(ANALYTIC_STUDY)
+    config["targets"] = [{"scene": "cylinder_lift", **target}]
+    study = load_study(config)
+    assert study.targets[0].value == pytest.approx(expected, rel=1e-3)
+    note = next(w for w in study.warnings if w.startswith("targets[0]: converted"))
+    assert (
+        target["unit"] in note
+        and study.scenes["cylinder_lift"].responses[target["response"]].unit in note
+    )
+    if "spread" in target:
+        factor = study.targets[0].value / target["value"]
+        assert study.targets[0].spread == pytest.approx(target["spread"] * factor)

@@ -7,6 +7,7 @@ import copy
 
 import numpy as np
 import pytest
+from conftest import ROOT
 from test_calibration_loop import calibrate
 
 from demcal.analysis.solutions import membership_probability
@@ -119,6 +120,39 @@ def test_bounds_and_goals_become_targets_with_bounds():
 def test_a_bad_bound_or_goal_is_refused_by_name(target, message):
     with pytest.raises(ConfigError, match=message):
         load_study(chute(target))
+
+
+#: Each goal on the transfer chute's responses: the bounds it becomes, or None where the
+#: response has no lowest or highest value in the goal's direction (refused).
+GOALS = [
+    ("mass_flow_left", "minimise", (None, 0.0)),  # a spillage, a leak: towards 0 kg/s
+    ("mass_flow_left", "maximise", None),  # a mass flow has no highest value
+    ("flow_difference", "minimise", None),  # left minus right, of either sign
+    ("flow_difference", "maximise", None),
+    ("split", "minimise", (None, 0.0)),
+    ("split", "maximise", (1.0, None)),
+]
+
+
+@pytest.mark.parametrize("response, goal, bounds", GOALS)
+def test_a_goal_is_the_responses_own_bound_in_its_direction(response, goal, bounds):
+    target = {"response": response, "goal": goal}
+    if bounds is None:
+        lowest = "lowest" if goal == "minimise" else "highest"
+        with pytest.raises(ConfigError, match=rf"{response} has no {lowest} possible value"):
+            load_study(chute(target))
+    else:
+        (made,) = load_study(chute(target)).targets
+        assert (made.lower, made.upper) == bounds
+
+
+def test_docs_studies_md_says_which_goals_are_refused_as_the_code_does():
+    text = " ".join((ROOT / "docs" / "studies.md").read_text().split())
+    section = text[text.index("### Bounds and goals") :]
+    section = section[: section.index(" ## ")]
+    assert "a mass flow towards 0" in section
+    assert "maximising a mass flow (it has no highest value)" in section
+    assert "either goal on a flow difference" in section
 
 
 # -- a design study end to end (the analytic stand-in, in-process) ---------------------

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import json
 
 import pytest
 from conftest import ANALYTIC_STUDY
@@ -102,6 +103,27 @@ def test_a_calibration_without_an_answer_is_a_clear_error(calibrated, reference,
 def test_a_best_file_of_another_study_is_refused(calibrated):
     BestRecord("e0001", {"sliding_friction_pp": 0.3}, objective=0.1).write(calibrated.files.best)
     with pytest.raises(ConfigError, match=r"gives no value of d50, rolling_friction_pp"):
+        load_study(design())
+
+
+@pytest.mark.parametrize(
+    "file, field, value",
+    [
+        ("best.json", "parameters.rolling_friction_pp", "0.11 (estimated)"),
+        ("best.json", "parameters.d50", [2.2e-3]),
+        ("best.json", "parameters.sliding_friction_pp", None),
+        ("best.json", "parameters.sliding_friction_pp", True),
+        ("study.json", "fixed.restitution_pp", "half"),
+    ],
+)
+def test_a_text_where_a_number_belongs_names_the_file_and_the_field(calibrated, file, field, value):
+    path = calibrated.files.dir / file
+    record = json.loads(path.read_text())
+    group, name = field.split(".")
+    record[group][name] = value
+    path.write_text(json.dumps(record))
+    message = rf"material: {path.relative_to(path.parents[2])}: {field} is .*, not a number"
+    with pytest.raises(ConfigError, match=message):
         load_study(design())
 
 

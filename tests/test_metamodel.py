@@ -14,7 +14,7 @@ import yaml
 from conftest import ANALYTIC_STUDY, demcal, finish
 
 from demcal import metamodel
-from demcal.archive.record import ArchivedSimulation, Quantity
+from demcal.archive.record import ArchivedSimulation, Quantity, digest
 from demcal.archive.store import Archive
 from demcal.cli import main
 from demcal.optimizer.designs import fssf_f, latin_hypercube
@@ -50,6 +50,7 @@ def simulated(study: Study, name: str, unit: np.ndarray) -> list[ArchivedSimulat
                 replicate=0,
                 engine="analytic",
                 engine_version=study.engine.version(),
+                simulator=digest(study.simulator("cylinder_lift")),
                 settings=settings,
                 timestep_fraction=study.timestep_fraction,
                 status=Status.OK,

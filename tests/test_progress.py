@@ -2,7 +2,9 @@
 
 import io
 
-from demcal.daemon.progress import Progress, ProgressDisplay, clock
+from demcal.daemon.progress import Progress, ProgressDisplay, answer_text, clock
+from demcal.optimizer.evaluation import BestPoint, Evaluation
+from demcal.results.records import Status
 
 PROGRESS = Progress(
     "unit",
@@ -58,3 +60,21 @@ def test_on_a_terminal_one_bar_rewritten_in_place_never_wider_than_the_terminal(
     assert "8/20 done" in shown[-1] and terminal.getvalue().endswith("\n")
     assert terminal.getvalue().count("\n") == 1  # one line on screen, rewritten
     assert log.getvalue().count("\n") == 2 and "\r" not in log.getvalue()  # first and last state
+
+
+def test_the_answer_and_the_lowest_run_are_named_apart():
+    """The answer is the point the models predict best; a lucky noisy run may be lower, and
+    the line says which is which (issue 36, item 2)."""
+    records = [
+        Evaluation(11, (0.5, 0.5), False, Status.OK, 2.9e-4),
+        Evaluation(13, (0.6, 0.4), False, Status.OK, 3.0e-6),
+    ]
+    best = BestPoint(11, [0.3, 0.09], 2.9e-4, 2.2e-5, "response models", [])
+    names = ["sliding_friction_pp", "rolling_friction_pp"]
+    assert answer_text(best, records, names) == (
+        "answer e0011 (sliding_friction_pp=0.3, rolling_friction_pp=0.09) predicted 2.2e-05; "
+        "lowest run e0013 3e-06"
+    )
+    alone = answer_text(best, records[:1], names)
+    assert alone.endswith("predicted 2.2e-05, also the lowest run")
+    assert answer_text(None, [], names) == "no result yet"

@@ -122,3 +122,23 @@ def test_other_columns_are_ignored(tmp_path, capsys):
     rows = "".join(f"x,{d},{p:.8f}\n" for d, p in zip(SIEVES, q))
     assert main(["psd", "fit", str(write(tmp_path, "sample,d_mm,Q3_percent\n" + rows))]) == 0
     assert "1    RRSB      d63 = 12 mm, n = 4 " in capsys.readouterr().out
+
+
+def test_a_file_with_a_byte_order_mark_is_fitted(tmp_path, capsys):
+    """Excel's "CSV UTF-8" starts the file with a byte-order mark: not part of the header."""
+    q = 100 * logn(SIEVES, 11.16, 0.26)
+    rows = "".join(f"{d},{p:.6f}\n" for d, p in zip(SIEVES, q))
+    path = tmp_path / "excel.csv"
+    path.write_text("d_mm,Q3_percent\n" + rows, encoding="utf-8-sig")
+    assert path.read_bytes().startswith(b"\xef\xbb\xbf")
+    assert main(["psd", "fit", str(path)]) == 0
+    assert "d50 = 11.16 mm, sigma_ln = 0.26 " in capsys.readouterr().out
+
+
+def test_a_folder_is_refused_as_not_a_file(tmp_path, capsys):
+    assert main(["psd", "fit", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err == (
+        f"demcal: {tmp_path}: not a regular file (a folder, device or pipe); give the sieve "
+        "analysis as a CSV file\n"
+    )

@@ -132,7 +132,7 @@ def test_a_reused_point_is_scored_by_the_new_study_and_may_be_the_answer(first, 
     source = ObjectiveRecord.read(first.files.evaluation(best["evaluation"][6:]).objective)
     assert best["objective"] == pytest.approx(source.objective, rel=1e-12)
     print_best(again.study)
-    assert f"reused from the archive: simulated by {best['evaluation']}" in capsys.readouterr().out
+    assert f": simulated by {best['evaluation']} on the same simulator" in capsys.readouterr().out
     again.files.reused.unlink()
     print_best(again.study)
     assert "no longer holds it: run the study again" in capsys.readouterr().out
@@ -144,8 +144,9 @@ def test_a_reused_point_is_scored_by_the_new_study_and_may_be_the_answer(first, 
         {"fixed": {"restitution_pp": 0.6}},
         {"scenes": {"cylinder_lift": {"settings": {"lift_speed": 0.02}}}},
         {"timestep_fraction": 0.1},
+        {"engine": {"name": "analytic", "noise": 0.01}},
     ],
-    ids=["fixed", "settings", "timestep"],
+    ids=["fixed", "settings", "timestep", "engine_settings"],
 )
 def test_other_fixed_values_or_settings_reuse_nothing(first, changes):
     other = run(config("other", SECOND_TRUTH, budget=6, reuse="archive", **changes))

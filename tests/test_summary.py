@@ -45,3 +45,14 @@ def test_best_point_summary_shows_prediction_spread_and_a_parameter_on_its_bound
     row = next(line for line in text.splitlines() if "angle_of_repose" in line)
     assert row.split()[2:] == ["29", "29.4", "±0.31", "30", "±1.5", "-3.3%"]
     assert "predicted" not in evaluation_summary(loaded, record, tmp_path)
+
+
+def test_advice_on_a_bound_follows_what_the_targets_identify(tmp_path):
+    """Issue 36, item 7: no "widen the bounds" for a parameter the targets do not identify."""
+    from demcal.reporting.terminal import bound_advice
+
+    where = tmp_path / "solutions.json"
+    assert "widen them" in bound_advice("pinned", where)
+    assert "unless `demcal solutions`" in bound_advice(None, where)
+    advice = bound_advice("not identified", where)
+    assert "widen" not in advice and "do not identify it" in advice and str(where) in advice

@@ -1,6 +1,8 @@
 """The per-evaluation Snakemake DAG end to end, on the analytic engine."""
 
+import html
 import json
+import os
 import re
 import shutil
 import subprocess
@@ -327,7 +329,60 @@ def test_the_report_opens_with_the_answer_in_a_browser(reported):
     a user sees first."""
     tmp_path, proc = reported
     assert proc.returncode == 0, proc.stderr[-3000:]
-    shown = subprocess.run(
+    report = (tmp_path / "results/unit/report.html").as_uri()
+    shown = chromium_at((1400, 900), tmp_path, "--dump-dom", report).stdout
+    assert (
+        "The answer" in shown
+        and "Best parameters" in shown
+        and "Responses against the targets" in shown
+    )
+    assert shown.index("The answer") < shown.index("How it was calibrated")
+    assert "System Message" not in shown
+
+
+#: Screens the report's landing page must open on with the answer in view.
+SCREENS = [(1366, 768), (1920, 1080)]
+
+#: Appended to a copy of report.html: once Snakemake's scripts have drawn the landing page
+#: (styled, its figures decoded), writes where the answer lies on the first screen, and where
+#: the description's last element lies after scrolling the page's box to its end.
+LANDING_PAGE_PROBE = """<script>
+addEventListener("load", function measure() {
+  const heading = [...document.querySelectorAll("h1")].find(
+    (h) => h.textContent.trim() === "The answer");
+  let box = heading && heading.parentElement;
+  while (box && !["auto", "scroll"].includes(getComputedStyle(box).overflowY)) {
+    box = box.parentElement;
+  }
+  const description = heading && heading.closest(".prose");
+  if (!box || ![...description.querySelectorAll("img")].every((img) => img.complete)) {
+    return setTimeout(measure, 100);
+  }
+  const place = (element) => {
+    const r = element.getBoundingClientRect();
+    return {top: r.top, bottom: r.bottom};
+  };
+  let last = description;
+  while (last.lastElementChild) last = last.lastElementChild;
+  const seen = {
+    viewport: [innerWidth, innerHeight],
+    heading: place(heading),
+    parameters: place(heading.parentElement.querySelector("table")),
+  };
+  box.scrollTop = box.scrollHeight;
+  seen.end = place(last);
+  const out = document.createElement("pre");
+  out.id = "demcal-probe";
+  out.textContent = JSON.stringify(seen);
+  document.body.append(out);
+});
+</script>"""
+
+
+def chromium_at(screen, tmp_path, *arguments):
+    """Headless Chromium on a screen of ``screen`` (width, height) pixels, the page filling it."""
+    width, height = screen
+    return subprocess.run(
         [
             CHROMIUM,
             "--headless",
@@ -339,22 +394,48 @@ def test_the_report_opens_with_the_answer_in_a_browser(reported):
             "--disable-component-update",
             "--disable-sync",
             f"--user-data-dir={tmp_path / 'chromium'}",
-            "--virtual-time-budget=5000",
-            "--dump-dom",
-            (tmp_path / "results/unit/report.html").as_uri(),
+            "--kiosk",
+            f"--screen-info={{{width}x{height}}}",
+            "--virtual-time-budget=10000",
+            *arguments,
         ],
         capture_output=True,
         text=True,
         timeout=120,
         stdin=subprocess.DEVNULL,
-    ).stdout
-    assert (
-        "The answer" in shown
-        and "Best parameters" in shown
-        and "Responses against the targets" in shown
     )
-    assert shown.index("The answer") < shown.index("How it was calibrated")
-    assert "System Message" not in shown
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason="needs Chromium (.ci/run installs it)")
+@pytest.mark.slow
+@pytest.mark.parametrize("screen", SCREENS, ids=lambda screen: "x".join(map(str, screen)))
+def test_the_report_shows_the_answer_on_its_first_screen(reported, screen, tmp_path):
+    """Issue 36: Snakemake centres a page in its scrolling box, so a landing page taller than
+    the window stuck out above the top, answer and all, where no scrolling reaches. The
+    answer's heading and parameters must lie on the first screen, and the page's end must be
+    reachable. Screenshots: in tmp_path, and copied to $DEMCAL_SCREENSHOTS when it is set."""
+    workdir, proc = reported
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    report = workdir / "results/unit/report.html"
+    probed = tmp_path / "probed.html"
+    head, _, _ = report.read_text().rpartition("</body>")
+    probed.write_text(head + LANDING_PAGE_PROBE + "</body></html>\n")
+    shown = chromium_at(screen, tmp_path, "--dump-dom", probed.as_uri())
+    found = re.search(r'<pre id="demcal-probe">(.*?)</pre>', shown.stdout, re.DOTALL)
+    assert found, shown.stderr[-2000:]
+    seen = json.loads(html.unescape(found.group(1)))
+    width, height = screen
+    assert seen["viewport"] == [width, height], f"Chromium ignored the screen size: {seen}"
+    for part in ("heading", "parameters"):
+        assert 0 <= seen[part]["top"] and seen[part]["bottom"] <= height, (part, seen)
+    assert 0 <= seen["end"]["top"] and seen["end"]["bottom"] <= height, seen
+
+    shot = tmp_path / f"report-{width}x{height}.png"
+    drawn = chromium_at(screen, tmp_path, f"--screenshot={shot}", report.as_uri())
+    assert shot.is_file(), drawn.stderr[-2000:]
+    if keep := os.environ.get("DEMCAL_SCREENSHOTS"):
+        Path(keep).mkdir(parents=True, exist_ok=True)
+        shutil.copy(shot, keep)
 
 
 def test_dag_drawing_without_graphviz_says_how_to_get_it(monkeypatch):
@@ -484,3 +565,26 @@ def test_when_every_evaluation_fails_the_run_ends_with_the_commonest_reason(tmp_
     ), text
     assert "latency" not in text and "Traceback" not in text and "Exception" not in text
     assert (tmp_path / "results/analytic-demo/report.html").exists()
+
+
+@pytest.mark.slow
+def test_the_readme_route_on_a_reuse_study_ends_with_exit_0_and_a_report(tmp_path):
+    """A second study with ``reuse: archive`` through the README's command: its e0000 is a point
+    of the first study, with no folder here, and the report (its DAG drawing included) is made
+    from the first evaluation it simulated itself (issue 35, item 2)."""
+    example = yaml.safe_load((ROOT / "config/examples/analytic.yaml").read_text())
+    example["engine"]["duration"] = 0.3
+    example["optimizer"]["max_evaluations"] = 4
+    (tmp_path / "first.yaml").write_text(yaml.safe_dump(example))
+    assert readme_run(tmp_path, "first.yaml").returncode == 0
+    second = {**example, "study": "second", "reuse": "archive"}
+    second["optimizer"] = {**example["optimizer"], "max_evaluations": 2}
+    (tmp_path / "second.yaml").write_text(yaml.safe_dump(second))
+    proc = readme_run(tmp_path, "second.yaml")
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    study = tmp_path / "results" / "second"
+    reused = json.loads((study / "reused.json").read_text())["points"]
+    assert len(reused) == 4 and not (study / "evals" / "e0000" / "params.json").exists()
+    assert "report: results/second/report.html" in proc.stdout
+    assert (study / "report.html").stat().st_size > 100_000
+    assert "simulate" in (study / "plots" / "evaluation_dag.svg").read_text()

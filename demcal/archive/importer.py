@@ -3,8 +3,9 @@
 Every scene replicate with both its ``simulation.json`` and its ``responses.json`` becomes
 one record (:func:`demcal.archive.record.from_results`, as its job would have written it),
 so importing a folder whose simulations were archived by their jobs, or importing it twice,
-adds nothing. A replicate still running (no responses yet) or with damaged files is skipped
-and named.
+adds nothing. A replicate still running (no responses yet), with damaged files, or with a
+value that is not a finite number (a NaN response: the archive could not use it) is skipped
+and named; the others are imported.
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from demcal.archive.record import ArchivedSimulation, replicate_record
-from demcal.archive.store import Archive
+from demcal.archive.store import Archive, number_flaw
 from demcal.errors import ConfigError, SimulationFailed
 from demcal.results.layout import ReplicateFiles, StudyFiles
 from demcal.study.model import load_frozen
@@ -48,10 +49,30 @@ def import_results(archive: Archive, folder: Path) -> ImportReport:
     records: list[ArchivedSimulation] = []
     for path in sorted(files.evals.glob("*/*/rep*/simulation.json")):
         try:
-            records.append(replicate_record(study, ReplicateFiles(path.parent), "import"))
+            record = replicate_record(study, ReplicateFiles(path.parent), "import")
         except SimulationFailed as exc:
             report.skipped.append(str(exc))
+            continue
+        flaws = value_flaws(record)
+        if flaws:
+            report.skipped.append(f"{path.parent}: {' and '.join(flaws)}")
+        else:
+            records.append(record)
     report.found = len(records)
     for start in range(0, len(records), BATCH):
         report.added += archive.add(records[start : start + BATCH])
     return report
+
+
+def value_flaws(record: ArchivedSimulation) -> list[str]:
+    """The parameters, psd and responses of ``record`` that are not finite numbers."""
+    return [
+        flaw
+        for kind, values in (
+            ("parameter", record.parameters),
+            ("psd", record.psd),
+            ("response", record.responses),
+        )
+        for name, quantity in values.items()
+        if (flaw := number_flaw(f"{kind} {name}", quantity.value))
+    ]

@@ -45,7 +45,10 @@ class ArchivedSimulation:
 
     ``parameters`` are every material parameter the engine was given and every variable scene
     setting it ran with (d50, sigma_ln: those a study may make free), in SI units; ``free``
-    the names among them that the study varied; ``responses`` the final values of a run
+    the names among them that the study varied; ``simulator`` the digest of what simulated it
+    (``Study.simulator``: engine, version, engine settings, the scene's script; "" for a run
+    of a demcal that did not record it, which no study reuses); ``responses`` the final values
+    of a run
     that ended ``ok``, or the last estimates of a ``terminated`` one (``final`` says which
     of those could no longer change); a ``failed`` run has none. ``cost`` is the engine's
     own figures (``cpu_s``, ``wall_s``, ``particle_steps``, ...). ``id`` is the archive's
@@ -74,14 +77,17 @@ class ArchivedSimulation:
     ended_at: float | None = None
     demcal_version: str = ""
     source: str = "job"
+    simulator: str = ""
     id: int | None = None
     recorded_at: float | None = None
 
     @property
     def provenance(self) -> dict:
         """What makes the simulation this one: study, evaluation, scene, replicate, attempt
-        and seed, and what the engine ran (the same run again is the same simulation)."""
-        return {
+        and seed, and what the engine ran (the same run again is the same simulation). The
+        simulator is left out where unknown, so records stored before it was kept keep
+        their keys."""
+        return ({"simulator": self.simulator} if self.simulator else {}) | {
             "study": self.study,
             "evaluation": self.evaluation,
             "scene": self.scene,
@@ -201,4 +207,5 @@ def from_results(
         ended_at=simulation.ended_at,
         demcal_version=demcal_version(),
         source=source,
+        simulator=digest(simulation.simulator) if simulation.simulator else "",
     )

@@ -1,12 +1,14 @@
 """``reuse: archive``: the archive's simulations a new calibration may start from.
 
-A simulation is compatible with a study when it ran the same scene on the same engine with the
-same resolved settings and time-step fraction, its fixed parameters and variable settings are
-the study's, and its free ones lie inside the study's bounds (:meth:`Archive.compatible` does
-the first part, on :meth:`Study.archive_view`). The compatible simulations of every scene are
-grouped by their free values into points; a point is usable when every targeted response has
-at least one final value there. Replicates and repeated runs of one point (a confirmation) pool
-into one point.
+A simulation is compatible with a study when it ran the same scene on the same simulator
+(``Study.simulator``: engine, its version and settings, the files a command reads, the scene's
+script) with the same resolved settings and time-step fraction, its fixed parameters and
+variable settings are the study's, and its free ones lie inside the study's bounds
+(:meth:`Archive.compatible` does the first part, on :meth:`Study.archive_view`). A command
+engine must name its version (``engine.version``) to reuse anything. The compatible
+simulations of every scene are grouped by their free values into points; a point is usable
+when every targeted response has at least one final value there. Replicates and repeated runs
+of one point (a confirmation) pool into one point.
 """
 
 from __future__ import annotations
@@ -14,9 +16,10 @@ from __future__ import annotations
 from collections import defaultdict
 from collections.abc import Callable
 
-from demcal.archive.record import ArchivedSimulation
+from demcal.archive.record import ArchivedSimulation, digest
 from demcal.archive.store import Archive
 from demcal.archive.url import shown
+from demcal.errors import ConfigError
 from demcal.results.records import ReusedRecord
 from demcal.study.model import Study
 
@@ -29,12 +32,20 @@ def compatible_simulations(
     seeds, and the archive keeps both records (its key names the study); one scene's run with
     one seed at one point is one simulation, not two replicates. ``from_study`` picks the
     studies whose simulations count (the metamodels hold a validation campaign out)."""
+    problem = study.engine.reuse_problem()
+    if problem is not None:
+        raise ConfigError(problem)
     names = [p.name for p in study.free]
     found, seen = [], set()
     for scene in study.scenes:
         settings, fixed, inputs = study.archive_view(scene)
         for record in archive.compatible(
-            scene=scene, engine=study.engine.name, settings=settings, fixed=fixed, inputs=inputs
+            scene=scene,
+            engine=study.engine.name,
+            settings=settings,
+            fixed=fixed,
+            inputs=inputs,
+            simulator=digest(study.simulator(scene)),
         ):
             inside = all(p.lower <= record.parameters[p.name].value <= p.upper for p in study.free)
             run = (record.scene, record.seed, tuple(record.values(names)))
@@ -46,11 +57,14 @@ def compatible_simulations(
 
 
 def reused_points(study: Study, archive: Archive) -> ReusedRecord:
-    """The usable points of the study's compatible simulations, in archive order."""
+    """The usable points of the study's compatible simulations, in archive order; a damaged
+    simulation is left out, or counts without its damaged values, as the archive reads it
+    (:meth:`Archive.warn_damaged` names them)."""
     names = [p.name for p in study.free]
     groups: dict[tuple[float, ...], list[ArchivedSimulation]] = defaultdict(list)
     for record in compatible_simulations(study, archive):
         groups[tuple(record.values(names))].append(record)
+    archive.warn_damaged()
     points = []
     for values, records in groups.items():
         replicates = {

@@ -4,8 +4,9 @@
 ``parameters`` and ``responses`` one row per value, with its unit. Values are rows rather
 than JSON so that "every simulation of this scene whose restitution is 0.5" is a plain join
 in SQLite and PostgreSQL alike; the scene settings, the particle-size distribution and the
-engine's full cost figures, read whole, are JSON. ``settings_hash`` indexes the settings for
-the search of compatible simulations (:meth:`demcal.archive.Archive.compatible`).
+engine's full cost figures, read whole, are JSON. ``simulator`` and ``settings_hash`` index
+what simulated it and its settings for the search of compatible simulations
+(:meth:`demcal.archive.Archive.compatible`).
 
 The migrations in ``demcal/archive/migrations/versions`` build these tables; a change here
 needs a new migration there (tests/archive checks that they agree).
@@ -77,10 +78,12 @@ class SimulationRow(Base):
     #: "import" (demcal archive import)
     source: Mapped[str] = mapped_column(String(16))
     demcal_version: Mapped[str] = mapped_column(String(50))
+    #: sha256 of what simulated it (``Study.simulator``); "" where unknown (never reused)
+    simulator: Mapped[str] = mapped_column(String(64), server_default="")
 
     __table_args__ = (
         CheckConstraint("status IN ('ok', 'failed', 'terminated')", name="status"),
-        Index(None, "scene", "engine", "settings_hash"),
+        Index(None, "scene", "engine", "simulator", "settings_hash"),
         Index(None, "study", "evaluation"),
     )
 

@@ -13,21 +13,42 @@ transaction: its records are all there afterwards, or none is. A record whose ke
 (:attr:`ArchivedSimulation.key`) is stored already is skipped (``INSERT ... ON CONFLICT DO
 NOTHING``), so a retried job or a second import adds nothing, and concurrent writers never
 store a simulation twice.
+
+A damaged row (a NaN or text response, a JSON column that is not JSON, an unknown status) never
+stops a read: the record is read without the damaged values, or left out when what ran or how
+it ended is unknown (:func:`_record`), and :meth:`Archive.warn_damaged` names them in one line.
 """
 
 from __future__ import annotations
 
+import json
+import math
+import sys
 import time
-from collections.abc import Callable, Collection, Iterable, Mapping
+from collections.abc import Callable, Collection, Iterable, Mapping, Sequence
+from dataclasses import dataclass
 from functools import cache, wraps
 from pathlib import Path
 from types import TracebackType
 from typing import Any, Concatenate, ParamSpec, TypeVar
 
-from sqlalchemy import Connection, Engine, Select, exists, func, insert, select, text
+from sqlalchemy import (
+    JSON,
+    Connection,
+    Engine,
+    Row,
+    RowMapping,
+    Select,
+    Text,
+    cast,
+    exists,
+    func,
+    insert,
+    select,
+    text,
+)
 from sqlalchemy.dialects import postgresql, sqlite
 from sqlalchemy.exc import SQLAlchemyError
-from sqlalchemy.orm import Session
 
 from demcal.archive.record import ArchivedSimulation, Quantity, digest
 from demcal.archive.schema import Base, ParameterRow, ResponseRow, SimulationRow
@@ -114,6 +135,26 @@ def _number(value: Any) -> float | None:
     return float(value) if isinstance(value, int | float) and not isinstance(value, bool) else None
 
 
+def number_flaw(what: str, value: object) -> str | None:
+    """Why ``value``, the ``what`` of a simulation, cannot be used as one of its numbers (text,
+    NaN, infinite; None if it can)."""
+    number = _number(value)
+    return (
+        None
+        if number is not None and math.isfinite(number)
+        else f"{what} is {value!r}, not a finite number"
+    )
+
+
+@dataclass(frozen=True)
+class Damage:
+    """What was wrong with a stored simulation when it was read: its ``flaws``, and whether
+    its record was ``skipped`` or read without the damaged values."""
+
+    flaws: tuple[str, ...]
+    skipped: bool
+
+
 def _reported(method: Callable[Concatenate[Archive, P], R]) -> Callable[Concatenate[Archive, P], R]:
     """An archive method whose database errors (a lock held too long, a lost connection, a
     row the database refuses) end as one ArchiveError naming the archive."""
@@ -146,6 +187,8 @@ class Archive:
             self._engine.dispose()
             raise ArchiveError(f"archive {shown(url)}: {exc}; update demcal") from None
         self._writer = self._engine.execution_options(archive_write=True)
+        #: The damaged simulations read since the last :meth:`warn_damaged`, by id.
+        self.damaged: dict[int, Damage] = {}
 
     def __enter__(self) -> Archive:
         return self
@@ -250,13 +293,15 @@ class Archive:
         settings: dict,
         fixed: Mapping[str, float],
         inputs: Collection[str] = (),
-        engine_version: str | None = None,
+        *,
+        simulator: str,
         statuses: Collection[str] = (Status.OK,),
     ) -> list[ArchivedSimulation]:
         """The stored simulations a study may use as data for its models of ``scene``.
 
-        Compatible means: the same scene, engine (and ``engine_version`` if given) and
-        ``settings`` (those the archive does not keep as parameters:
+        Compatible means: the same scene, engine, ``simulator`` (the digest of what simulated
+        it: :attr:`ArchivedSimulation.simulator`; a record that does not know its simulator
+        matches none) and ``settings`` (those the archive does not keep as parameters:
         :attr:`ArchivedSimulation.settings_hash`); exactly the parameters ``fixed`` and
         ``inputs`` (the models' inputs, the free parameters and any fixed one the models take
         as input), with every fixed parameter that is not an input at its value; a status in
@@ -266,11 +311,11 @@ class Archive:
         query = select(SimulationRow.id).where(
             SimulationRow.scene == scene,
             SimulationRow.engine == engine,
+            SimulationRow.simulator == simulator,
+            SimulationRow.simulator != "",
             SimulationRow.settings_hash == digest(settings),
             SimulationRow.status.in_(list(statuses)),
         )
-        if engine_version is not None:
-            query = query.where(SimulationRow.engine_version == engine_version)
         for name in sorted(names):
             condition = (ParameterRow.simulation_id == SimulationRow.id) & (
                 ParameterRow.name == name
@@ -290,46 +335,88 @@ class Archive:
 
     @_reported
     def stats(self) -> list[dict]:
-        """Per study, scene, engine and status: the simulations stored and their cost."""
-        columns = (
-            SimulationRow.study,
-            SimulationRow.scene,
-            SimulationRow.engine,
-            SimulationRow.status,
-        )
-        query = (
-            select(
-                *columns,
-                func.count(SimulationRow.id).label("simulations"),
-                func.sum(SimulationRow.cpu_s).label("cpu_s"),
-                func.sum(SimulationRow.particle_steps).label("particle_steps"),
+        """Per study, scene, engine and status: the simulations stored and their cost (the
+        engine's cpu_s and particle_steps; None where no simulation of the group has one).
+        Damaged simulations count as :meth:`records` reads them."""
+        groups: dict[tuple[str, ...], dict] = {}
+        for record in self.records():
+            group = (record.study, record.scene, record.engine, str(record.status))
+            row = groups.setdefault(
+                group,
+                dict(zip(("study", "scene", "engine", "status"), group))
+                | {"simulations": 0, "cpu_s": None, "particle_steps": None},
             )
-            .group_by(*columns)
-            .order_by(*columns)
-        )
-        with self._engine.connect() as connection:
-            return [dict(row._mapping) for row in connection.execute(query)]
+            row["simulations"] += 1
+            for figure in ("cpu_s", "particle_steps"):
+                value = _number(record.cost.get(figure))
+                if value is not None:
+                    row[figure] = (row[figure] or 0.0) + value
+        return [groups[group] for group in sorted(groups)]
+
+    def damage_summary(self) -> str | None:
+        """The damaged simulations read since the last :meth:`warn_damaged` in one line: how
+        many, which ids and why (None: there were none)."""
+        if not self.damaged:
+            return None
+        parts = []
+        for skipped, done in ((True, "skipped"), (False, "left damaged values out of")):
+            reasons: dict[str, list[str]] = {}
+            for i, damage in sorted(self.damaged.items()):
+                if damage.skipped == skipped:
+                    reasons.setdefault(" and ".join(damage.flaws), []).append(str(i))
+            count = sum(len(ids) for ids in reasons.values())
+            if count:
+                named = [
+                    f"{'id' if len(ids) == 1 else 'ids'} {_few(ids, ', ')}: {reason}"
+                    for reason, ids in reasons.items()
+                ]
+                parts.append(
+                    f"{done} {count} damaged simulation{'s' if count > 1 else ''} "
+                    f"({_few(named, '; ')})"
+                )
+        return f"archive {shown(self.url)}: {', and '.join(parts)}"
+
+    def warn_damaged(self) -> None:
+        """Say :meth:`damage_summary` on stderr as one warning line, if there is damage, and
+        forget it (a later read names only what it finds)."""
+        summary = self.damage_summary()
+        if summary is not None:
+            print(f"demcal: warning: {summary}", file=sys.stderr, flush=True)
+        self.damaged.clear()
 
     def _load(self, ids: Select) -> list[ArchivedSimulation]:
-        """The records of the simulations whose ids ``ids`` selects, in its order."""
+        """The records of the simulations whose ids ``ids`` selects, in its order; a damaged
+        one is read as :func:`_record` says and noted in :attr:`damaged`."""
         chosen = ids.subquery()
-        with Session(self._engine) as session:
-            rows = session.scalars(
-                select(SimulationRow).join(chosen, SimulationRow.id == chosen.c.id)
-            )
-            simulations = {row.id: row for row in rows}
-            parameters: dict[int, list[ParameterRow]] = {}
-            for parameter in session.scalars(
-                select(ParameterRow).where(ParameterRow.simulation_id.in_(select(chosen.c.id)))
-            ):
-                parameters.setdefault(parameter.simulation_id, []).append(parameter)
-            responses: dict[int, list[ResponseRow]] = {}
-            for response in session.scalars(
-                select(ResponseRow).where(ResponseRow.simulation_id.in_(select(chosen.c.id)))
-            ):
-                responses.setdefault(response.simulation_id, []).append(response)
-            order = list(session.scalars(ids))
-        return [_record(simulations[i], parameters.get(i, []), responses.get(i, [])) for i in order]
+        columns = [  # JSON as text: a damaged one is named, not raised while fetched
+            cast(column, Text).label(column.name) if isinstance(column.type, JSON) else column
+            for column in SimulationRow.__table__.columns
+        ]
+        with self._engine.connect() as connection:
+            simulations = {
+                row.id: row._mapping
+                for row in connection.execute(
+                    select(*columns).join_from(
+                        SimulationRow, chosen, SimulationRow.id == chosen.c.id
+                    )
+                )
+            }
+            parameters: dict[int, list[Row]] = {}
+            responses: dict[int, list[Row]] = {}
+            for table, found in ((ParameterRow, parameters), (ResponseRow, responses)):
+                for value in connection.execute(
+                    select(table).where(table.simulation_id.in_(select(chosen.c.id)))
+                ):
+                    found.setdefault(value.simulation_id, []).append(value)
+            order = list(connection.scalars(ids))
+        records = []
+        for i in order:
+            record, flaws = _record(simulations[i], parameters.get(i, []), responses.get(i, []))
+            if flaws:
+                self.damaged[i] = Damage(tuple(flaws), skipped=record is None)
+            if record is not None:
+                records.append(record)
+        return records
 
 
 #: Fields of a record that are columns of its simulations row under the same name.
@@ -350,6 +437,7 @@ SAME_NAMED = (
     "ended_at",
     "source",
     "demcal_version",
+    "simulator",
 )
 
 
@@ -367,21 +455,87 @@ def _row(record: ArchivedSimulation, now: float) -> dict:
     }
 
 
+#: The statuses a stored simulation can have (the CHECK constraint of its table).
+STORED_STATUSES = tuple(s.value for s in Status if s != Status.PENDING)
+#: Numbers of a simulations row that its record cannot do without (None where allowed).
+ROW_NUMBERS = (
+    "replicate",
+    "attempt",
+    "seed",
+    "timestep_fraction",
+    "started_at",
+    "ended_at",
+    "recorded_at",
+)
+
+
 def _record(
-    row: SimulationRow, parameters: list[ParameterRow], responses: list[ResponseRow]
-) -> ArchivedSimulation:
-    """The record of a stored simulation."""
+    row: RowMapping, parameters: Sequence[Row], responses: Sequence[Row]
+) -> tuple[ArchivedSimulation | None, list[str]]:
+    """The record of a stored simulation (its JSON columns as text) and the flaws of a damaged
+    one. A response or psd value that is not a finite number, or a psd that is not JSON, is
+    left out of the record: the rest stays sound. Any other flaw (an unknown status, a
+    parameter or provenance number that is not a finite number, settings or cost that are not
+    JSON objects) leaves no record (None): what ran, or how it ended, is unknown."""
+    fatal = [
+        flaw
+        for name in ROW_NUMBERS
+        if row[name] is not None and (flaw := number_flaw(name, row[name]))
+    ]
+    fatal += [flaw for p in parameters if (flaw := number_flaw(f"parameter {p.name}", p.value))]
+    if row["status"] not in STORED_STATUSES:
+        fatal.append(f"status {row['status']!r} is not one of {', '.join(STORED_STATUSES)}")
+    settings = _json_object("settings", row["settings"], fatal)
+    cost = _json_object("cost", row["cost"], fatal)
+    flaws: list[str] = []
+    psd = {}
+    for name, q in _json_object("psd", row["psd"], flaws).items():
+        value: Any = q.get("value") if isinstance(q, dict) else q
+        unit = q.get("unit") if isinstance(q, dict) else None
+        flaw = number_flaw(f"psd {name}", value)
+        if flaw is None and isinstance(unit, str):
+            psd[name] = Quantity(value, unit)
+        else:
+            flaws.append(flaw or f"psd {name} has no unit")
+    sound = []
+    for r in responses:
+        flaw = number_flaw(f"response {r.name}", r.value)
+        if flaw is None:
+            sound.append(r)
+        else:
+            flaws.append(flaw)
+    if fatal:
+        return None, fatal + flaws
     return ArchivedSimulation(
-        **{name: getattr(row, name) for name in SAME_NAMED},
-        status=Status(row.status),
+        **{name: row[name] for name in SAME_NAMED} | {"settings": settings, "cost": cost},
+        status=Status(row["status"]),
         parameters={p.name: Quantity(p.value, p.unit) for p in parameters},
         free=frozenset(p.name for p in parameters if p.free),
-        psd={name: Quantity(q["value"], q["unit"]) for name, q in row.psd.items()},
-        responses={r.name: Quantity(r.value, r.unit) for r in responses},
-        final={r.name: r.final for r in responses},
-        id=row.id,
-        recorded_at=row.recorded_at,
-    )
+        psd=psd,
+        responses={r.name: Quantity(r.value, r.unit) for r in sound},
+        final={r.name: r.final for r in sound},
+        id=row["id"],
+        recorded_at=row["recorded_at"],
+    ), flaws
+
+
+def _json_object(name: str, stored: object, flaws: list[str]) -> dict:
+    """The JSON object of the column ``name`` as stored (text); {} if it is none, with the
+    flaw added to ``flaws``."""
+    try:
+        value = json.loads(stored) if isinstance(stored, str) else None
+    except ValueError:
+        value = None
+    if isinstance(value, dict):
+        return value
+    flaws.append(f"{name} is not a JSON object")
+    return {}
+
+
+def _few(items: list[str], separator: str, most: int = 10) -> str:
+    """``items`` joined by ``separator``: the first ``most``, then how many more there are."""
+    more = len(items) - most
+    return separator.join(items[:most]) + (f"{separator}and {more} more" if more > 0 else "")
 
 
 def _first_line(exc: BaseException) -> str:

@@ -30,7 +30,8 @@ EXAMPLES = "sqlite:///results/archive.sqlite or postgresql://user@host:5432/data
 
 
 def check_url(text: object, where: str = "archive.url") -> str:
-    """``text`` if it is an SQLite file or PostgreSQL URL; else a ConfigError naming ``where``."""
+    """``text`` if it is an SQLite file or PostgreSQL URL (``postgres://`` spelled
+    ``postgresql://``); else a ConfigError naming ``where`` and what is allowed."""
     if not isinstance(text, str) or not text.strip():
         raise ConfigError(f"{where}: {text!r} is not a database URL; give one like {EXAMPLES}")
     try:
@@ -40,7 +41,14 @@ def check_url(text: object, where: str = "archive.url") -> str:
         raise ConfigError(
             f"{where}: {text!r} is not a database URL; give one like {EXAMPLES}"
         ) from None
-    backend, driver = url.get_backend_name(), url.get_driver_name()
+    # the scheme is read as written: asking SQLAlchemy for the backend loads its plugin,
+    # which fails with an ImportError-like traceback for http://, file://, ...
+    backend, _, driver = url.drivername.partition("+")
+    if backend == "postgres":  # the common spelling that SQLAlchemy 1.4 dropped
+        backend = "postgresql"
+        url = url.set(drivername="+".join(filter(None, (backend, driver))))
+        text = url.render_as_string(hide_password=False)
+    driver = driver or backend
     if backend == "sqlite":
         if url.drivername not in ("sqlite", "sqlite+pysqlite"):
             raise ConfigError(
@@ -61,8 +69,8 @@ def check_url(text: object, where: str = "archive.url") -> str:
             raise ConfigError(f"{where}: {text!r} names no database (postgresql://host/NAME)")
     else:
         raise ConfigError(
-            f"{where}: {backend!r} databases are not supported; give an SQLite file or a "
-            f"PostgreSQL URL, like {EXAMPLES}"
+            f"{where}: {backend}:// is not a database demcal can keep an archive in; give an "
+            f"SQLite file or a PostgreSQL URL, like {EXAMPLES}"
         )
     return text
 

@@ -16,13 +16,15 @@
     demcal archive list|show|export|import|stats [--url URL | --study CONFIG]
 
 CONFIG defaults to config/config.yaml. Errors in the configuration or on
-disk are printed as one message (exit code 2), never as a traceback.
+disk are printed as one message (exit code 2), never as a traceback; so are
+mistakes on the command line (:class:`Parser`).
 
 This module holds the parser and ``main``; the commands live in ``run.py``
 (run, the best point), ``inspect.py`` (status, studies, watch), ``manage.py``
 (stop, add-point, rerun-failed), ``analysis.py`` (solutions, convergence), ``psd.py``
 (fits to sieve data), ``archive.py`` (the archive of simulations), ``sample.py``
-(sampling campaigns) and ``metamodel.py`` (global metamodels of a domain).
+(sampling campaigns) and ``metamodel.py`` (global metamodels of a domain);
+``options.py`` checks the numbers that options take.
 """
 
 from __future__ import annotations
@@ -32,9 +34,12 @@ import logging
 import os
 import sys
 import traceback
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from typing import NoReturn
 
+from demcal.api import SOLUTION_SAMPLES
 from demcal.cli import analysis, archive, inspect, manage, metamodel, psd, run, sample
+from demcal.cli.options import MOST_SIMULATIONS, whole_number
 from demcal.errors import DemcalError
 from demcal.resources import DEFAULT_CONFIG
 from demcal.workflow import LOCAL_PROFILE
@@ -75,23 +80,29 @@ def solutions_arguments(sub: argparse.ArgumentParser) -> None:
     )
     sub.add_argument(
         "--samples",
-        type=int,
+        type=whole_number(*SOLUTION_SAMPLES),
         default=2**16,
-        help="Sobol points sampled over the box (default 65536)",
+        help=f"Sobol points sampled over the box, {SOLUTION_SAMPLES[0]} to "
+        f"{SOLUTION_SAMPLES[1]} (default 65536)",
     )
     sub.add_argument(
         "--point",
         nargs="+",
         metavar="NAME=VALUE",
-        help="judge one parameter set (every free parameter) against the targets",
+        help="judge one parameter set (every free parameter, once) against the targets",
     )
     sub.add_argument(
         "--explore",
-        type=int,
+        type=whole_number(1, MOST_SIMULATIONS),
         metavar="N",
         help="queue N simulations where membership in the solution set is least certain, "
-        "for the next run",
+        f"for the next run (1 to {MOST_SIMULATIONS})",
     )
+
+
+#: The most seeds per variant, and simulations at a time, of ``demcal convergence``.
+MOST_SEEDS = 100
+MOST_JOBS = 1024
 
 
 def convergence_arguments(sub: argparse.ArgumentParser) -> None:
@@ -109,8 +120,18 @@ def convergence_arguments(sub: argparse.ArgumentParser) -> None:
         help="values of the scene's size setting (particle count or box "
         "scale; default 0.5, 1 and 2 times the configured one)",
     )
-    sub.add_argument("--seeds", type=int, default=2, help="seeds per variant")
-    sub.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="simulations at a time")
+    sub.add_argument(
+        "--seeds",
+        type=whole_number(1, MOST_SEEDS),
+        default=2,
+        help=f"seeds per variant, 1 to {MOST_SEEDS}",
+    )
+    sub.add_argument(
+        "--jobs",
+        type=whole_number(1, MOST_JOBS),
+        default=os.cpu_count() or 1,
+        help=f"simulations at a time, 1 to {MOST_JOBS}",
+    )
     sub.add_argument(
         "--point",
         nargs="*",
@@ -196,9 +217,30 @@ COMMANDS: tuple[tuple[str, str, Command, Arguments], ...] = (
 WITHOUT_CONFIG = ("studies", "archive", "psd", "metamodel")
 
 
+class Parser(argparse.ArgumentParser):
+    """demcal's argument parser: a usage error is one line, ``demcal: ...``, that names the
+    command, the option and what is wrong with it (exit code 2)."""
+
+    def error(self, message: str) -> NoReturn:
+        command = self.prog.removeprefix("demcal").strip()  # "", "run", "archive list"
+        where = f"{command}: " if command else ""
+        text = " ".join(message.removeprefix("argument ").split())  # one line whatever the words
+        self.exit(2, f"demcal: {where}{text}; '{self.prog} --help' shows the options\n")
+
+    def parse_known_args(  # type: ignore[override]
+        self, args: Sequence[str] | None = None, namespace: argparse.Namespace | None = None
+    ) -> tuple[argparse.Namespace, list[str]]:
+        """Each parser, a command's too, refuses the words it does not know itself: the
+        message then names the command whose options they are not."""
+        parsed, extra = super().parse_known_args(args, namespace)
+        if extra:
+            self.error(f"unrecognized arguments: {' '.join(extra)}")
+        return parsed, extra
+
+
 def parser() -> argparse.ArgumentParser:
     """The demcal command line: one subcommand per entry of :data:`COMMANDS`."""
-    top = argparse.ArgumentParser(prog="demcal", description="Calibrate DEM simulations.")
+    top = Parser(prog="demcal", description="Calibrate DEM simulations.")
     commands = top.add_subparsers(dest="command", required=True)
     for name, text, func, arguments in COMMANDS:
         sub = commands.add_parser(name, help=text)

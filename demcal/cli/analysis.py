@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 from typing import TYPE_CHECKING
 
 from demcal.analysis.solutions import membership_word, posterior_line
@@ -18,9 +19,9 @@ if TYPE_CHECKING:
 def solutions(args: argparse.Namespace) -> int:
     from demcal.analysis.solution_report import analyse, write_solutions
 
+    if not 0 < args.k < math.inf:  # NaN fails too
+        raise ConfigError(f"--k {args.k}: give a number of standard deviations above 0")
     study = study_of(args.config)
-    if not (args.k > 0 and args.samples >= 64):
-        raise ConfigError(f"--k {args.k} must be > 0 and --samples {args.samples} at least 64")
     if args.explore is not None:
         return explore(study, args.explore)
     if args.point:
@@ -69,8 +70,6 @@ def print_point_check(study: Study, analysis: SolutionAnalysis, values: dict[str
 
 def explore(study: Study, evaluations: int) -> int:
     """``--explore N``: queue N simulations that map the solution set."""
-    if evaluations < 1:
-        raise ConfigError(f"--explore {evaluations}: give at least 1 evaluation")
     lock = lock_study(study)  # noqa: F841  (no daemon may run meanwhile)
     explore_solutions(study, evaluations)
     print(

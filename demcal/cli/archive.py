@@ -16,6 +16,7 @@ from demcal.archive.importer import ImportReport, import_results, study_folders
 from demcal.archive.record import ArchivedSimulation
 from demcal.archive.store import Archive
 from demcal.archive.url import check_url, missing_file, shown
+from demcal.cli.options import LARGEST_ROW, whole_number
 from demcal.errors import ConfigError, DemcalError
 from demcal.results.layout import RESULTS
 from demcal.results.records import Status
@@ -55,7 +56,11 @@ def arguments(sub: argparse.ArgumentParser) -> None:
             default=[],
             help="only simulations that ended so",
         )
-    listing.add_argument("--limit", type=int, help="at most this many (the oldest first)")
+    listing.add_argument(
+        "--limit",
+        type=whole_number(1, LARGEST_ROW),
+        help="at most this many (the oldest first)",
+    )
 
 
 def archive_url(args: argparse.Namespace) -> str:
@@ -87,12 +92,14 @@ def archive(args: argparse.Namespace) -> int:
         if args.action == "stats":
             return stats_command(store)
         if args.action == "show":
-            record = store.get(args.simulation)
-            if record is None:
+            record = store.get(simulation_word(args.simulation))
+            if record is None:  # or it is too damaged to read: the summary says why
                 raise ConfigError(
-                    f"{shown(url)} holds no simulation {args.simulation!r} (give its number or "
+                    store.damage_summary()
+                    or f"{shown(url)} holds no simulation {args.simulation!r} (give its number or "
                     f"at least 6 characters of its key, as 'demcal archive list' shows them)"
                 )
+            store.warn_damaged()
             print(describe(record))
             return 0
         records = store.records(
@@ -102,6 +109,7 @@ def archive(args: argparse.Namespace) -> int:
             statuses=args.status,
             limit=getattr(args, "limit", None),
         )
+        store.warn_damaged()
     if args.action == "export":
         tables.write(tables.frame(records), args.file)
         print(f"demcal: {len(records)} simulations from {shown(url)} written to {args.file}")
@@ -111,6 +119,20 @@ def archive(args: argparse.Namespace) -> int:
     if not records:
         print(f"demcal: no simulations in {shown(url)} match")
     return 0
+
+
+def simulation_word(word: str) -> str:
+    """``archive show``'s word, checked: digits are a simulation's number, one the archive can
+    hold."""
+    if word.isdigit():
+        try:
+            whole_number(1, LARGEST_ROW)(word)
+        except argparse.ArgumentTypeError as exc:
+            raise ConfigError(
+                f"archive show: {exc} (a simulation's number); or give at least 6 characters "
+                f"of its key"
+            ) from None
+    return word
 
 
 def line(record: ArchivedSimulation) -> str:
@@ -177,6 +199,7 @@ def import_command(store: Archive, folders: list[Path]) -> int:
 
 def stats_command(store: Archive) -> int:
     rows = store.stats()
+    store.warn_damaged()
     if not rows:
         print(f"demcal: {shown(store.url)} holds no simulations yet")
         return 0

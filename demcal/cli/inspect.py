@@ -6,6 +6,7 @@ import argparse
 import time
 from pathlib import Path
 
+from demcal.cli.options import quoted
 from demcal.cli.run import print_best
 from demcal.daemon.control import running_daemon, saved_optimizer
 from demcal.errors import ConfigError, DemcalError
@@ -19,7 +20,13 @@ def study_of(argument: str) -> Study:
     """The study named by its YAML file or its name: as it ran (its results/<name>/study.json)
     once it has run, else as the YAML file gives it."""
     frozen = StudyFiles.of(argument).study
-    if not Path(argument).is_file() and "/" not in argument and frozen.is_file():
+    try:
+        ran = not Path(argument).is_file() and "/" not in argument and frozen.is_file()
+    except OSError as exc:  # a name too long for the file system
+        raise ConfigError(
+            f"{quoted(argument)}: {exc.strerror or exc}; give the study's YAML file or its name"
+        ) from None
+    if ran:
         return load_frozen(frozen)
     study = load_study_file(argument, check_engine=False)
     return load_frozen(study.files.study) if study.files.study.is_file() else study

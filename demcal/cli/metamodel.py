@@ -17,6 +17,7 @@ import numpy as np
 from demcal import metamodel
 from demcal.archive.store import Archive
 from demcal.archive.url import missing_file
+from demcal.cli.options import MOST_SIMULATIONS, whole_number
 from demcal.errors import ConfigError
 from demcal.resources import DEFAULT_CONFIG
 from demcal.results.storage import write_json
@@ -24,6 +25,11 @@ from demcal.study.config import load_study_file
 from demcal.study.model import Study, load_frozen
 from demcal.study.objective import relative_miss
 from demcal.workflow import LOCAL_PROFILE, check_profile
+
+#: The largest seed of the model fits (NumPy's legacy seeding takes 32 bits).
+LARGEST_SEED = 2**32 - 1
+#: The most L-BFGS-B starts of calibrate-metamodel (about 0.06 s each on a 2-parameter domain).
+MOST_STARTS = 1024
 
 
 def arguments(sub: argparse.ArgumentParser) -> None:
@@ -49,7 +55,12 @@ def arguments(sub: argparse.ArgumentParser) -> None:
         help="studies whose simulations are held out of training (build) and validate the "
         "models (validate), e.g. a campaign made with demcal sample --name",
     )
-    sub.add_argument("--seed", type=int, default=1, help="build: seed of the model fits")
+    sub.add_argument(
+        "--seed",
+        type=whole_number(0, LARGEST_SEED),
+        default=1,
+        help=f"build: seed of the model fits, 0 to {LARGEST_SEED}",
+    )
 
 
 def domain_study(config: str) -> tuple[Study, str]:
@@ -185,13 +196,19 @@ def calibrate_arguments(sub: argparse.ArgumentParser) -> None:
         choices=metamodel.MODEL_KINDS,
         help="the metamodels to calibrate on (default kriging)",
     )
-    sub.add_argument("--starts", type=int, default=32, help="L-BFGS-B starts (default 32)")
+    sub.add_argument(
+        "--starts",
+        type=whole_number(1, MOST_STARTS),
+        default=32,
+        help=f"L-BFGS-B starts, 1 to {MOST_STARTS} (default 32)",
+    )
     sub.add_argument(
         "--validate",
-        type=int,
+        type=whole_number(0, MOST_SIMULATIONS),
         default=0,
         metavar="N",
-        help="then simulate the answer N times (seeds of their own) and compare",
+        help="then simulate the answer N times (seeds of their own) and compare "
+        f"(0 to {MOST_SIMULATIONS})",
     )
     sub.add_argument(
         "--profile",
@@ -203,8 +220,6 @@ def calibrate_arguments(sub: argparse.ArgumentParser) -> None:
 def calibrate_command(args: argparse.Namespace) -> int:
     """``demcal calibrate-metamodel MATERIAL --domain DOMAIN``: a material calibrated on the
     domain's metamodels with no simulation, then optionally validated by simulation."""
-    if args.starts < 1 or args.validate < 0:
-        raise ConfigError("--starts: give at least 1; --validate: give 0 or more simulations")
     material = load_study_file(args.config)
     domain, _ = domain_study(args.domain)
     free, held = metamodel.material_inputs(domain, material)

@@ -3,7 +3,9 @@
 The CSV file has a header line naming the columns ``d_mm`` (sieve aperture in
 mm) and ``Q3_percent`` (cumulative mass passing that sieve, in %); other
 columns are ignored, lines starting with ``#`` are comments, and the sieves may
-come in either order. The LOGN fit is printed as the ``d50`` [m] and
+come in either order. It is UTF-8, with or without the byte-order mark that
+spreadsheets write, a regular file of at most :data:`MAX_BYTES` in lines of at
+most :data:`MAX_LINE_CHARS`. The LOGN fit is printed as the ``d50`` [m] and
 ``sigma_ln`` of a study's scene settings.
 """
 
@@ -12,6 +14,8 @@ from __future__ import annotations
 import argparse
 import csv
 import math
+import os
+import stat
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +29,10 @@ PASSING = "Q3_percent"
 #: psd_truncation values checked: the shear box's default, the other scenes', and a wide cut.
 TRUNCATIONS = (1.5, 2.0, 3.0)
 COLUMNS = f"{SIZE} (sieve aperture, mm) and {PASSING} (cumulative mass passing, %)"
+#: Bytes a sieve file may hold: a sieve analysis is a few dozen lines, a few kB.
+MAX_BYTES = 1_000_000
+#: Characters a line of a sieve file may hold.
+MAX_LINE_CHARS = 1000
 
 
 def arguments(sub: argparse.ArgumentParser) -> None:
@@ -44,15 +52,15 @@ def arguments(sub: argparse.ArgumentParser) -> None:
 def read_sieve(path: Path) -> tuple[np.ndarray, np.ndarray]:
     """Apertures [mm], ascending, and fractions passing [0, 1] of a sieve CSV file; any defect
     is a ConfigError naming the file, line and column."""
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"cannot read the sieve file {path}: {exc}") from None
-    lines = [
-        (number, line)
-        for number, line in enumerate(text.splitlines(), start=1)
-        if line.strip() and not line.lstrip().startswith("#")
-    ]
+    lines = []
+    for number, line in enumerate(sieve_text(path).splitlines(), start=1):
+        if len(line) > MAX_LINE_CHARS:
+            raise ConfigError(
+                f"{path}, line {number}: {len(line)} characters; a line of a sieve file holds "
+                f"at most {MAX_LINE_CHARS}"
+            )
+        if line.strip() and not line.lstrip().startswith("#"):
+            lines.append((number, line))
     if not lines:
         raise ConfigError(f"{path}: empty; expected a header line with the columns {COLUMNS}")
     header_line, header_text = lines[0]
@@ -78,6 +86,30 @@ def read_sieve(path: Path) -> tuple[np.ndarray, np.ndarray]:
             )
         rows.append((size, passing, number))
     return checked(path, sorted(rows))
+
+
+def sieve_text(path: Path) -> str:
+    """The text of a sieve file: a regular file of at most MAX_BYTES in UTF-8, without the
+    byte-order mark a spreadsheet's "CSV UTF-8" starts with. Opened without waiting, so that
+    a pipe is refused, not waited on."""
+    try:
+        descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+        if not stat.S_ISREG(os.fstat(descriptor).st_mode):
+            os.close(descriptor)
+            raise ConfigError(
+                f"{path}: not a regular file (a folder, device or pipe); give the sieve "
+                "analysis as a CSV file"
+            )
+        with open(descriptor, "rb") as file:
+            data = file.read(MAX_BYTES + 1)
+        if len(data) > MAX_BYTES:
+            raise ConfigError(
+                f"{path}: larger than {MAX_BYTES / 1e6:g} MB, the most a sieve file may hold "
+                "(a sieve analysis is a few dozen lines)"
+            )
+        return data.decode("utf-8-sig")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"cannot read the sieve file {path}: {exc}") from None
 
 
 def number_in(fields: list[str], column: int, where: str) -> float:

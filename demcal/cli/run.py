@@ -18,9 +18,14 @@ from demcal.daemon.loop import Calibration
 from demcal.daemon.progress import ProgressDisplay
 from demcal.errors import ConfigError, DemcalError
 from demcal.jobs.evaluation import reused_objectives
-from demcal.reporting.terminal import CHOSEN_BY, confirmation_summary, evaluation_summary
+from demcal.reporting.terminal import (
+    ANSWER_VERSUS_LOWEST_RUN,
+    CHOSEN_BY,
+    confirmation_summary,
+    evaluation_summary,
+)
 from demcal.results.layout import StudyFiles
-from demcal.results.records import BestRecord, ObjectiveRecord
+from demcal.results.records import BestRecord, ObjectiveRecord, ReusedRecord
 from demcal.study.config import check_study_name, load_study_file
 from demcal.study.model import Study, freeze, load_frozen
 from demcal.workflow import check_profile, child_cores
@@ -149,7 +154,7 @@ def print_best(study: Study) -> None:
         return
     best = BestRecord.read(files.best)
     print(
-        f"best point ({CHOSEN_BY.get(best.chosen_by or '', 'lowest objective')} among the "
+        f"the answer ({CHOSEN_BY.get(best.chosen_by or '', 'lowest objective')} among the "
         f"evaluated points):"
     )
     if best.reused:  # simulated by another study: read from reused.json, its folder is that study's
@@ -168,7 +173,11 @@ def print_best(study: Study) -> None:
                 study, record, StudyFiles.of(source).evaluation(evaluation_name).dir, best
             )
         )
-        print(f"(reused from the archive: simulated by {best.evaluation}; reused.json)")
+        archive = ReusedRecord.read(files.reused).archive
+        print(
+            f"(reused from the archive {archive}: simulated by {best.evaluation} on the same "
+            f"simulator; {files.reused})"
+        )
     else:
         evaluation = files.evaluation(best.evaluation)
         print(
@@ -182,6 +191,11 @@ def print_best(study: Study) -> None:
     confirmed = confirmation_summary(study, best)
     if confirmed:
         print(confirmed)
+    if best.lowest_run is not None:
+        print(
+            f"lowest single run: {best.lowest_run['evaluation']}, objective "
+            f"{best.lowest_run['objective']:.4g} ({ANSWER_VERSUS_LOWEST_RUN})"
+        )
     if best.evaluations is not None:
         print(
             f"evaluations: {best.evaluations['new']} new, {best.evaluations['reused']} points "

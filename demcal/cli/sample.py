@@ -15,8 +15,10 @@ from demcal.campaign import (
     Tally,
     check_request,
     design_quality,
+    forecast,
     plan,
     run,
+    simulations_per_point,
     write_points,
 )
 from demcal.cli.run import locked_study
@@ -54,9 +56,10 @@ def arguments(sub: argparse.ArgumentParser) -> None:
 
 def sample(args: argparse.Namespace) -> int:
     profile = Path(args.profile)
-    check_profile(profile)
-    check_request(args.n, args.design, args.bundle)
-    if load_study_file(args.config).archive is None:
+    settings = check_profile(profile)
+    given = load_study_file(args.config)
+    check_request(args.n, args.design, args.bundle, simulations_per_point(given))
+    if given.archive is None:
         raise ConfigError(
             "archive: false: a campaign is for the archive; give the study an archive"
         )
@@ -68,16 +71,20 @@ def sample(args: argparse.Namespace) -> int:
         )
     with locked_study(args.config, name=args.name) as study:
         campaign = plan(study, args.n, args.design)
-        names = write_points(study, campaign)
         distance, cover = design_quality(campaign)
+        # said before the points are written: a campaign of thousands takes a while to write
         print(
-            f"demcal sample: {study.name}, {campaign.design} design of {len(names)} points in "
-            f"{len(study.free)} parameters ({', '.join(p.name for p in study.free)}); "
-            f"minimum inter-site distance {distance:.3g}, cover measure {cover:.3g} (unit box)",
+            f"demcal sample: {study.name}, {campaign.design} design of "
+            f"{len(campaign.unit_points)} points in {len(study.free)} parameters "
+            f"({', '.join(p.name for p in study.free)}); minimum inter-site distance "
+            f"{distance:.3g}, cover measure {cover:.3g} (unit box)",
+            f"demcal sample: {forecast(study, campaign, settings)}",
+            sep="\n",
             flush=True,
         )
+        names = write_points(study, campaign)
         bar = tqdm(
-            total=len(names) * study.replicates * len(study.scenes),
+            total=len(names) * simulations_per_point(study),
             unit="sim",
             file=sys.stderr,
             mininterval=1.0 if sys.stderr.isatty() else 30.0,

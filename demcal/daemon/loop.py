@@ -31,7 +31,7 @@ from collections.abc import Callable
 
 from demcal.daemon.control import saved_optimizer
 from demcal.daemon.launcher import Child, Launcher, Running, SnakemakeLauncher, alive
-from demcal.daemon.progress import Progress
+from demcal.daemon.progress import Progress, answer_text
 from demcal.daemon.termination import (
     append_estimates,
     early_termination_decisions,
@@ -49,6 +49,7 @@ from demcal.jobs.evaluation import (
     reused_objectives,
 )
 from demcal.optimizer import Optimizer, Proposal, RunProgress, estimate_heading
+from demcal.optimizer.best import lowest_run
 from demcal.optimizer.evaluation import ReusedPoint
 from demcal.results.layout import EvaluationFiles, evaluation_id, proposal_id
 from demcal.results.records import (
@@ -554,6 +555,7 @@ class Calibration:
                 stop_reason,
                 self.reuse_counts(),
                 taken=None if taken is None else taken[1],
+                lowest=lowest_run(self.optimizer.records),
             )
 
     def reuse_counts(self) -> dict[str, int] | None:
@@ -574,15 +576,7 @@ class Calibration:
         budget = (
             searched if optimizer.search_ended else optimizer.settings.max_evaluations
         ) + optimizer.mapping_budget
-        best = self.optimizer.best()
-        best_text = (
-            "no result yet"
-            if best is None
-            else (
-                f"best {best.value:.4g} at "
-                + ", ".join(f"{n}={v:.3g}" for n, v in zip(self.names, best.x))
-            )
-        )
+        best_text = answer_text(self.optimizer.best(), optimizer.records, self.names)
         elapsed = self.elapsed()
         finished = self.optimizer.completed_evaluations()
         s = self.optimizer.settings

@@ -15,8 +15,29 @@ from typing import TextIO
 
 from tqdm import tqdm
 
+from demcal.optimizer.best import lowest_run
+from demcal.optimizer.evaluation import BestPoint, Evaluation
+from demcal.results.layout import evaluation_id
+
 #: Seconds between plain progress lines where nothing can be rewritten in place.
 PLAIN_EVERY_S = 30.0
+
+
+def answer_text(best: BestPoint | None, records: list[Evaluation], names: list[str]) -> str:
+    """The progress line's end: the answer (the predicted best evaluated point) and the lowest
+    single run, each named by its evaluation; "no result yet" before any."""
+    lowest = lowest_run(records)
+    if best is None or lowest is None:
+        return "no result yet"
+    values = ", ".join(f"{n}={v:.3g}" for n, v in zip(names, best.x))
+    text = f"answer {_named(best.id, best.reused_from)} ({values}) predicted {best.predicted:.3g}"
+    if lowest.id == best.id:
+        return f"{text}, also the lowest run"
+    return f"{text}; lowest run {_named(lowest.id, lowest.reused_from)} {lowest.value:.3g}"
+
+
+def _named(proposal: int, reused_from: str | None) -> str:
+    return reused_from or evaluation_id(proposal)
 
 
 def clock(seconds: float) -> str:

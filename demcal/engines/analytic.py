@@ -50,6 +50,9 @@ def noisy_responses(
 
 class AnalyticEngine(Engine):
     name = "analytic"
+    #: the fake run time, its chunks and the injected failures leave an ok run's responses be
+    INERT_SETTINGS = ("timeout", "duration", "chunks", "failures")
+    steps_in_time = False
 
     def check(self, scenes: list) -> None:
         for i, rule in enumerate(self.settings.get("failures", [])):

@@ -172,6 +172,9 @@ class Engine(ABC):
     """
 
     name: str = ""
+    #: Whether it integrates in time steps (a fraction of the Rayleigh time); the analytic
+    #: engine does not.
+    steps_in_time: bool = True
 
     def __init__(self, settings: dict | None = None):
         self.settings = dict(settings or {})
@@ -186,6 +189,25 @@ class Engine(ABC):
 
     def version(self) -> str:
         return "unknown"
+
+    #: Settings that never change an ok run's responses (limits, reporting), left out of
+    #: :meth:`outcome`.
+    INERT_SETTINGS: tuple[str, ...] = ("timeout",)
+
+    def outcome(self) -> dict:
+        """What of this engine decides a simulation's responses, beyond the parameters,
+        settings, seed and time step: its name, version and settings. Two simulations are
+        interchangeable data only if these agree (``Study.simulator``)."""
+        return {
+            "engine": self.name,
+            "version": self.version(),
+            "settings": {k: v for k, v in self.settings.items() if k not in self.INERT_SETTINGS},
+        }
+
+    def reuse_problem(self) -> str | None:
+        """Why demcal cannot tell this engine's simulations apart from another simulator's
+        (they are then never reused); None when it can."""
+        return None
 
     @abstractmethod
     def run(self, job: SimulationJob, monitor: RunMonitor, driver: Callable | None) -> RunResult:

@@ -39,7 +39,7 @@ from demcal.engines.base import (
 )
 from demcal.errors import ConfigError, SimulationFailed
 from demcal.results.records import Status
-from demcal.results.storage import GrowingCsv, log_tail, read_json
+from demcal.results.storage import GrowingCsv, file_sha256, log_tail, read_json
 
 POLL_SECONDS = 0.5
 #: Largest responses file read (a JSON object of a few numbers) and partial file followed.
@@ -154,6 +154,8 @@ class SimulatorProgress(GrowingCsv):
 
 class CommandEngine(Engine):
     name = "command"
+    #: the wall-clock limit and the file of early estimates leave an ok run's responses be
+    INERT_SETTINGS = ("timeout", "partial_file")
 
     def __init__(self, settings: dict | None = None):
         super().__init__(settings)
@@ -230,7 +232,34 @@ class CommandEngine(Engine):
             raise ConfigError(f"engine.input: file {self.settings['input']!r} not found")
 
     def version(self) -> str:
-        return f"command: {shlex.split(self.settings['command'])[0]}"
+        """The simulator's version as the study names it (``engine.version``), else its
+        executable."""
+        named = self.settings.get("version")
+        executable = shlex.split(self.settings["command"])[0]
+        return f"command: {executable}" + (f" {named}" if named else "")
+
+    def outcome(self) -> dict:
+        """What decides the responses: the command, the version the study names, and the
+        content of every file the command or ``engine.input`` names (executable, scripts,
+        input), so an edited script is another simulator."""
+        executable, *arguments = shlex.split(self.settings["command"])
+        paths = {word: word for word in [*arguments, self.settings.get("input", "")]}
+        paths[executable] = shutil.which(executable) or executable
+        files = {
+            word: file_sha256(path)
+            for word, path in paths.items()
+            if word and not placeholders(word) and Path(path).is_file()
+        }
+        return {**super().outcome(), "files": files}
+
+    def reuse_problem(self) -> str | None:
+        if self.settings.get("version"):
+            return None
+        return (
+            "engine.version: name the simulator's version (any text, e.g. 'mysim 2.1'); demcal "
+            "cannot tell what a command computes, so it reuses simulations only between studies "
+            "that name the same version and run the same command and files"
+        )
 
     def run(self, job: SimulationJob, monitor: RunMonitor, driver: Callable | None) -> RunResult:
         """Run the command template; ``driver`` is unused (scenes name none for this engine)."""

@@ -163,6 +163,7 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> Simul
         replicate=replicate,
         engine=study.engine.name,
         engine_version=study.engine.version(),
+        simulator=study.simulator(scene),
         settings=settings,
         timestep_fraction=study.timestep_fraction,
         responses_needed=study.responses_needed(scene),

@@ -69,3 +69,11 @@ def best_point(
         responses=responses,
         reused_from=record.reused_from,
     )
+
+
+def lowest_run(records: list[Evaluation]) -> Evaluation | None:
+    """The evaluated point whose own runs scored lowest (None before any): not the answer,
+    which :func:`best_point` chooses from the models of all runs, since one noisy run may be
+    lucky."""
+    finished = [r for r in records if r.finished and r.value is not None]
+    return min(finished, key=lambda r: float(r.value or 0.0), default=None)

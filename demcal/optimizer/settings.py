@@ -13,6 +13,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from demcal.errors import unknown_field
+
 from .early_termination import RULES
 from .registry import DESIGNS, RESPONSE_MODELS, STRATEGIES, SURROGATES
 
@@ -110,9 +112,7 @@ class OptimizerSettings:
         known = {f.name for f in dataclasses.fields(cls)}
         for key in values:
             if key not in known:
-                raise ValueError(
-                    f"optimizer.{key}: unknown key; allowed keys are {', '.join(sorted(known))}"
-                )
+                raise ValueError(unknown_field(f"optimizer.{key}", known))
         if "weights" in values:
             values["weights"] = tuple(_as_list("weights", values["weights"]))
         if "early_termination" in values:
@@ -214,10 +214,7 @@ def _early_termination_from(values: Any) -> EarlyTerminationSettings:
     known = {f.name for f in dataclasses.fields(EarlyTerminationSettings)}
     for key in values:
         if key not in known:
-            raise ValueError(
-                f"optimizer.early_termination.{key}: unknown key; allowed keys are "
-                f"{', '.join(sorted(known))}"
-            )
+            raise ValueError(unknown_field(f"optimizer.early_termination.{key}", known))
     converted = dict(values)
     for key in ("thresholds", "progress_boundaries"):
         if key in converted:

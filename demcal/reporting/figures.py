@@ -489,10 +489,20 @@ def dag_svg(dot_source: str) -> str:
     return proc.stdout
 
 
+def simulated_evaluation(study: Study) -> Path:
+    """The objective.json of the study's first evaluation that it simulated itself: a point
+    reused from the archive has an id but no params.json, so no DAG to draw."""
+    for evaluation in study.files.evaluations():
+        if evaluation.params.is_file():
+            return evaluation.objective
+    raise SystemExit(f"{study.files.evals}: no evaluation of this study to draw")
+
+
 def write_evaluation_dag(smk) -> None:
     """Entry point of the workflow's evaluation_dag job."""
+    target = simulated_evaluation(load_frozen(smk.params.study_file))
     proc = subprocess.run(
-        dag_command(smk.params.study_file, smk.params.target),
+        dag_command(smk.params.study_file, target),
         capture_output=True,
         text=True,
         check=False,

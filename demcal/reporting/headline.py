@@ -16,7 +16,14 @@ from pathlib import Path
 import pandas as pd
 
 from demcal.analysis.solutions import posterior_line
-from demcal.reporting.terminal import CHOSEN_BY, duration, error_text, target_text, with_sd
+from demcal.reporting.terminal import (
+    ANSWER_VERSUS_LOWEST_RUN,
+    CHOSEN_BY,
+    duration,
+    error_text,
+    target_text,
+    with_sd,
+)
 from demcal.results.records import BestRecord, FinishedRecord, Status
 from demcal.study.model import Study
 
@@ -100,12 +107,21 @@ def _best_parameters(study: Study, best: BestRecord) -> list[str]:
         value = f"{best.parameters[p.name]:.4g}{unit}"
         rows.append([p.name, value, f"{p.lower:g} – {p.upper:g}{unit}{note}"])
     chosen_by = CHOSEN_BY.get(best.chosen_by or "", "lowest objective")
-    source = ", reused from the archive" if best.reused else ""
+    reused = ", reused from the archive: simulated by that study on the same simulator"
+    source = reused if best.reused else ""
+    lowest = []
+    if best.lowest_run is not None:
+        lowest = [
+            "",
+            f"The lowest single run was ``{best.lowest_run['evaluation']}``, objective "
+            f"{best.lowest_run['objective']:.4g}: {ANSWER_VERSUS_LOWEST_RUN}.",
+        ]
     return [
-        f"**Best parameters** (evaluation ``{best.evaluation}``{source}, "
+        f"**Best parameters, the answer** (evaluation ``{best.evaluation}``{source}, "
         f"the evaluated point with the {chosen_by}):",
         "",
         *_table(["parameter", "value", "bounds"], rows),
+        *lowest,
     ]
 
 

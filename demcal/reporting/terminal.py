@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 import subprocess
 from pathlib import Path
@@ -28,6 +29,11 @@ def duration(seconds: float) -> str:
 
 
 #: How the best point was chosen (``Optimizer.best()["chosen_by"]``), in words.
+#: Why the answer and the lowest single run differ, said once wherever both are shown.
+ANSWER_VERSUS_LOWEST_RUN = (
+    "the answer is the point whose objective the models of all runs predict lowest; a single "
+    "run scatters with the simulation's noise, so the lowest run may lie elsewhere"
+)
 CHOSEN_BY = {
     "response models": "lowest objective predicted from the response models",
     "objective surrogate": "lowest of observed and surrogate-predicted objective",
@@ -64,6 +70,33 @@ def _given(value) -> str:
     return f"{value:.4g}" if is_number else repr(value)
 
 
+def identification_verdicts(study: Study) -> dict[str, str]:
+    """Each free parameter's verdict in the study's solutions.json ("pinned", "not
+    identified", ...: ``demcal.analysis.solutions``); empty before the analysis has run."""
+    try:
+        summary = json.loads(study.files.solutions_summary.read_text())
+        return {v["name"]: v["verdict"] for v in summary["verdicts"]}
+    except (OSError, ValueError, KeyError, TypeError):
+        return {}
+
+
+def bound_advice(verdict: str | None, solutions_summary: Path) -> str:
+    """What to do about a parameter on a bound of the answer, given what the targets identify:
+    widening the bounds helps only a parameter the targets pin."""
+    if verdict == "not identified":
+        return (
+            f"the targets do not identify it ({solutions_summary}), so other values meet them "
+            "as well and wider bounds would not pin it; fix it at a measured value or add a "
+            "lab test that is sensitive to it"
+        )
+    if verdict is None:
+        return (
+            "the bounds may cut the solution off; widen them if the physics allows, unless "
+            "`demcal solutions` finds that the targets do not identify it"
+        )
+    return "the bounds may cut the solution off; widen them if the physics allows"
+
+
 def evaluation_summary(
     study: Study, record: ObjectiveRecord, where: Path, best: BestRecord | None = None
 ) -> str:
@@ -86,12 +119,13 @@ def evaluation_summary(
             or "none recorded (see the reason)"
         )
     )
+    verdicts = identification_verdicts(study)
     for name, side in ({} if best is None else best.on_bounds).items():
         bound = next(p for p in study.free if p.name == name)
         lines.append(
             f"  warning: {name} lies on its {side} bound "
-            f"({bound.lower if side == 'lower' else bound.upper:g}): the bounds may cut the "
-            f"solution off; widen them if the physics allows"
+            f"({bound.lower if side == 'lower' else bound.upper:g}): "
+            + bound_advice(verdicts.get(name), study.files.solutions_summary)
         )
     predicted = {} if best is None else best.predicted_responses
     if record.status == Status.OK:

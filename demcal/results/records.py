@@ -281,6 +281,8 @@ class SimulationRecord(Record):
     cost: dict = field(default_factory=dict)
     ended_at: float | None = None
     state_file: str | None = _optional()
+    #: what simulated it (``Study.simulator``); {} in files of demcal before it was recorded
+    simulator: dict = field(default_factory=dict)
 
     @property
     def ran(self) -> bool:
@@ -403,6 +405,9 @@ class BestRecord(Record):
     confirmation: dict | None = _optional()
     reused: bool | None = _optional()
     evaluations: dict[str, int] | None = _optional()
+    #: ``{"evaluation", "objective"}`` of the evaluated point whose own runs scored lowest,
+    #: when it is not the answer (``demcal.optimizer.best.lowest_run``)
+    lowest_run: dict | None = _optional()
 
 
 @dataclass(frozen=True)

@@ -8,6 +8,7 @@ a damaged one is reported as such, never as a crash of the reader.
 from __future__ import annotations
 
 import csv
+import hashlib
 import json
 import math
 import os
@@ -82,6 +83,12 @@ def write_json_if_changed(path: Path, record: dict) -> bool:
         pass
     atomic_write_text(path, text)
     return True
+
+
+def file_sha256(path: Path | str) -> str:
+    """sha256 of a file's content (what a simulation read: a simulator, its input file)."""
+    with open(path, "rb") as stream:
+        return hashlib.file_digest(stream, "sha256").hexdigest()
 
 
 def byte_size(count: int) -> str:

@@ -16,7 +16,7 @@ from demcal.results.storage import atomic_write_text
 from demcal.study.model import Study
 
 if TYPE_CHECKING:
-    from demcal.optimizer.evaluation import BestPoint, Confirmation
+    from demcal.optimizer.evaluation import BestPoint, Confirmation, Evaluation
 
 #: Significant digits of the numbers in evaluations.csv (the JSON records keep every digit).
 CSV_DIGITS = 7
@@ -142,13 +142,15 @@ def write_best(
     stop_reason: str | None = None,
     evaluations: dict[str, int] | None = None,
     taken: ObjectiveRecord | None = None,
+    lowest: Evaluation | None = None,
 ) -> None:
     """best.json from the optimizer's best point (``Optimizer.best()``) and its records, with the
     re-simulations that confirm it (``Optimizer.confirmation()``) where there are any, the units
     of every parameter and response, why the calibration ended (None while it runs) and, with
     reuse, the ``evaluations`` new and reused. A reused best point is read from reused.json;
     ``taken``: the best point's outcome when the daemon took it before objective.json was
-    written (``Calibration.taken_early``)."""
+    written (``Calibration.taken_early``); ``lowest``: the point whose own runs scored lowest
+    (``demcal.optimizer.best.lowest_run``), recorded where it is not the answer."""
     if best.reused_from is None:
         record = ObjectiveRecord.read_latest(study.files.evaluation(evaluation_id(best.id)), taken)
     else:
@@ -185,4 +187,10 @@ def write_best(
         },
         reused=True if best.reused_from else None,
         evaluations=evaluations,
+        lowest_run=None
+        if lowest is None or lowest.id == best.id
+        else {
+            "evaluation": lowest.reused_from or evaluation_id(lowest.id),
+            "objective": lowest.value,
+        },
     ).write(study.files.best)

@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import math
 import pkgutil
+import sys
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
 from demcal.errors import ConfigError
+from demcal.results.storage import file_sha256
 from demcal.study.catalogue import CATALOG, ParameterSpec
 
 #: Largest possible angle of a slope (repose, shear), deg.
@@ -196,6 +198,17 @@ class Scene:
             return self.analytic_model
         path = self.drivers.get(engine)
         return None if path is None else pkgutil.resolve_name(path)
+
+    def script_digests(self, engine: str) -> list[str]:
+        """sha256 of each source file of what runs and measures this scene on ``engine`` (its
+        driver and extractors), sorted: an edited scene script is another simulator."""
+        modules = {
+            getattr(function, "__module__", None)
+            for function in (self.driver(engine), *self.extractors.values())
+            if function is not None
+        }
+        files = {getattr(sys.modules.get(name or ""), "__file__", None) for name in modules}
+        return sorted(file_sha256(path) for path in files if path)
 
     def resolve_settings(self, given: dict | None, field_prefix: str) -> dict:
         """Defaults overlaid with the given settings, each checked against its spec."""

@@ -23,7 +23,7 @@ import yaml
 from demcal.archive.url import check_url
 from demcal.engines import make_engine
 from demcal.engines.base import Engine
-from demcal.errors import ConfigError
+from demcal.errors import ConfigError, unknown_field
 from demcal.optimizer import OptimizerSettings
 from demcal.optimizer.registry import STRATEGIES
 from demcal.physics.timestep import RAYLEIGH_PARAMETERS, check_fraction
@@ -34,6 +34,7 @@ from demcal.study.catalogue import CATALOG, SPLIT_PARAMETERS
 from demcal.study.material import CalibratedMaterial, load_material, load_robust_material
 from demcal.study.model import FreeParameter, Study
 from demcal.study.objective import DEFAULT_FORM, Target
+from demcal.study.units import CONVERSIONS, conversion_factor
 
 
 def _field_path(error: jsonschema.ValidationError) -> str:
@@ -54,7 +55,7 @@ def _schema_message(error: jsonschema.ValidationError, schema: dict) -> str:
         allowed = sorted(subschema.get("properties", {}))
         extra = sorted(set(value) - set(allowed)) if isinstance(value, dict) else []
         name = f"{where}.{extra[0]}" if where != "(top level)" and extra else (extra or [where])[0]
-        return f"{name}: unknown field; allowed here: {', '.join(allowed) or 'none'}"
+        return unknown_field(name, allowed)
     if kind == "required":
         return f"{where}: missing required field {error.message.split(' ')[0]}"
     if kind in ("enum", "const"):
@@ -84,12 +85,24 @@ def _schema_message(error: jsonschema.ValidationError, schema: dict) -> str:
     if kind == "type":
         wanted = expected if isinstance(expected, list) else [expected]
         if isinstance(value, str) and {"number", "integer"} & set(wanted):
-            return (
-                f"{where}: {value!r} is text, not a number ({' or '.join(wanted)}); "
-                f"write it without quotes"
+            return f"{where}: {value!r} is text, not a number ({' or '.join(wanted)}); " + (
+                "write it without quotes"
+                if _reads_as_number(value)
+                else "a percentage is not read: give the number in the field's unit"
+                if value.strip().endswith("%")
+                else "give a plain number (units go in the unit field)"
             )
         return f"{where}: {value!r} is not of type {expected}"
     return f"{where}: {error.message}"
+
+
+def _reads_as_number(text: str) -> bool:
+    """Whether ``text`` is a number written in quotes."""
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 @functools.cache
@@ -134,8 +147,45 @@ def _scenes_of(config: dict) -> dict[str, Scene]:
     return {name: SCENES.load(name) for name in dict.fromkeys(names)}
 
 
-def _targets(config: dict, scenes: dict[str, Scene]) -> list[Target]:
-    targets, seen = [], set()
+#: The numbers of a target that are in its unit (``weight`` is not).
+TARGET_QUANTITIES = ("value", "spread", "repeats", "at_least", "at_most")
+
+
+def _in_response_unit(target: dict, index: int, unit: str) -> tuple[dict, str | None]:
+    """``target`` with its numbers in ``unit``, its response's unit, and a note of the
+    conversion (None when there was none); a ConfigError for a unit demcal cannot convert."""
+    given = target.get("unit", unit)
+    factor = conversion_factor(given, unit)
+    if factor is None:
+        convertible = sorted(CONVERSIONS.get(unit, {}))
+        raise ConfigError(
+            f"targets[{index}].unit: {given!r} but {target['response']} is measured in {unit}; "
+            f"give the value in {unit}"
+            + (f" or in one of {', '.join(convertible)}" if convertible else "")
+        )
+    if factor == 1.0:
+        return target, None
+    converted = {
+        key: [v * factor for v in value] if isinstance(value, list) else value * factor
+        for key, value in target.items()
+        if key in TARGET_QUANTITIES
+    }
+    shown = ", ".join(
+        f"{key} {target[key]} {given} -> {_shown_number(converted[key])} {unit}"
+        for key in converted
+    )
+    return {**target, **converted, "unit": unit}, f"targets[{index}]: converted {shown}"
+
+
+def _shown_number(value: float | list[float]) -> str:
+    if isinstance(value, list):
+        return f"[{', '.join(f'{v:.4g}' for v in value)}]"
+    return f"{value:.4g}"
+
+
+def _targets(config: dict, scenes: dict[str, Scene]) -> tuple[list[Target], list[str]]:
+    """The study's targets in their responses' units, and a note of each conversion."""
+    targets, seen, notes = [], set(), []
     for i, t in enumerate(config["targets"]):
         scene = scenes[t["scene"]]
         if t["response"] not in scene.responses:
@@ -145,11 +195,8 @@ def _targets(config: dict, scenes: dict[str, Scene]) -> list[Target]:
                 f"{', '.join(scene.responses)}"
             )
         unit = scene.responses[t["response"]].unit
-        if "unit" in t and t["unit"] != unit:
-            raise ConfigError(
-                f"targets[{i}].unit: {t['unit']!r} but {t['response']} is "
-                f"measured in {unit}; give the value in {unit}"
-            )
+        t, note = _in_response_unit(t, i, unit)
+        notes += [note] if note else []
         key = (t["scene"], t["response"])
         if key in seen:
             raise ConfigError(f"targets[{i}]: {t['scene']}.{t['response']} is targeted twice")
@@ -174,7 +221,7 @@ def _targets(config: dict, scenes: dict[str, Scene]) -> list[Target]:
                 upper,
             )
         )
-    return targets
+    return targets, notes
 
 
 def _check_possible(value: float, where: str, name: str, response: ResponseSpec) -> None:
@@ -489,14 +536,18 @@ def _archive(config: dict) -> str | None:
     return check_url(url, "archive.url")
 
 
-def _reuse(config: dict, archive: str | None) -> str | None:
-    """``reuse: archive`` (None when off, the default); it needs an archive to read."""
+def _reuse(config: dict, archive: str | None, engine: Engine) -> str | None:
+    """``reuse: archive`` (None when off, the default); it needs an archive to read and an
+    engine whose simulator demcal can tell apart from others."""
     reuse = config.get("reuse", default("reuse")) or None
     if reuse is not None and archive is None:
         raise ConfigError(
             "reuse: 'archive' reads the study's archive, but it has none (archive: false); "
             "name one (archive: {url: ...}) or set reuse: false"
         )
+    problem = engine.reuse_problem()
+    if reuse is not None and problem is not None:
+        raise ConfigError(f"reuse: 'archive' needs {problem}")
     return reuse
 
 
@@ -517,6 +568,18 @@ def _staging(config: dict, scenes: dict, optimizer: OptimizerSettings) -> tuple[
     return () if staging == "staged" or (staging == "auto" and stops_early) else None
 
 
+def _timestep_notes(free: list[FreeParameter], engine: Engine) -> list[str]:
+    """A note for each free parameter the time step depends on (a fraction of the Rayleigh
+    time: Rackl & Hanley 2017, eq. 9): each point then runs with its own time step."""
+    return [
+        f"parameters.{p.name}: the time step (timestep_fraction of the Rayleigh time) depends "
+        f"on it, so each point runs with its own time step: a stiffer or lighter point needs "
+        f"more steps (rayleigh_cost_weight can penalise them)"
+        for p in free
+        if p.name in RAYLEIGH_PARAMETERS and engine.steps_in_time
+    ]
+
+
 def load_study(config: dict, check_engine: bool = True) -> Study:
     """Validate a study configuration (mapping from YAML) and resolve it into a ``Study``."""
     if not isinstance(config, dict):
@@ -524,7 +587,7 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
     refuse_non_finite(config)
     validate_schema(config)
     scenes = _scenes_of(config)
-    targets = _targets(config, scenes)
+    targets, conversions = _targets(config, scenes)
     config, material, material_draws, material_warnings = _with_material(config, scenes)
     free, fixed = _parameters(config, scenes)
     settings = _settings(config, scenes, free)
@@ -596,9 +659,15 @@ def load_study(config: dict, check_engine: bool = True) -> Study:
             "poll_seconds": default("calibration", "poll_seconds"),
             **config.get("calibration", {}),
         },
-        warnings=([warning] if warning else []) + material_warnings + skipped,
+        warnings=[
+            *([warning] if warning else []),
+            *conversions,
+            *material_warnings,
+            *skipped,
+            *_timestep_notes(free, engine),
+        ],
         archive=archive,
-        reuse=_reuse(config, archive),
+        reuse=_reuse(config, archive, engine),
         material=material,
         material_draws=material_draws,
     )

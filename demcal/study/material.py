@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import hashlib
 import re
+import reprlib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -123,10 +124,13 @@ def load_material(reference: str) -> CalibratedMaterial:
             f"material: {best_path} gives no value of {', '.join(missing)}, free in the "
             f"calibration {name!r}; it belongs to another study"
         )
-    parameters = {**fixed}
+    parameters = {
+        parameter: _number(value, study_path, f"fixed.{parameter}")
+        for parameter, value in fixed.items()
+    }
     settings = {}
     for parameter, is_setting in free.items():
-        value = float(best.parameters[parameter])
+        value = _number(best.parameters[parameter], best_path, f"parameters.{parameter}")
         if is_setting:
             settings[parameter] = value
         else:
@@ -148,6 +152,17 @@ def load_material(reference: str) -> CalibratedMaterial:
         parameters=parameters,
         settings=settings,
     )
+
+
+def _number(value: object, path: Path, key: str) -> float:
+    """A value of the calibration's files as a number; a ConfigError naming the file and the
+    field ``key`` when it is text, a list or anything else."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ConfigError(
+            f"material: {path}: {key} is {reprlib.repr(value)}, not a number; the file is "
+            f"damaged or was not written by demcal"
+        )
+    return float(value)
 
 
 def draw_materials(

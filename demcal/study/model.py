@@ -140,15 +140,20 @@ class Study:
         return {**point, **self.free_values(overrides, "--point")}
 
     def free_values(self, items: Sequence[str], option: str) -> dict[str, float]:
-        """``NAME=VALUE`` words of a command line as free-parameter values (finite numbers);
-        a ConfigError names ``option``, the word and what is wrong."""
+        """``NAME=VALUE`` words of a command line as free-parameter values (finite numbers,
+        each parameter once); a ConfigError names ``option``, the word and what is wrong."""
         names = [p.name for p in self.free]
-        values = {}
+        values: dict[str, float] = {}
         for item in items:
             name, _, value = item.partition("=")
             if name not in names:
                 raise ConfigError(
                     f"{option} {item}: {name!r} is not a free parameter ({', '.join(names)})"
+                )
+            if name in values:
+                raise ConfigError(
+                    f"{option} {item}: {name} is given twice ({name}={values[name]:g} before); "
+                    f"give each free parameter once"
                 )
             try:
                 values[name] = float(value)
@@ -232,6 +237,16 @@ class Study:
         }
         inputs = [p.name for p in self.free if not p.spec.scene_setting or p.name in variable]
         return settings, fixed, inputs
+
+    def simulator(self, scene: str) -> dict:
+        """What simulated ``scene``, beyond the parameters, settings, seed and time step: the
+        engine (name, version, the settings that change responses, the files a command reads)
+        and the scene's script for it. Simulations are the same simulator's only if these
+        agree (``reuse: archive`` and the global metamodels take no other)."""
+        return {
+            **self.engine.outcome(),
+            "scene_script": self.scenes[scene].script_digests(self.engine.name),
+        }
 
     def simulation_seed(
         self,

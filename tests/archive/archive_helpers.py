@@ -14,6 +14,8 @@ from demcal.results.records import Status
 
 POSTGRES_URL = os.environ.get("DEMCAL_TEST_POSTGRES_URL")
 SETTINGS = {"d50": 0.002, "sigma_ln": 0.1, "particle_count": 200}
+#: The digest of the simulator of every record (``ArchivedSimulation.simulator``).
+SIMULATOR = "a" * 64
 
 
 def record(n: int = 0, **changes) -> ArchivedSimulation:
@@ -46,6 +48,7 @@ def record(n: int = 0, **changes) -> ArchivedSimulation:
         started_at=1.0e9,
         ended_at=1.0e9 + 2,
         demcal_version="0.1.0",
+        simulator=SIMULATOR,
     )
     return replace(base, **changes)
 

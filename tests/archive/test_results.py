@@ -14,6 +14,7 @@ from demcal.archive import tables
 from demcal.archive.importer import import_results
 from demcal.archive.record import from_results
 from demcal.archive.store import Archive
+from demcal.archive.url import check_url
 from demcal.cli import main
 from demcal.errors import ConfigError
 from demcal.jobs.evaluation import archive, extract, simulate
@@ -120,7 +121,9 @@ def test_archive_false_records_nothing(tmp_path, monkeypatch):
 @pytest.mark.parametrize(
     "archive, message",
     [
-        ({"url": "mysql://host/db"}, "archive.url: 'mysql' databases are not supported"),
+        ({"url": "mysql://host/db"}, "archive.url: mysql:// is not a database demcal can"),
+        ({"url": "http://host/db"}, "archive.url: http:// is not a database demcal can"),
+        ({"url": "file:///tmp/a.sqlite"}, "archive.url: file:// is not a database demcal"),
         ({"url": "not a url"}, "archive.url: 'not a url' is not a database URL"),
         ({"url": "sqlite://"}, "archive.url: 'sqlite://' names no file"),
         ({"url": "postgresql://host"}, "archive.url: 'postgresql://host' names no database"),
@@ -196,7 +199,7 @@ def test_the_commands(study, tmp_path, capsys):
     assert main(["archive", "export", str(tmp_path / "all.xlsx")]) == 2
     assert "give a file ending in .csv or .parquet" in capsys.readouterr().err
     assert main(["archive", "list", "--url", "oracle://x/y"]) == 2
-    assert "--url: 'oracle' databases are not supported" in capsys.readouterr().err
+    assert "--url: oracle:// is not a database demcal can" in capsys.readouterr().err
 
 
 def test_a_folder_without_a_study_is_named(tmp_path, capsys, monkeypatch):
@@ -204,3 +207,11 @@ def test_a_folder_without_a_study_is_named(tmp_path, capsys, monkeypatch):
     assert main(["archive", "import", str(tmp_path)]) == 2
     assert "no study.json here" in capsys.readouterr().out
     assert StudyFiles.of("none").dir.name == "none"
+
+
+def test_postgres_is_read_as_postgresql():
+    """``postgres://``, the spelling SQLAlchemy dropped, names a PostgreSQL database."""
+    assert check_url("postgres://user:secret@host:5432/db") == (
+        "postgresql://user:secret@host:5432/db"
+    )
+    assert check_url("postgres+psycopg://host/db") == "postgresql+psycopg://host/db"

@@ -8,10 +8,10 @@ from dataclasses import replace
 import pytest
 from alembic.autogenerate import compare_metadata
 from alembic.migration import MigrationContext
-from archive_helpers import DATABASES, SETTINGS, new_archive, record, stored
+from archive_helpers import DATABASES, SETTINGS, SIMULATOR, new_archive, record, stored
 from sqlalchemy import insert, text
 
-from demcal.archive.record import Quantity
+from demcal.archive.record import ArchivedSimulation, Quantity
 from demcal.archive.schema import Base, ParameterRow, SimulationRow
 from demcal.archive.store import VERSION_TABLE, Archive, ArchiveError
 from demcal.archive.url import open_engine
@@ -82,6 +82,8 @@ def test_compatible_records_share_scene_engine_settings_and_fixed_values(archive
                 record(
                     7, parameters={"sliding_friction_pp": record().parameters["restitution_pp"]}
                 ),
+                record(8, simulator="b" * 64),  # another simulator
+                record(9, simulator=""),  # a simulator that was not recorded
             ]
         )
         fixed = {"restitution_pp": 0.5, "particle_density": 2500.0}
@@ -93,6 +95,7 @@ def test_compatible_records_share_scene_engine_settings_and_fixed_values(archive
                 "settings": dict(SETTINGS),
                 "fixed": fixed,
                 "inputs": ["sliding_friction_pp"],
+                "simulator": SIMULATOR,
             }
             return [r.evaluation for r in archive.compatible(**(arguments | given))]
 
@@ -104,7 +107,8 @@ def test_compatible_records_share_scene_engine_settings_and_fixed_values(archive
             "e0003",
         ]
         assert found(fixed={"restitution_pp": 0.6, "particle_density": 2500.0}) == []
-        assert found(engine_version="analytic-2") == []
+        assert found(simulator="b" * 64) == ["e0008"]
+        assert found(simulator="") == []  # an unknown simulator is nobody's
         assert found(statuses=["ok", "failed"]) == ["e0000", "e0001", "e0006"]
         assert found(fixed={}, inputs=["sliding_friction_pp"]) == ["e0007"]
 
@@ -129,16 +133,26 @@ def test_the_second_schema_reads_the_first_schemas_records_in_todays_names(archi
         "restitution": Quantity(0.7, "-"),
         "particle_density": record(3).parameters["particle_density"],
     }
-    earlier = replace(record(3), parameters=earlier_parameters)
+    earlier = replace(record(3), parameters=earlier_parameters, simulator="")
     bad_parameters = replace(
-        record(4), status=Status.FAILED, parameters={}, responses={}, final={}, free=frozenset()
+        record(4),
+        status=Status.FAILED,
+        parameters={},
+        responses={},
+        final={},
+        free=frozenset(),
+        simulator="",
     )
     engine = open_engine(archive_url)
     upgrade(engine, "0001")
+
+    def row_0001(simulation: ArchivedSimulation) -> dict:  # without the simulator (0003)
+        return {k: v for k, v in _row(simulation, 1.0e9).items() if k != "simulator"}
+
     with engine.begin() as connection:  # what demcal wrote at revision 0001
-        connection.execute(insert(SimulationRow).values(_row(bad_parameters, 1.0e9)))
+        connection.execute(insert(SimulationRow).values(row_0001(bad_parameters)))
         row = connection.execute(
-            insert(SimulationRow).values(_row(earlier, 1.0e9)).returning(SimulationRow.id)
+            insert(SimulationRow).values(row_0001(earlier)).returning(SimulationRow.id)
         ).scalar_one()
         connection.execute(
             insert(ParameterRow),
@@ -176,9 +190,19 @@ def test_the_second_schema_reads_the_first_schemas_records_in_todays_names(archi
         assert archive.add([today, failed_today]) == 0
         settings = {n: v for n, v in SETTINGS.items() if n not in ("d50", "sigma_ln")}
         fixed = {n: q.value for n, q in today.parameters.items() if n != "sliding_friction_pp"}
-        assert archive.compatible(
-            "cylinder_lift", "analytic", settings, fixed, ["sliding_friction_pp"]
-        ) == [migrated]
+        # demcal did not record what simulated them then (0003): no study reuses them
+        assert migrated.simulator == ""
+        assert (
+            archive.compatible(
+                "cylinder_lift",
+                "analytic",
+                settings,
+                fixed,
+                ["sliding_friction_pp"],
+                simulator=SIMULATOR,
+            )
+            == []
+        )
     assert today.key != earlier.key  # the key was spelled again
 
 

@@ -17,7 +17,11 @@ def test_defaults_follow_the_thesis():
     [
         ({"strategy": "foo"}, "optimizer.strategy: 'foo' is not one of dycors, kriging_ei"),
         ({"sigma_max": 2.0}, "optimizer.sigma_max: 2.0 is out of range"),
-        ({"colour": 1}, "optimizer.colour: unknown key"),
+        ({"colour": 1}, "optimizer.colour: unknown field; allowed here: calm_proposals"),
+        (
+            {"max_evaluation": 1},
+            "optimizer.max_evaluation: unknown field; did you mean max_evaluations",
+        ),
         ({"max_evaluations": 0}, "optimizer.max_evaluations: 0 is out of range"),
         ({"early_termination": {"thresholds": [10, 5]}}, "progress_boundaries"),
         ({"strategy": "kriging_ei", "surrogate": "cubic_rbf"}, "optimizer.surrogate: 'cubic_rbf'"),

@@ -113,6 +113,5 @@ rule evaluation_dag:
     localrule: True
     params:
         study_file=STUDY_FILE,
-        target=str(FILES.evaluation("e0000").objective),
     script:
         "../scripts/evaluation_dag.py"
