@@ -1,13 +1,16 @@
 """demcal: calibration of discrete element method (DEM) simulations.
 
-From Python (a notebook)::
+From Python (a notebook):
 
-    import demcal
-    results = demcal.open("results/quickstart")    # a calibration's results
-    study = demcal.load("study.yaml")              # a study file, validated
-    results = study.run()                          # calibrated as `demcal run` does
+```python
+import demcal
 
-See :mod:`demcal.api`. The packages by concern: ``study`` (the study, its
+results = demcal.open("results/quickstart")  # a calibration's results
+study = demcal.load("study.yaml")  # a study file, validated
+results = study.run()  # calibrated as `demcal run` does
+```
+
+See [demcal.api][demcal.api]. The packages by concern: ``study`` (the study, its
 parameters, targets and objective), ``results`` (files and records under
 ``results/<study>/``), ``jobs`` (the jobs of one evaluation), ``physics``,
 ``engines`` and ``scenes`` (simulators and lab tests), ``optimizer``

@@ -106,7 +106,7 @@ def check_request(size: int, design: str, bundle: int = 1, per_point: int = 1) -
     most = MAX_SIMULATIONS // per_point
     if not 2 <= size <= most:
         raise ConfigError(
-            f"--n {size}: give 2 to {most} points (a campaign runs at most {MAX_SIMULATIONS} "
+            f"--points {size}: give 2 to {most} points (a campaign runs at most {MAX_SIMULATIONS} "
             f"simulations, here {per_point} per point)"
         )
     if bundle < 1:
@@ -149,8 +149,8 @@ def plan(study: Study, size: int, design: str) -> CampaignRecord:
         return existing
     if design not in EXTENSIBLE:
         raise ConfigError(
-            f"--n {size}: a {design} design of {len(taken)} points cannot be extended and stay "
-            f"space-filling; start another study with --design fssf_f, sobol or halton"
+            f"--points {size}: a {design} design of {len(taken)} points cannot be extended and "
+            f"stay space-filling; start another study with --design fssf_f, sobol or halton"
         )
     more = extend_design(design, taken, size, dimension, np.random.default_rng(existing.seed))
     return CampaignRecord(design, existing.seed, np.vstack([taken, more]).tolist())

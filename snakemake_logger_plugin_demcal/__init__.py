@@ -3,7 +3,8 @@
 The shipped profiles select it (``logger: [demcal]``), so ``snakemake
 --profile ...`` prints demcal's progress line and answer without Snakemake's
 job listings, while every warning and error still shows. (Snakemake's own
-``quiet: all`` would hide the errors too.)
+``quiet: all`` would hide the errors too.) A dry run (``-n``) is all listing,
+so there it shows everything Snakemake's own logger would.
 
 Snakemake reads the files given with ``--configfile`` before it runs the
 Snakefile, and stops on an unreadable one (a directory, text that is not
@@ -47,11 +48,12 @@ def check_study_files(argv: list[str]) -> None:
 
 
 class LogHandler(LogHandlerBase):
-    """Snakemake's records at WARNING and above, formatted by Snakemake, to standard error."""
+    """Snakemake's records at WARNING and above (in a dry run, INFO and above through
+    Snakemake's filter), formatted by Snakemake, to standard error."""
 
     def __post_init__(self) -> None:
         check_study_files(sys.argv[1:])
-        self.setLevel(logging.WARNING)
+        self.setLevel(logging.INFO if self.common_settings.dryrun else logging.WARNING)
 
     def emit(self, record: logging.LogRecord) -> None:
         try:
@@ -69,7 +71,9 @@ class LogHandler(LogHandlerBase):
 
     @property
     def has_filter(self) -> bool:
-        return True  # the level set above; Snakemake's quiet filter would hide the errors
+        # the level set above; Snakemake's quiet filter would hide the errors, but in a dry
+        # run it keeps --quiet working
+        return not self.common_settings.dryrun
 
     @property
     def has_formatter(self) -> bool:

@@ -56,7 +56,7 @@ def damaged(*updates: str) -> Callable[[Path], None]:
 
 def listed(*ids: int) -> str:
     """The lines of ``archive list`` for these ids, in order (other lines between)."""
-    return "(?m)" + "".join(rf"^\s+{i} [0-9a-f]{{12}} small/e\d{{4}} .*\n(?:.*\n)*?" for i in ids)
+    return "(?m)" + "".join(rf"^\s+{i} small/e\d{{4}} .*\n(?:.*\n)*?" for i in ids)
 
 
 def nan_in_one_replicate(folder: Path) -> None:

@@ -113,9 +113,9 @@ CASES = [
         finished_study,
     ),
     BadCommand(
-        "solutions_k_infinite",
-        ("solutions", "small", "--k", "inf"),
-        r"^demcal: --k inf: give a number of standard deviations above 0$",
+        "solutions_tolerance_infinite",
+        ("solutions", "small", "--tolerance", "inf"),
+        r"^demcal: --tolerance inf: give a number of standard deviations above 0$",
         finished_study,
     ),
     BadCommand(
@@ -132,9 +132,9 @@ CASES = [
         finished_study,
     ),
     BadCommand(
-        "convergence_no_jobs",
-        ("convergence", STUDY_FILE, "--jobs", "0"),
-        out_of_range("convergence", "--jobs", "0", 1, 1024),
+        "convergence_no_workers",
+        ("convergence", STUDY_FILE, "--workers", "0"),
+        out_of_range("convergence", "--workers", "0", 1, 1024),
         write_study,
     ),
     BadCommand(
@@ -146,7 +146,7 @@ CASES = [
     BadCommand(
         "usage_an_unknown_command",
         ("calibrate", STUDY_FILE),
-        r"^demcal: command: invalid choice: 'calibrate' \(choose from 'run', .*\)"
+        r"^demcal: command: invalid choice: 'calibrate' \(choose from 'check', 'run', .*\)"
         r"; 'demcal --help' shows the options$",
     ),
     BadCommand(
@@ -164,8 +164,8 @@ CASES = [
     ),
     BadCommand(
         "usage_a_number_that_is_not_one",
-        ("solutions", "small", "--k", "two"),
-        r"^demcal: solutions: --k: invalid float value: 'two'" + HELP.format("solutions"),
+        ("solutions", "small", "--tolerance", "two"),
+        r"^demcal: solutions: --tolerance: invalid float value: 'two'" + HELP.format("solutions"),
         finished_study,
     ),
     BadCommand(

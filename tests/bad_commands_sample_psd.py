@@ -1,6 +1,6 @@
 """Bad uses of ``demcal sample`` and ``demcal psd fit`` (issue 35, items 5 and 6): designs
 too large to plan, and sieve files that are huge, endless, not files at all, or one endless
-line. Each is refused in one line naming ``--n`` or the file, with the allowed size."""
+line. Each is refused in one line naming ``--points`` or the file, with the allowed size."""
 
 from __future__ import annotations
 
@@ -50,21 +50,21 @@ def replicated_study(folder: Path) -> None:
 CASES: list[BadCommand] = [
     BadCommand(
         "sample_a_billion_points",
-        ("sample", STUDY_FILE, "--n", "1000000000"),
-        r"--n 1000000000: give 2 to 5000 points",
+        ("sample", STUDY_FILE, "--points", "1000000000"),
+        r"--points 1000000000: give 2 to 5000 points",
         write_study,
     ),
     BadCommand(
         "sample_200000_points",
-        ("sample", STUDY_FILE, "--n", "200000"),
-        r"--n 200000: give 2 to 5000 points",
+        ("sample", STUDY_FILE, "--points", "200000"),
+        r"--points 200000: give 2 to 5000 points",
         write_study,
         timeout=30,
     ),
     BadCommand(
         "sample_5000_points_of_2_simulations",
-        ("sample", STUDY_FILE, "--n", "5000"),
-        r"--n 5000: give 2 to 2500 points .*at most 5000 simulations, here 2 per point",
+        ("sample", STUDY_FILE, "--points", "5000"),
+        r"--points 5000: give 2 to 2500 points .*at most 5000 simulations, here 2 per point",
         replicated_study,
         timeout=15,
     ),

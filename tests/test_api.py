@@ -4,13 +4,16 @@ from __future__ import annotations
 
 import json
 import logging
+import re
 import subprocess
 import sys
 
+import numpy as np
 import pandas as pd
 import pytest
 import yaml
 from conftest import ANALYTIC_STUDY
+from matplotlib.figure import Figure
 from test_calibration_loop import calibrate, config
 
 import demcal
@@ -46,13 +49,66 @@ def test_open_reads_every_result_of_a_calibration(calibrated):
     # times in UTC; the in-process launcher writes no launch.json, so no start time
     assert str(table["started_at"].dt.tz) == str(table["ended_at"].dt.tz) == "UTC"
     assert table["ended_at"].notna().all() and table["started_at"].isna().all()
-    assert results.best == BestRecord.read(folder / "best.json")
-    row = table.set_index("evaluation").loc[results.best.evaluation]
-    assert row["objective"] == pytest.approx(results.best.objective, rel=1e-6)  # 7 digits
+    answer = results.answer
+    assert answer.record == BestRecord.read(folder / "best.json") == results.best.record
+    row = table.set_index("evaluation").loc[answer.evaluation]
+    assert row["objective"] == pytest.approx(answer.objective, rel=1e-6)  # 7 digits
     assert results.finished.reason == reason == "evaluation budget reached (8 of 8)"
     optimizer = results.optimizer
     assert optimizer.completed_evaluations() == 8 and optimizer.ask() == []  # budget spent
     assert "unit" in repr(results) and reason in repr(results)
+    assert f"answer {answer.evaluation}, objective" in repr(results)
+
+
+def test_the_answer_shows_itself_in_a_few_lines_and_as_a_table(calibrated):
+    folder, _ = calibrated
+    results = demcal.open(folder)
+    answer = results.answer
+    shown = repr(answer)
+    assert len(shown.splitlines()) <= 5 and len(shown) < 500
+    assert shown.startswith(f"<demcal answer of 'unit': evaluation {answer.evaluation} (")
+    assert re.search(
+        r"sliding_friction_pp = [\d.]+ \[-\], rolling_friction_pp = [\d.]+ \[-\]", shown
+    )
+    assert re.search(r"objective [\d.e-]+ predicted, [\d.e-]+ observed in its own runs", shown)
+    table = answer.to_frame()
+    assert list(table.index) == [
+        "sliding_friction_pp",
+        "rolling_friction_pp",
+        "cylinder_lift.angle_of_repose",
+        "cylinder_lift.bulk_density",
+        "objective",
+    ]
+    assert table.loc["cylinder_lift.bulk_density", "unit"] == "kg/m^3"
+    assert table.loc["cylinder_lift.bulk_density", "target"] == 1450.0
+    assert table.loc["objective", "value"] == answer.objective
+    assert results.lowest_run is None  # the answer is also the lowest single run here
+    with pytest.raises(AttributeError, match="no attribute 'nothing'"):
+        _ = answer.nothing
+
+
+def test_the_lowest_single_run_is_named_apart_from_the_answer(calibrated):
+    folder, _ = calibrated
+    best = json.loads((folder / "best.json").read_text())
+    best["lowest_run"] = {"evaluation": "e0003", "objective": 0.001}
+    (folder / "best.json").write_text(json.dumps(best))
+    results = demcal.open(folder)
+    lowest = results.lowest_run
+    assert (lowest.evaluation, lowest.objective) == ("e0003", 0.001)
+    assert repr(lowest).startswith(
+        f"<demcal lowest single run of 'unit': evaluation e0003, objective 0.001 observed; "
+        f"not the answer ({best['evaluation']}): the answer is the point whose objective"
+    )
+    assert "not the lowest single run (e0003, see .lowest_run)" in repr(results.answer)
+
+
+def test_confirmation_and_mapping_runs_are_labelled_in_the_evaluations(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    study = config()
+    study["optimizer"].update(response_model="cubic_rbf", confirm_replicates=2, map_solutions=2)
+    calibrate(study)
+    table = demcal.open("unit").evaluations
+    assert table["origin"].tolist() == ["new"] * 8 + ["confirmation"] * 2 + ["mapping"] * 2
 
 
 def test_figures_and_solutions_land_in_the_folder_wherever_it_is(calibrated, tmp_path, monkeypatch):
@@ -68,11 +124,92 @@ def test_figures_and_solutions_land_in_the_folder_wherever_it_is(calibrated, tmp
     assert "objective_vs_evaluation" in figures and figures == results.figures
     assert all(path.parent == folder / "plots" and path.is_file() for path in figures.values())
     assert not (elsewhere / "results").exists()
-    analysis = results.solutions(samples=256)
-    assert [verdict.name for verdict in analysis.verdicts] == analysis.names
-    assert analysis.points().shape[1] == 2
+    solutions = results.solutions(samples=256)
+    assert [verdict.name for verdict in solutions.verdicts] == solutions.analysis.names
+    assert solutions.points().shape[1] == 2
     with pytest.raises(ConfigError, match=r"samples is 8; give a whole number from 64 to"):
         results.solutions(samples=8)
+
+
+#: The figures of the report, each drawn by a method of the results.
+REPORT_FIGURES = {
+    "plot_optimization_history": "objective_vs_evaluation",
+    "plot_objective_vs_time": "objective_vs_time",
+    "plot_parameter_traces": "parameter_traces",
+    "plot_responses": "responses_vs_targets",
+    "plot_parallel_coordinate": "parallel_coordinates",
+    "plot_early_termination": "early_termination",
+    "plot_answer_history": "answer_history",
+}
+
+
+def png_size(image: bytes) -> tuple[int, int]:
+    """The width and height of a PNG image (its IHDR chunk)."""
+    assert image[:8] == b"\x89PNG\r\n\x1a\n"
+    return int.from_bytes(image[16:20], "big"), int.from_bytes(image[20:24], "big")
+
+
+def test_every_figure_is_drawn_as_a_figure_the_notebook_shows(calibrated):
+    folder, _ = calibrated
+    results = demcal.open(folder)
+    written = results.draw_figures()
+    for method, name in REPORT_FIGURES.items():
+        figure = getattr(results, method)()
+        assert isinstance(figure, Figure) and figure.axes, method
+        width, height = png_size(figure._repr_png_())  # what a notebook shows
+        assert width == round(figure.get_figwidth() * 110), method
+        if name in written:  # the same drawing as the report's file
+            assert png_size(written[name].read_bytes()) == (width, height)
+    assert not (folder / "plots" / "answer_history.png").exists()  # drawing writes nothing
+
+
+def test_the_solution_space_has_named_tables_a_posterior_and_figures(calibrated):
+    folder, _ = calibrated
+    solutions = demcal.open(folder).solutions(samples=1024)
+    shown = repr(solutions)
+    assert shown.startswith("<demcal solution space of 'unit': ")
+    assert re.search(
+        r"of 1024 sampled parameter sets, \d+ are likely to meet every target within 2 sd and "
+        r"\d+ cannot be ruled out; posterior of \d+ effective samples",
+        shown,
+    )
+    assert re.search(r"\n  sliding_friction_pp \[-\]: [a-z ]+", shown)
+    assert len(shown.splitlines()) == 1 + 2  # a line per free parameter
+    columns = ["sliding_friction_pp [-]", "rolling_friction_pp [-]"]
+    points = solutions.points()
+    assert list(points.columns) == columns
+    np.testing.assert_allclose(points.to_numpy(), solutions.analysis.points())
+    table = solutions.to_frame()
+    assert list(table.columns) == [
+        *columns,
+        "membership_probability",
+        "cylinder_lift.angle_of_repose predicted [deg]",
+        "cylinder_lift.angle_of_repose sd [deg]",
+        "cylinder_lift.bulk_density predicted [kg/m^3]",
+        "cylinder_lift.bulk_density sd [kg/m^3]",
+    ]
+    sensitivity = solutions.sensitivity
+    assert list(sensitivity.index) == ["sliding_friction_pp", "rolling_friction_pp"]
+    assert list(sensitivity.columns) == [
+        "cylinder_lift.angle_of_repose",
+        "cylinder_lift.bulk_density",
+    ]
+    totals = {(r["parameter"], r["response"]): r["ST"] for r in solutions.analysis.sensitivity}
+    assert sensitivity.stack().to_dict() == totals
+    posterior = solutions.posterior
+    assert list(posterior.columns) == [*columns, "weight"] and len(posterior) == 1024
+    assert posterior["weight"].sum() == pytest.approx(1.0)
+    assert solutions.effective_samples == pytest.approx(1.0 / (posterior["weight"] ** 2).sum())
+    # the posterior's 90 % interval of each parameter, as the verdicts give it, from the sample
+    heaviest = posterior.sort_values(columns[0])
+    cumulative = heaviest["weight"].cumsum()
+    assert heaviest[columns[0]][cumulative >= 0.05].iloc[0] == pytest.approx(
+        solutions.verdicts[0].posterior_low
+    )
+    for method in ("plot_solutions", "plot_sensitivity", "plot_contour"):
+        figure = getattr(solutions, method)()
+        assert isinstance(figure, Figure) and figure.axes, method
+        png_size(figure._repr_png_())
 
 
 def test_units_come_from_the_study_when_the_sidecar_is_missing(calibrated):
@@ -90,8 +227,12 @@ def test_a_study_not_run_yet_has_no_best_and_says_what_is_missing(tmp_path, monk
     freeze(load_study(dict(ANALYTIC_STUDY)))
     results = demcal.open("unit")
     assert results.best is None and results.finished is None and results.figures == {}
+    assert results.answer is None and results.lowest_run is None
+    assert "(not finished; no answer yet)" in repr(results)
     with pytest.raises(DemcalError, match=r"evaluations.csv is missing: study 'unit' has no"):
         _ = results.evaluations
+    with pytest.raises(DemcalError, match=r"evaluations.csv is missing: study 'unit' has no"):
+        results.plot_optimization_history()
     with pytest.raises(DemcalError, match=r"optimizer.json is missing"):
         _ = results.optimizer
 

@@ -96,15 +96,15 @@ def test_a_campaign_grows_by_its_next_points_and_refuses_another_design(tmp_path
     first.write(study.files.campaign)
     grown = plan(study, 10, "fssf_f")
     assert grown.unit_points[:6] == first.unit_points and len(grown.unit_points) == 10
-    assert plan(study, 4, "fssf_f") == first  # a smaller --n changes nothing
+    assert plan(study, 4, "fssf_f") == first  # a smaller --points changes nothing
     with pytest.raises(ConfigError, match="--design sobol: the campaign .* is a fssf_f design"):
         plan(study, 10, "sobol")
     CampaignRecord("latin_hypercube", 1, first.unit_points).write(study.files.campaign)
     with pytest.raises(ConfigError, match="cannot be extended and stay space-filling"):
         plan(study, 10, "latin_hypercube")
-    with pytest.raises(ConfigError, match="--n 1: give 2 to 2500 points .* here 2 per point"):
+    with pytest.raises(ConfigError, match="--points 1: give 2 to 2500 points .* here 2 per point"):
         plan(study, 1, "sobol")
-    with pytest.raises(ConfigError, match="--n 2501: give 2 to 2500 points"):
+    with pytest.raises(ConfigError, match="--points 2501: give 2 to 2500 points"):
         plan(study, 2501, "sobol")  # 2 replicates: 5002 simulations
     with pytest.raises(ConfigError, match="--bundle 0: give at least 1 simulation per"):
         check_request(4, "fssf_f", bundle=0)
@@ -146,10 +146,10 @@ def test_a_failed_point_is_retried_with_its_next_attempt(tmp_path, monkeypatch):
 def test_demcal_sample_runs_the_design_into_the_archive_and_stops_when_all_fail(tmp_path):
     config = {**copy.deepcopy(ANALYTIC_STUDY), "study": "campaign", "replicates": 1}
     (tmp_path / "campaign.yaml").write_text(yaml.safe_dump(config))
-    out = finish(demcal(tmp_path, "sample", "campaign.yaml", "--n", "4"))
+    out = finish(demcal(tmp_path, "sample", "campaign.yaml", "--points", "4"))
     assert "fssf_f design of 4 points in 2 parameters" in out
     assert "4 of 4 simulations finished (4 ok)" in out
-    assert len(finish(demcal(tmp_path, "archive", "list", "--of", "campaign")).splitlines()) == 4
+    assert len(finish(demcal(tmp_path, "archive", "list", "--study", "campaign")).splitlines()) == 4
     failing = {
         **config,
         "study": "failing",
@@ -159,7 +159,7 @@ def test_demcal_sample_runs_the_design_into_the_archive_and_stops_when_all_fail(
         },
     }
     (tmp_path / "failing.yaml").write_text(yaml.safe_dump(failing))
-    stopped = demcal(tmp_path, "sample", "failing.yaml", "--n", "40")
+    stopped = demcal(tmp_path, "sample", "failing.yaml", "--points", "40")
     _, err = stopped.communicate(timeout=240)
     assert stopped.returncode == 1
     assert "the first 5 simulations all failed (commonest: mesh broke)" in err
@@ -263,7 +263,7 @@ def test_a_killed_sample_takes_its_snakemake_along_and_resumes_without_loss(tmp_
     }
     (tmp_path / "killed.yaml").write_text(yaml.safe_dump(config))
     results = str(tmp_path / "results" / "killed")
-    first = demcal(tmp_path, "sample", "killed.yaml", "--n", "2")
+    first = demcal(tmp_path, "sample", "killed.yaml", "--points", "2")
     deadline = time.monotonic() + 60
     while not any("simulate" in cmdline(pid) for pid in descendants(first.pid)):
         assert first.poll() is None and time.monotonic() < deadline, first.communicate()
@@ -284,7 +284,7 @@ def test_a_killed_sample_takes_its_snakemake_along_and_resumes_without_loss(tmp_
     while left() and time.monotonic() < deadline:
         time.sleep(0.2)
     assert not left(), [cmdline(pid) for pid in left()]
-    out = finish(demcal(tmp_path, "sample", "killed.yaml", "--n", "2"))
+    out = finish(demcal(tmp_path, "sample", "killed.yaml", "--points", "2"))
     assert "2 of 2 simulations finished (2 ok)" in out
-    archived = finish(demcal(tmp_path, "archive", "list", "--of", "killed")).splitlines()
-    assert sorted(line.split()[2] for line in archived) == ["killed/e0000", "killed/e0001"]
+    archived = finish(demcal(tmp_path, "archive", "list", "--study", "killed")).splitlines()
+    assert sorted(line.split()[1] for line in archived) == ["killed/e0000", "killed/e0001"]

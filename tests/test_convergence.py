@@ -7,6 +7,7 @@ import yaml
 from demcal.analysis.convergence import Variant, plan, summarise
 from demcal.cli import main
 from demcal.study.config import load_study
+from demcal.study.model import freeze
 
 
 def test_plan_holds_both_sweeps_through_the_configured_variant(analytic_config):
@@ -85,7 +86,7 @@ def test_convergence_writes_table_and_plot(tmp_path, monkeypatch, analytic_confi
             "2000",
             "--seeds",
             "2",
-            "--jobs",
+            "--workers",
             "1",
         ]
     )
@@ -99,7 +100,27 @@ def test_convergence_writes_table_and_plot(tmp_path, monkeypatch, analytic_confi
     assert summary["bulk_density_size_deviation_pct"].abs().max() == pytest.approx(0.0, abs=1e-9)
     assert (out / "cylinder_lift.png").stat().st_size > 0
     assert len(pd.read_csv(out / "cylinder_lift.csv")) == 6
-    assert "configured dt0.25_size2000" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "configured dt0.25_size2000" in out
+    assert "6 simulations, 1 at a time; how long they take is not known yet" in out
+    table = out[out.index("bulk_density: seed mean") : out.index("demcal convergence: table")]
+    assert max(len(line) for line in table.splitlines()) <= 100
+
+
+def test_convergence_takes_a_study_by_its_name_once_it_has_run(
+    tmp_path, monkeypatch, analytic_config, capsys
+):
+    """The frozen results/<study>/study.json stands for the study; a name not run is named."""
+    monkeypatch.chdir(tmp_path)
+    freeze(load_study(analytic_config))
+    args = ["--fractions", "0.25", "--sizes", "2000", "--seeds", "1", "--jobs", "1"]
+    assert main(["convergence", "unit", *args]) == 0  # --jobs: the former name of --workers
+    assert "1 simulation, 1 at a time" in capsys.readouterr().out
+    assert (tmp_path / "results/unit/convergence/cylinder_lift_summary.csv").is_file()
+    assert main(["convergence", "nonesuch", *args]) == 2
+    assert "'nonesuch': no such study file, and no study of that name in results/" in (
+        capsys.readouterr().err
+    )
 
 
 def test_convergence_unknown_scene_is_one_clear_error(

@@ -3,15 +3,26 @@
 from __future__ import annotations
 
 import csv
+import io
 import json
 
 import matplotlib.image
 import numpy as np
 import pytest
 from conftest import analytic_example
+from matplotlib.figure import Figure
 
 from demcal.daemon.termination import ESTIMATE_COLUMNS
-from demcal.reporting.figures import FIGURES, load_table, write_plots
+from demcal.reporting.figures import (
+    FIGURES,
+    answer_table,
+    best_point_table,
+    load_table,
+    plot_objective_vs_evaluation,
+    save_png,
+    write_plots,
+)
+from demcal.results.records import BestRecord
 from demcal.study.config import load_study
 
 START = 1_700_000_000.0  # calibration.json's started_at: 2023-11-14T22:13:20Z
@@ -122,3 +133,49 @@ def test_the_table_the_figures_draw_from(study):
     assert table.loc["e0002", "cpu_total_s"] == pytest.approx(55.0)
     assert table.loc["e0001", "cpu_total_s"] == pytest.approx(75.0)
     assert table.loc["e0005", "cpu_total_s"] == pytest.approx(105.0)
+
+
+def test_a_figure_is_drawn_and_returned_and_written_only_where_asked(study, tmp_path):
+    table = load_table(study)
+    figure = plot_objective_vs_evaluation(study, table)
+    assert isinstance(figure, Figure) and list(tmp_path.rglob("*.png")) == []
+    (ax,) = figure.axes
+    assert ax.get_yscale() == "log" and "evaluation" in ax.get_xlabel()
+    assert len(ax.lines[0].get_xdata()) == 4  # the evaluations with an objective
+    buffer = io.BytesIO()
+    save_png(figure, buffer)
+    path = tmp_path / "history.png"
+    assert plot_objective_vs_evaluation(study, table, path).axes
+    assert pixels(path).shape == matplotlib.image.imread(io.BytesIO(buffer.getvalue())).shape
+
+
+def test_the_answers_table_sets_it_against_the_targets(study):
+    assert best_point_table(study)["quantity"][0].startswith("no evaluation succeeded")
+    best = BestRecord(
+        evaluation="e0005",
+        parameters={"rolling_friction_pp": 0.06, "sliding_friction_pp": 0.36},
+        objective=0.0042,
+        predicted_objective=0.004,
+        responses={"cylinder_lift.angle_of_repose": 24.1, "cylinder_lift.bulk_density": 1462.0},
+        relative_errors={"cylinder_lift.angle_of_repose": -0.036},
+        predicted_responses={"cylinder_lift.bulk_density": {"mean": 1460.0, "sd": 3.0}},
+        on_bounds={"rolling_friction_pp": "lower"},
+    )
+    best.write(study.files.best)
+    table = answer_table(study, best).set_index("quantity")
+    assert list(table.index) == [  # the study's order
+        "sliding_friction_pp",
+        "rolling_friction_pp",
+        "cylinder_lift.angle_of_repose",
+        "cylinder_lift.bulk_density",
+        "objective",
+    ]
+    assert table.loc["rolling_friction_pp", "note"] == "on its lower bound"
+    assert table.loc["cylinder_lift.bulk_density", "predicted_sd"] == 3.0
+    assert table.loc["cylinder_lift.angle_of_repose", "relative_error_percent"] == pytest.approx(
+        -3.6
+    )
+    assert np.isnan(table.loc["cylinder_lift.angle_of_repose", "predicted"])
+    assert table.loc["objective", "predicted"] == 0.004
+    written = best_point_table(study).set_index("quantity")  # best.csv: empty cells
+    assert written.loc["cylinder_lift.angle_of_repose", "predicted"] == ""

@@ -1,4 +1,5 @@
-"""The example notebook (docs/example.ipynb) runs from top to bottom and shows the answer."""
+"""The example notebook (docs/example.ipynb) runs from top to bottom and shows the answer,
+the figures and the solution space."""
 
 from __future__ import annotations
 
@@ -25,8 +26,19 @@ def text_of(cell) -> str:
     return "\n".join(parts)
 
 
+def cell_with(source: str, cells):
+    """The one code cell whose source holds ``source``."""
+    (cell,) = [cell for cell in cells if source in cell.source]
+    return cell
+
+
+def html_of(cell) -> str:
+    """The HTML a code cell showed (a DataFrame's table)."""
+    return next(o.data["text/html"] for o in cell.outputs if "text/html" in o.get("data", {}))
+
+
 @pytest.mark.slow
-def test_the_example_notebook_calibrates_and_shows_table_best_point_and_figure(tmp_path):
+def test_the_example_notebook_calibrates_and_shows_the_results(tmp_path):
     notebook = nbformat.read(NOTEBOOK, as_version=4)
     assert all(not cell.get("outputs") for cell in notebook.cells if cell.cell_type == "code")
     # the parameters cell names the example relative to docs/ and a fresh temporary folder;
@@ -48,23 +60,35 @@ def test_the_example_notebook_calibrates_and_shows_table_best_point_and_figure(t
     ).execute()
     code = [cell for cell in notebook.cells if cell.cell_type == "code"]
     budget = int(re.search(r"^budget = (\d+)$", code[0].source, re.M).group(1))
-    outputs = [text_of(cell) for cell in code]
-    everything = "\n".join(outputs)
+    everything = "\n".join(text_of(cell) for cell in code)
 
     assert "'analytic-notebook'" in everything and "2 free parameters, 2 targets" in everything
     assert f"finished: evaluation budget reached ({budget} of {budget})" in everything
     assert f"{budget} evaluations, {budget} ok" in everything
-    table = next(cell for cell in code if "table.rename" in cell.source)
-    html = next(o.data["text/html"] for o in table.outputs if "data" in o)
+    table = cell_with("table.rename", code)
+    html = html_of(table)
     assert html.split("<tbody>")[1].count("<tr>") == budget  # one row per evaluation
     assert "cylinder_lift.angle_of_repose [deg]" in html and "started_at [UTC]" in html
-    objective = float(re.search(r"best point: e\d{4}, objective (\S+) ", everything).group(1))
+    # the answer: its repr names the evaluation, the parameters with units, the objective
+    answer = text_of(cell_with("answer = results.answer", code))
+    assert re.search(r"answer of 'analytic-notebook': evaluation e\d{4} ", answer)
+    objective = float(re.search(r"([\d.e+-]+) observed in its own runs", answer).group(1))
     assert math.isfinite(objective) and objective >= 0
-    assert re.search(r"sliding_friction_pp = [\d.e+-]+ -", everything)
-    figure = next(cell for cell in code if "draw_figures" in cell.source)
-    assert any("image/png" in o.get("data", {}) for o in figure.outputs)
+    assert re.search(r"sliding_friction_pp = [\d.e+-]+ \[-\]", answer)
+    assert len(answer.splitlines()) <= 5
+    assert "kg/m^3" in html_of(cell_with("answer.to_frame()", code))
+    # every figure is shown once, as PNG, and draw_figures writes the report's files
+    for cell in (c for c in code if ".plot_" in c.source):
+        shown = [o for o in cell.outputs if "image/png" in o.get("data", {})]
+        assert len(shown) == 1, cell.source
+    assert "'objective_vs_evaluation'" in text_of(cell_with("draw_figures", code))
     assert (tmp_path / "results/analytic-notebook/plots/objective_vs_evaluation.png").is_file()
+    # the solution space: a verdict per parameter, the sensitivities, the weighted posterior
     assert re.search(
         r"sliding_friction_pp: (pinned|partly identified|not identified|not established)",
-        outputs[-1],
+        text_of(cell_with("verdict.sentence", code)),
     )
+    assert "cylinder_lift.bulk_density" in html_of(cell_with("solutions.sensitivity", code))
+    posterior = cell_with("solutions.posterior", code)
+    assert re.search(r"\d+ effective samples", text_of(posterior))
+    assert "sliding_friction_pp [-]" in html_of(posterior) and "weight" in html_of(posterior)

@@ -137,7 +137,7 @@ def test_a_campaign_runs_its_simulations_as_slurm_jobs(tmp_path, bundle, slurm_j
         tmp_path,
         "sample",
         "campaign.yaml",
-        "--n",
+        "--points",
         "4",
         "--profile",
         str(ROOT / "profiles/slurm"),

@@ -1,6 +1,6 @@
 """Error against run time: one point of a scene at several time steps and sizes.
 
-``demcal convergence CONFIG`` runs the study's centre point (or ``--point``)
+``demcal convergence STUDY`` runs the study's centre point (or ``--point``)
 for two sweeps: each time-step fraction of the Rayleigh time at the
 configured size, and each size (the scene's ``size_setting``) at the
 configured fraction. Each variant runs with the same ``--seeds`` seeds. For
@@ -32,7 +32,7 @@ from demcal.physics.timestep import check_fraction
 from demcal.results.records import Status
 from demcal.results.storage import atomic_write_text
 from demcal.study.config import default, load_study_file
-from demcal.study.model import Study
+from demcal.study.model import Study, load_frozen
 
 DEFAULT_FRACTIONS = (0.5, 0.35, 0.25, 0.125)
 #: Sizes tried by default, as multiples of the configured size.
@@ -95,7 +95,7 @@ def run_variant(
 ) -> dict:
     """One simulation of ``variant``; returns its responses and cost (a failure
     keeps its reason)."""
-    study = load_study_file(config)
+    study = load(config)
     settings = variant_settings(study, scene, variant, "settings", point)
     Path(workdir).mkdir(parents=True, exist_ok=True)
     job = SimulationJob(
@@ -241,18 +241,60 @@ def plot(summary: pd.DataFrame, responses: list[str], size_setting: str, path: P
     tmp.replace(path)
 
 
-def run(
+def load(config: str) -> Study:
+    """The study of ``config``: a YAML file, or the study.json a study that has run froze."""
+    return load_frozen(config) if config.endswith(".json") else load_study_file(config)
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """What ``demcal convergence`` runs: the variants of one scene of a study at one point."""
+
+    config: str
+    study: Study
+    scene: str
+    variants: list[Variant]
+    base: Variant
+    point: dict[str, float]
+
+    @property
+    def size_setting(self) -> str:
+        return self.study.scenes[self.scene].size_setting
+
+    def relative_cost(self, variant: Variant) -> float:
+        """A run of ``variant`` against one of the configured variant, by its time steps."""
+        steps = self.study.engine.steps_in_time
+        return self.base.fraction / variant.fraction if steps else 1.0
+
+    def fractions(self) -> list[float]:
+        """The time-step sweep's fractions, largest first."""
+        return sorted({v.fraction for v in self.variants if v.size == self.base.size}, reverse=True)
+
+    def sizes(self) -> list[float]:
+        """The size sweep's values, smallest first."""
+        return sorted({v.size for v in self.variants if v.fraction == self.base.fraction})
+
+    def describe(self) -> str:
+        """The scene, the configured variant and both sweeps, in two lines."""
+        fractions, sizes = self.fractions(), self.sizes()
+        return (
+            f"{self.scene}, {len(self.variants)} variants (configured {self.base.label}):\n"
+            f"  time steps {' '.join(f'{f:g}' for f in fractions)} T_R at "
+            f"{self.size_setting} {self.base.size:g}; {self.size_setting} "
+            f"{' '.join(f'{s:g}' for s in sizes)} at {self.base.fraction:g} T_R"
+        )
+
+
+def sweep(
     config: str,
     scene: str | None,
     fractions: list[float] | None,
     sizes: list[float] | None,
-    seeds: int,
-    jobs: int,
     point_overrides: list[str],
-) -> Path:
-    """Run the study and write its files; returns the summary CSV's path."""
+) -> Sweep:
+    """The variants to run, checked (``config``: the study's YAML file or its study.json)."""
     config = str(Path(config).resolve())
-    study = load_study_file(config)
+    study = load(config)
     scene = scene or next(iter(study.scenes))
     if scene not in study.scenes:
         raise ConfigError(f"--scene {scene}: not a scene of the study ({', '.join(study.scenes)})")
@@ -264,24 +306,26 @@ def run(
             sizes = [float(round(s)) for s in sizes]
     point = study.centre_point(point_overrides)
     variants, base = plan(study, scene, list(fractions or DEFAULT_FRACTIONS), sizes, point)
+    return Sweep(config, study, scene, variants, base, point)
+
+
+def run(sweep: Sweep, seeds: int, workers: int) -> Path:
+    """Run the sweep, ``seeds`` runs of each variant, ``workers`` at a time, and write its
+    files; returns the summary CSV's path."""
+    study, scene = sweep.study, sweep.scene
     out = study.files.convergence
     out.mkdir(parents=True, exist_ok=True)
-    tasks = [(v, k) for v in variants for k in range(seeds)]
-    print(
-        f"demcal convergence: {scene}, {len(variants)} variants x {seeds} seeds = "
-        f"{len(tasks)} simulations, {jobs} at a time; configured {base.label}",
-        flush=True,
-    )
+    tasks = [(v, k) for v in sweep.variants for k in range(seeds)]
     rows = []
-    with ProcessPoolExecutor(jobs) as pool:
+    with ProcessPoolExecutor(workers) as pool:
         futures = [
             pool.submit(
                 run_variant,
-                config,
+                sweep.config,
                 scene,
                 v,
                 k,
-                point,
+                sweep.point,
                 str((out / scene / v.label / f"seed{k}").resolve()),
             )
             for v, k in tasks
@@ -291,13 +335,18 @@ def run(
             rows.append(row)
             atomic_write_text(out / f"{scene}.csv", pd.DataFrame(rows).to_csv(index=False))
             print(
-                f"  [{done}/{len(tasks)}] dt {row['fraction']:g} T_R, {size_setting} "
+                f"  [{done}/{len(tasks)}] dt {row['fraction']:g} T_R, {sweep.size_setting} "
                 f"{row['size']:g}, seed {row['seed_index']}: {row['status']} "
                 f"({row['cpu_s'] or 0:.0f} s CPU) {row['reason']}",
                 flush=True,
             )
     return write_summary(
-        out, scene, pd.DataFrame(rows), study.responses_needed(scene), base, size_setting
+        out,
+        scene,
+        pd.DataFrame(rows),
+        study.responses_needed(scene),
+        sweep.base,
+        sweep.size_setting,
     )
 
 
@@ -315,7 +364,42 @@ def write_summary(
     atomic_write_text(summary_path, summary.to_csv(index=False))
     if (summary["runs_ok"] > 0).any():
         plot(summary, responses, size_setting, out / f"{scene}.png")
-    with pd.option_context("display.width", 250, "display.max_columns", 40):
-        print(summary.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    print("\n".join(summary_table(summary, responses, size_setting)))
     print(f"demcal convergence: table {summary_path}, plot {out / f'{scene}.png'}")
     return summary_path
+
+
+#: The widest line of the summary table; a longer failure reason is cut.
+TABLE_WIDTH = 100
+
+
+def summary_table(summary: pd.DataFrame, responses: list[str], size_setting: str) -> list[str]:
+    """The summary as a terminal reads it: one small table per response (seed mean, deviation
+    from the finest run of each sweep, seed noise), then the failed runs, within TABLE_WIDTH."""
+
+    def number(value: float, digits: int) -> str:
+        return "-" if value != value else f"{value:.{digits}g}"  # NaN: not in that sweep
+
+    ok = summary[summary["runs_ok"] > 0]
+    size_width = max(len(size_setting), 6)
+    head = f"{'dt/T_R':>7} {size_setting:>{size_width}} {'runs':>4} {'CPU s':>9}"
+    lines = []
+    for name in responses:
+        lines += [
+            f"{name}: seed mean, deviation [%] from each sweep's finest run, seed noise [%]",
+            f"{head} {'mean':>10} {'dt sweep':>9} {'size sweep':>10} {'noise':>7}",
+        ]
+        lines += [
+            f"{row['fraction']:>7g} {row['size']:>{size_width}g} {row['runs_ok']:>4.0f} "
+            f"{number(row['cpu_s'], 3):>9} {number(row[name], 4):>10} "
+            f"{number(row[f'{name}_dt_deviation_pct'], 3):>9} "
+            f"{number(row[f'{name}_size_deviation_pct'], 3):>10} "
+            f"{number(row[f'{name}_noise_pct'], 2):>7}"
+            for _, row in ok.iterrows()
+        ]
+    for _, row in summary[summary["runs_ok"] == 0].iterrows():
+        line = (
+            f"failed: dt {row['fraction']:g} T_R, {size_setting} {row['size']:g}: {row['failure']}"
+        )
+        lines.append(line if len(line) <= TABLE_WIDTH else line[: TABLE_WIDTH - 1] + "…")
+    return lines

@@ -1,9 +1,9 @@
 """The solution space of a study on disk: analysis from optimizer.json, tables and figures.
 
 ``demcal solutions CONFIG`` and the report's ``solutions`` job call
-:func:`write_solutions`. It rebuilds the response models from the
+`write_solutions`. It rebuilds the response models from the
 optimizer's saved evaluations (the same models the optimizer used), applies
-:mod:`demcal.analysis.solutions` and writes:
+`demcal.analysis.solutions` and writes:
 
 - ``results/<study>/solutions.csv``: the accepted parameter sets with their
   predicted responses and standard deviations;
@@ -15,22 +15,20 @@ optimizer's saved evaluations (the same models the optimizer used), applies
   each response per parameter;
 - ``plots/objective_slices.png``: contours of the predicted objective over
   pairs of the most influential parameters through the best point.
+
+The ``plot_*`` functions return their figure and, given a ``path``, write it
+there (as ``demcal.reporting.figures`` does).
 """
 
 from __future__ import annotations
 
 import json
 from dataclasses import asdict, dataclass
-from pathlib import Path
 
-import matplotlib
+import numpy as np
+import pandas as pd
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-
-from demcal.analysis.solutions import (  # noqa: E402
+from demcal.analysis.solutions import (
     BAND_SD,
     LIKELY,
     SURE,
@@ -44,22 +42,37 @@ from demcal.analysis.solutions import (  # noqa: E402
     sensitivity_indices,
     simulation_noise_sd,
 )
-from demcal.daemon.control import saved_optimizer  # noqa: E402
-from demcal.errors import ConfigError, DemcalError  # noqa: E402
-from demcal.optimizer.responses import (  # noqa: E402
+from demcal.daemon.control import saved_optimizer
+from demcal.errors import ConfigError, DemcalError
+from demcal.optimizer.responses import (
     ResponsePredictor,
     final_means,
     replicate_scatter,
 )
-from demcal.results.storage import read_json  # noqa: E402
-from demcal.study.model import Study, load_frozen  # noqa: E402
+from demcal.reporting.figures import PngTarget, ReportFigure, finish_figure, new_figure, save_png
+from demcal.results.storage import read_json
+from demcal.study.model import Study, load_frozen
 
 #: Most points drawn in the corner plot (a thinned, seeded subset of the set).
 CORNER_POINTS = 3000
+#: Resolution of the solution-space figures' PNG files [dots per inch].
+SOLUTION_DPI = 100
 
 
 @dataclass(frozen=True)
 class SolutionAnalysis:
+    """The solution space of a study, as `demcal solutions` finds it.
+
+    ``solutions``: the parameter sets that the response models cannot rule
+    out (a `SolutionSet`, in unit coordinates;
+    [`points`][demcal.analysis.solution_report.SolutionAnalysis.points] gives them
+    in real units); ``verdicts``: one [`Verdict`][demcal.analysis.solutions.Verdict]
+    per free parameter, in the order of ``names``; ``sensitivity``: one row per
+    response and parameter with its first-order (``S1``) and total (``ST``) Sobol
+    index; ``lower``, ``upper``: the bounds; ``predictor``: the response models
+    the analysis used.
+    """
+
     predictor: ResponsePredictor
     solutions: SolutionSet
     verdicts: list[Verdict]
@@ -68,9 +81,13 @@ class SolutionAnalysis:
     lower: np.ndarray
     upper: np.ndarray
 
+    def in_real_units(self, points_unit: np.ndarray) -> np.ndarray:
+        """Points of the unit box (one row each) in the parameters' units."""
+        return self.lower + points_unit * (self.upper - self.lower)
+
     def points(self) -> np.ndarray:
         """The accepted parameter sets in real units."""
-        return self.lower + self.solutions.points_unit * (self.upper - self.lower)
+        return self.in_real_units(self.solutions.points_unit)
 
 
 def analyse(
@@ -145,7 +162,7 @@ class PointCheck:
 
 
 def check_point(analysis: SolutionAnalysis, values: dict[str, float]) -> PointCheck:
-    """:class:`PointCheck` of the free-parameter ``values`` (every free parameter, in bounds;
+    """`PointCheck` of the free-parameter ``values`` (every free parameter, in bounds;
     a ConfigError names the missing or out-of-bounds one)."""
     for name, lower, upper in zip(analysis.names, analysis.lower, analysis.upper):
         if name not in values:
@@ -176,7 +193,12 @@ def solutions_table(analysis: SolutionAnalysis) -> pd.DataFrame:
     return table
 
 
-def plot_corner(analysis: SolutionAnalysis, best: dict | None, path: Path, seed: int = 0) -> None:
+def plot_corner(
+    analysis: SolutionAnalysis,
+    best: dict | None,
+    path: PngTarget | None = None,
+    seed: int = 0,
+) -> ReportFigure:
     """Pairwise scatter of the solution set, a histogram per parameter, the best point in red.
 
     Blue: in the set on the simulations' evidence; orange: likely in, not
@@ -193,7 +215,8 @@ def plot_corner(analysis: SolutionAnalysis, best: dict | None, path: Path, seed:
         (probability < LIKELY, "lightgrey"),
     ]
     size = max(2.2, 9.0 / d)
-    fig, axes = plt.subplots(d, d, figsize=(size * d, size * d), squeeze=False)
+    fig = new_figure(size * d, size * d)
+    axes = fig.subplots(d, d, squeeze=False)
     best_x = None if best is None else [best["parameters"][name] for name in names]
     for row in range(d):
         for col in range(d):
@@ -238,14 +261,15 @@ def plot_corner(analysis: SolutionAnalysis, best: dict | None, path: Path, seed:
         "decided yet; grey: not ruled out; best point in red",
         fontsize="medium",
     )
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    return finish_figure(fig, path, SOLUTION_DPI)
 
 
 def plot_objective_slices(
-    analysis: SolutionAnalysis, best: dict | None, path: Path, grid: int = 60
-) -> None:
+    analysis: SolutionAnalysis,
+    best: dict | None,
+    path: PngTarget | None = None,
+    grid: int = 60,
+) -> ReportFigure:
     """The predicted objective over pairs of the (up to three) most influential parameters, the
     others held at the best point: where the answer lies and how sharp its valley is."""
     names, d = analysis.names, len(analysis.names)
@@ -258,7 +282,8 @@ def plot_objective_slices(
         else (np.array([best["parameters"][n] for n in names]) - analysis.lower)
         / (analysis.upper - analysis.lower)
     )
-    fig, axes = plt.subplots(1, len(pairs), figsize=(4.6 * len(pairs), 4.0), squeeze=False)
+    fig = new_figure(4.6 * len(pairs), 4.0)
+    axes = fig.subplots(1, len(pairs), squeeze=False)
     axis = np.linspace(0.0, 1.0, grid)
     for ax, (i, j) in zip(axes[0], pairs):
         if i == j:
@@ -281,12 +306,10 @@ def plot_objective_slices(
         "Predicted objective through the best point (red star), other parameters held there",
         fontsize="medium",
     )
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    return finish_figure(fig, path, SOLUTION_DPI)
 
 
-def plot_sensitivity(rows: list[dict], path: Path) -> None:
+def plot_sensitivity(rows: list[dict], path: PngTarget | None = None) -> ReportFigure:
     """Total (light) and first-order (dark) Sobol index of each parameter, one
     panel per response."""
     table = pd.DataFrame(rows)
@@ -294,9 +317,8 @@ def plot_sensitivity(rows: list[dict], path: Path) -> None:
     columns = min(2, len(responses))
     grid_rows = -(-len(responses) // columns)
     height = 1.4 + 0.35 * table["parameter"].nunique()
-    fig, axes = plt.subplots(
-        grid_rows, columns, figsize=(5.5 * columns, height * grid_rows), squeeze=False
-    )
+    fig = new_figure(5.5 * columns, height * grid_rows)
+    axes = fig.subplots(grid_rows, columns, squeeze=False)
     for ax in axes.flat[len(responses) :]:
         ax.set_visible(False)
     for ax, response in zip(axes.flat, responses):
@@ -320,9 +342,7 @@ def plot_sensitivity(rows: list[dict], path: Path) -> None:
         "Sensitivity of each response to each parameter (Sobol indices on the response models)",
         fontsize="medium",
     )
-    fig.tight_layout(rect=(0, 0.06, 1, 1))
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    return finish_figure(fig, path, SOLUTION_DPI, rect=(0, 0.06, 1, 1))
 
 
 def write_solutions(
@@ -371,9 +391,9 @@ def write_report_files(smk) -> None:
         write_solutions(study)
     except Exception as exc:  # noqa: BLE001  (the report must still be made; the figures say why)
         logging.exception("no solution space")
+        fig = new_figure(6, 1.5)
+        ax = fig.subplots()
+        ax.axis("off")
+        ax.text(0.5, 0.5, f"No solution space: {exc}", ha="center", va="center", wrap=True)
         for path in smk.output:
-            fig, ax = plt.subplots(figsize=(6, 1.5))
-            ax.axis("off")
-            ax.text(0.5, 0.5, f"No solution space: {exc}", ha="center", va="center", wrap=True)
-            fig.savefig(path, dpi=100)
-            plt.close(fig)
+            save_png(fig, path, SOLUTION_DPI)

@@ -6,22 +6,22 @@ a whole family for the cylinder lift; Richter & Will 2021, sec. 4.2, read
 the non-uniqueness off their per-response metamodels). demcal answers the
 question on the optimizer's response models:
 
-* :func:`membership_probability` — per point, the probability that every
+* `membership_probability` — per point, the probability that every
   noise-free response lies within ``k`` combined standard deviations (target
   spread and simulation noise) of its target, under the models' posteriors;
-* :func:`sample_solutions` — the points of a dense scrambled-Sobol sample of
+* `sample_solutions` — the points of a dense scrambled-Sobol sample of
   the box that the models cannot rule out, with that probability: the
   likely set (at least as likely in as out) and the part still undecided;
-* :func:`identifiability` — per parameter, its span over the whole likely
+* `identifiability` — per parameter, its span over the whole likely
   set and a verdict in words (pinned, partly identified, not identified),
   or "not established yet" where the undecided part could widen the span;
-* :func:`sensitivity_indices` — first-order and total Sobol indices of
+* `sensitivity_indices` — first-order and total Sobol indices of
   each response on its model (Saltelli sampling, SALib), which says whether
   a parameter that is not identified moves no response at all or trades
   off against the others.
 
-Pure functions of a :class:`~demcal.optimizer.responses.ResponsePredictor`
-and the bounds; the files and figures are in :mod:`demcal.analysis.solution_report`.
+Pure functions of a `ResponsePredictor`
+and the bounds; the files and figures are in `demcal.analysis.solution_report`.
 """
 
 from __future__ import annotations
@@ -90,7 +90,7 @@ def tolerance_sd(target: Target, noise_sd: float, model_sd: float | np.ndarray) 
 
 def band_half_width(target: Target, noise_sd: float, k: float) -> float:
     """How far a noise-free response may lie from its target and still meet it: k combined sd
-    of the target's spread and the simulation noise (:func:`tolerance_sd` without the model
+    of the target's spread and the simulation noise (`tolerance_sd` without the model
     term)."""
     return float(k * tolerance_sd(target, noise_sd, 0.0))
 
@@ -107,7 +107,7 @@ def membership_probability(
     Each response's noise-free value is normal with the model's predicted
     mean and sd (the model's own uncertainty, independent between
     responses), and must lie within k sqrt(spread² + noise²) of the target
-    (:func:`tolerance_sd` without the model term). Near 1 where the
+    (`tolerance_sd` without the model term). Near 1 where the
     simulations show the point meets every target, near 0 where they rule
     it out, and in between where no simulation has been near enough to say:
     the membership a level-set estimation maps (Bryan et al. 2005).
@@ -158,17 +158,22 @@ def log_likelihood(
 @dataclass(frozen=True)
 class Posterior:
     """The posterior of the parameters with a uniform prior over the box and the targets'
-    Gaussian likelihood (:func:`log_likelihood`), from the weighted Sobol sample.
+    Gaussian likelihood (`log_likelihood`), from the weighted Sobol sample.
 
     ``low`` and ``high``: each parameter's central 90 % interval (unit box);
     ``correlation``: the parameters' correlation matrix; ``effective_samples``:
-    Kish's effective sample size of the weights (few: the interval is rough).
+    Kish's effective sample size of the weights (few: the interval is rough);
+    ``points_unit`` and ``weights``: the sample itself, every Sobol point of the
+    box (unit coordinates) with its importance weight (its likelihood, the
+    weights summing to 1).
     """
 
     low: np.ndarray
     high: np.ndarray
     correlation: np.ndarray
     effective_samples: float
+    points_unit: np.ndarray
+    weights: np.ndarray
 
 
 def weighted_quantile(values: np.ndarray, weights: np.ndarray, q: float) -> float:
@@ -179,7 +184,8 @@ def weighted_quantile(values: np.ndarray, weights: np.ndarray, q: float) -> floa
 
 
 def posterior_of(points: np.ndarray, log_weights: np.ndarray) -> Posterior:
-    """The 90 % intervals, correlation and effective sample size of weighted ``points``."""
+    """The posterior of weighted ``points``: their 90 % intervals, correlation and effective
+    sample size, and the points with their normalised weights."""
     weights = np.exp(log_weights - log_weights.max())
     weights /= weights.sum()
     mean = weights @ points
@@ -191,13 +197,15 @@ def posterior_of(points: np.ndarray, log_weights: np.ndarray) -> Posterior:
         np.array([weighted_quantile(points[:, i], weights, 0.95) for i in range(len(mean))]),
         covariance / np.outer(sd, sd),
         float(1.0 / np.sum(weights**2)),
+        points,
+        weights,
     )
 
 
 @dataclass(frozen=True)
 class SolutionSet:
     """The points of the box (unit coordinates) that may meet every target, with their predicted
-    responses and membership probability (:func:`membership_probability`).
+    responses and membership probability (`membership_probability`).
 
     Every point kept has a probability of at least ``POSSIBLE``: the models
     cannot rule it out. ``likely`` marks those at least as likely in as out
@@ -296,7 +304,7 @@ class Verdict:
     span as a share of the bounds; ``verdict``: pinned, partly identified,
     not identified, not established or no solutions;
     ``posterior_low``–``posterior_high``: the central 90 % of its posterior
-    (:class:`Posterior`), for comparison.
+    (`Posterior`), for comparison.
     """
 
     name: str

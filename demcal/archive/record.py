@@ -1,9 +1,9 @@
 """One archived simulation, and how it is read from the results files of a study.
 
-:func:`from_results` builds the record of one scene replicate from its ``simulation.json``
+`from_results` builds the record of one scene replicate from its ``simulation.json``
 and ``responses.json`` (and, for a stopped run, the last estimates in its ``partial.csv``);
 the archive job and ``demcal archive import`` both use it, so a simulation recorded by its
-job and imported later has the same :attr:`ArchivedSimulation.key` and is stored once.
+job and imported later has the same `ArchivedSimulation.key` and is stored once.
 """
 
 from __future__ import annotations
@@ -130,7 +130,7 @@ def partial_estimates(partial_csv: Path) -> dict[str, tuple[float, bool]]:
 def replicate_record(
     study: Study, replicate: ReplicateFiles, source: str = "job"
 ) -> ArchivedSimulation:
-    """The record of one scene replicate from its results files (:func:`from_results`);
+    """The record of one scene replicate from its results files (`from_results`);
     SimulationFailed saying why there is none: no responses yet, a damaged file, or a
     simulation that never started."""
     if not replicate.responses.is_file():

@@ -10,13 +10,13 @@
 Opening an archive brings its schema to this demcal's version (Alembic, ``upgrade``) under
 a lock, so the first jobs of a new archive may open it at once. Each ``add`` is one
 transaction: its records are all there afterwards, or none is. A record whose key
-(:attr:`ArchivedSimulation.key`) is stored already is skipped (``INSERT ... ON CONFLICT DO
+(`ArchivedSimulation.key`) is stored already is skipped (``INSERT ... ON CONFLICT DO
 NOTHING``), so a retried job or a second import adds nothing, and concurrent writers never
 store a simulation twice.
 
 A damaged row (a NaN or text response, a JSON column that is not JSON, an unknown status) never
 stops a read: the record is read without the damaged values, or left out when what ran or how
-it ended is unknown (:func:`_record`), and :meth:`Archive.warn_damaged` names them in one line.
+it ended is unknown (`_record`), and `Archive.warn_damaged` names them in one line.
 """
 
 from __future__ import annotations
@@ -90,7 +90,7 @@ def schema_revision(connection: Connection) -> str | None:
 
 
 def upgrade(engine: Engine, revision: str | None = None) -> None:
-    """Bring the archive's schema to ``revision`` (default :func:`head_revision`; the tests of
+    """Bring the archive's schema to ``revision`` (default `head_revision`; the tests of
     a migration start from an earlier one), once among concurrent openers.
 
     The migration runs in one transaction that holds the database's write lock (SQLite's
@@ -187,7 +187,7 @@ class Archive:
             self._engine.dispose()
             raise ArchiveError(f"archive {shown(url)}: {exc}; update demcal") from None
         self._writer = self._engine.execution_options(archive_write=True)
-        #: The damaged simulations read since the last :meth:`warn_damaged`, by id.
+        #: The damaged simulations read since the last `warn_damaged`, by id.
         self.damaged: dict[int, Damage] = {}
 
     def __enter__(self) -> Archive:
@@ -300,12 +300,12 @@ class Archive:
         """The stored simulations a study may use as data for its models of ``scene``.
 
         Compatible means: the same scene, engine, ``simulator`` (the digest of what simulated
-        it: :attr:`ArchivedSimulation.simulator`; a record that does not know its simulator
+        it: `ArchivedSimulation.simulator`; a record that does not know its simulator
         matches none) and ``settings`` (those the archive does not keep as parameters:
-        :attr:`ArchivedSimulation.settings_hash`); exactly the parameters ``fixed`` and
-        ``inputs`` (the models' inputs, the free parameters and any fixed one the models take
-        as input), with every fixed parameter that is not an input at its value; a status in
-        ``statuses``.
+        [`ArchivedSimulation.settings_hash`][demcal.archive.record.ArchivedSimulation.settings_hash]);
+        exactly the parameters ``fixed`` and ``inputs`` (the models' inputs, the free
+        parameters and any fixed one the models take as input), with every fixed parameter
+        that is not an input at its value; a status in ``statuses``.
         """
         names = set(fixed) | set(inputs)
         query = select(SimulationRow.id).where(
@@ -337,7 +337,8 @@ class Archive:
     def stats(self) -> list[dict]:
         """Per study, scene, engine and status: the simulations stored and their cost (the
         engine's cpu_s and particle_steps; None where no simulation of the group has one).
-        Damaged simulations count as :meth:`records` reads them."""
+        Damaged simulations count as [`records`][demcal.archive.store.Archive.records] reads
+        them."""
         groups: dict[tuple[str, ...], dict] = {}
         for record in self.records():
             group = (record.study, record.scene, record.engine, str(record.status))
@@ -354,8 +355,9 @@ class Archive:
         return [groups[group] for group in sorted(groups)]
 
     def damage_summary(self) -> str | None:
-        """The damaged simulations read since the last :meth:`warn_damaged` in one line: how
-        many, which ids and why (None: there were none)."""
+        """The damaged simulations read since the last
+        [`warn_damaged`][demcal.archive.store.Archive.warn_damaged] in one line: how many, which ids
+        and why (None: there were none)."""
         if not self.damaged:
             return None
         parts = []
@@ -377,8 +379,9 @@ class Archive:
         return f"archive {shown(self.url)}: {', and '.join(parts)}"
 
     def warn_damaged(self) -> None:
-        """Say :meth:`damage_summary` on stderr as one warning line, if there is damage, and
-        forget it (a later read names only what it finds)."""
+        """Say [`damage_summary`][demcal.archive.store.Archive.damage_summary] on stderr as one
+        warning line, if there is damage, and forget it (a later read names only what it
+        finds)."""
         summary = self.damage_summary()
         if summary is not None:
             print(f"demcal: warning: {summary}", file=sys.stderr, flush=True)
@@ -386,7 +389,7 @@ class Archive:
 
     def _load(self, ids: Select) -> list[ArchivedSimulation]:
         """The records of the simulations whose ids ``ids`` selects, in its order; a damaged
-        one is read as :func:`_record` says and noted in :attr:`damaged`."""
+        one is read as `_record` says and noted in `damaged`."""
         chosen = ids.subquery()
         columns = [  # JSON as text: a damaged one is named, not raised while fetched
             cast(column, Text).label(column.name) if isinstance(column.type, JSON) else column

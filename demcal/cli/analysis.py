@@ -7,10 +7,13 @@ import math
 from typing import TYPE_CHECKING
 
 from demcal.analysis.solutions import membership_word, posterior_line
-from demcal.cli.inspect import study_of
+from demcal.campaign import runs_at_once
+from demcal.cli.cost import cost_line, per_scene
+from demcal.cli.study_argument import study_of, study_source
 from demcal.daemon.control import explore_solutions, lock_study
 from demcal.errors import ConfigError
 from demcal.study.model import Study
+from demcal.workflow import LOCAL_PROFILE, check_profile
 
 if TYPE_CHECKING:
     from demcal.analysis.solution_report import SolutionAnalysis
@@ -19,15 +22,17 @@ if TYPE_CHECKING:
 def solutions(args: argparse.Namespace) -> int:
     from demcal.analysis.solution_report import analyse, write_solutions
 
-    if not 0 < args.k < math.inf:  # NaN fails too
-        raise ConfigError(f"--k {args.k}: give a number of standard deviations above 0")
+    if not 0 < args.tolerance < math.inf:  # NaN fails too
+        raise ConfigError(
+            f"--tolerance {args.tolerance}: give a number of standard deviations above 0"
+        )
     study = study_of(args.config)
     if args.explore is not None:
         return explore(study, args.explore)
     if args.point:
         values = study.free_values(args.point, "--point")
-        return print_point_check(study, analyse(study, args.k, args.samples), values)
-    analysis = write_solutions(study, args.k, args.samples)
+        return print_point_check(study, analyse(study, args.tolerance, args.samples), values)
+    analysis = write_solutions(study, args.tolerance, args.samples)
     s = analysis.solutions
     print(
         f"solution space of {study.name!r}: of {s.sampled} sampled parameter sets, "
@@ -72,10 +77,15 @@ def explore(study: Study, evaluations: int) -> int:
     """``--explore N``: queue N simulations that map the solution set."""
     lock = lock_study(study)  # noqa: F841  (no daemon may run meanwhile)
     explore_solutions(study, evaluations)
+    count = evaluations * study.replicates * len(study.scenes)
+    at_once = runs_at_once(check_profile(LOCAL_PROFILE))
     print(
         f"demcal: {evaluations} evaluations that map the solution set of {study.name!r} are "
         "queued; the next 'demcal run' or 'snakemake --profile ...' simulates them, then "
-        f"'demcal solutions {study.name}' gives the verdicts anew"
+        f"'demcal solutions {study.name}' gives the verdicts anew",
+        f"demcal: the next run with {LOCAL_PROFILE.parent.name}/{LOCAL_PROFILE.name}: "
+        f"{cost_line(study, per_scene(study, evaluations), count, at_once)}",
+        sep="\n",
     )
     return 0
 
@@ -83,7 +93,22 @@ def explore(study: Study, evaluations: int) -> int:
 def convergence(args: argparse.Namespace) -> int:
     from demcal.analysis import convergence as study
 
-    study.run(
-        args.config, args.scene, args.fractions, args.sizes, args.seeds, args.jobs, args.point
+    config = study_source(args.config)
+    sweep = study.sweep(config, args.scene, args.fractions, args.sizes, args.point)
+    runs = {sweep.scene: args.seeds * sum(sweep.relative_cost(v) for v in sweep.variants)}
+    count = args.seeds * len(sweep.variants)
+    notes = [
+        "finer time steps counted as longer runs" if sweep.study.engine.steps_in_time else "",
+        "larger sizes take longer still" if sweep.base.size < max(sweep.sizes()) else "",
+    ]
+    print(
+        f"demcal convergence: {sweep.describe()}",
+        "; ".join(
+            [f"demcal convergence: {cost_line(sweep.study, runs, count, args.workers)}"]
+            + [note for note in notes if note]
+        ),
+        sep="\n",
+        flush=True,
     )
+    study.run(sweep, args.seeds, args.workers)
     return 0

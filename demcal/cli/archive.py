@@ -1,14 +1,17 @@
 """``demcal archive list|show|export|import|stats``: the simulations every study recorded.
 
-Each command works on one archive: ``--url`` names it, ``--study`` takes that of a study (its
-YAML file or its name once it has run); the default is the default archive
-(``results/archive.sqlite``).
+Each command works on one archive: ``--url`` names it, ``--archive-of`` takes that of a study
+(its YAML file or its name once it has run); without either, the archive of the study that
+``--study`` names when it is known here, else the default archive (``results/archive.sqlite``).
+``--study`` keeps the simulations of one study (``list``, ``export``, ``stats``).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import shutil
+import sys
 from pathlib import Path
 
 from demcal.archive import tables
@@ -16,10 +19,12 @@ from demcal.archive.importer import ImportReport, import_results, study_folders
 from demcal.archive.record import ArchivedSimulation
 from demcal.archive.store import Archive
 from demcal.archive.url import check_url, missing_file, shown
-from demcal.cli.options import LARGEST_ROW, whole_number
+from demcal.cli.options import LARGEST_ROW, former_name, whole_number
+from demcal.cli.study_argument import has_run, study_of
 from demcal.errors import ConfigError, DemcalError
 from demcal.results.layout import RESULTS
 from demcal.results.records import Status
+from demcal.results.tables import iso_time
 from demcal.study.config import default
 
 
@@ -43,10 +48,24 @@ def arguments(sub: argparse.ArgumentParser) -> None:
     stats = actions.add_parser("stats", help="simulations and cost per study, scene and status")
     for action in (listing, show, export, importing, stats):
         where = action.add_mutually_exclusive_group()
-        where.add_argument("--url", help="the archive's URL (default: the default archive)")
-        where.add_argument("--study", help="use this study's archive (its YAML file or name)")
+        where.add_argument(
+            "--url",
+            help=f"the archive's URL (default: that of the study --study names, else "
+            f"{RESULTS}/archive.sqlite)",
+        )
+        where.add_argument(
+            "--archive-of",
+            metavar="STUDY",
+            help="use this study's archive (its YAML file, or its name once it has run)",
+        )
+    for action in (listing, export, stats):
+        action.add_argument(
+            "--study",
+            metavar="NAME",
+            help="only this study's simulations (a YAML file stands for its study's name)",
+        )
     for action in (listing, export):
-        action.add_argument("--of", dest="of_study", metavar="STUDY", help="only this study's")
+        former_name(action, "--of", "--study")
         action.add_argument("--scene", help="only simulations of this scene")
         action.add_argument("--engine", help="only simulations on this engine")
         action.add_argument(
@@ -64,18 +83,33 @@ def arguments(sub: argparse.ArgumentParser) -> None:
 
 
 def archive_url(args: argparse.Namespace) -> str:
-    """The archive the command works on."""
+    """The archive the command works on: ``--url``, the archive of ``--archive-of``, that of
+    the study ``--study`` names when it is known here, else the default archive."""
     if args.url is not None:
         return check_url(args.url, "--url")
-    if args.study is not None:
-        from demcal.cli.inspect import study_of
-
-        study = study_of(args.study)
+    named = args.archive_of or known_study(getattr(args, "study", None))
+    if named is not None:
+        study = study_of(named)
         if study.archive is None:
             raise ConfigError(f"study {study.name!r} keeps no archive (archive: false)")
         return study.archive
     url: str = default("archive")["url"]
     return url
+
+
+def known_study(argument: str | None) -> str | None:
+    """``argument`` if it names a study known here: a YAML file, or one that has run."""
+    if argument is None or not (Path(argument).is_file() or has_run(argument)):
+        return None
+    return argument
+
+
+def study_name(argument: str | None) -> str | None:
+    """The name of the study ``--study`` filters by: a YAML file's study, or the word itself
+    (the archive may hold studies run elsewhere)."""
+    if argument is None or not Path(argument).is_file():
+        return argument
+    return study_of(argument).name
 
 
 def archive(args: argparse.Namespace) -> int:
@@ -90,7 +124,7 @@ def archive(args: argparse.Namespace) -> int:
         if args.action == "import":
             return import_command(store, args.folders)
         if args.action == "stats":
-            return stats_command(store)
+            return stats_command(store, study_name(args.study))
         if args.action == "show":
             record = store.get(simulation_word(args.simulation))
             if record is None:  # or it is too damaged to read: the summary says why
@@ -103,7 +137,7 @@ def archive(args: argparse.Namespace) -> int:
             print(describe(record))
             return 0
         records = store.records(
-            study=args.of_study,
+            study=study_name(args.study),
             scene=args.scene,
             engine=args.engine,
             statuses=args.status,
@@ -114,8 +148,9 @@ def archive(args: argparse.Namespace) -> int:
         tables.write(tables.frame(records), args.file)
         print(f"demcal: {len(records)} simulations from {shown(url)} written to {args.file}")
         return 0
+    width = shutil.get_terminal_size().columns if sys.stdout.isatty() else None
     for record in records:
-        print(line(record))
+        print(line(record, width))
     if not records:
         print(f"demcal: no simulations in {shown(url)} match")
     return 0
@@ -135,16 +170,28 @@ def simulation_word(word: str) -> str:
     return word
 
 
-def line(record: ArchivedSimulation) -> str:
-    """One simulation in one line: number, key, origin, status and responses."""
-    responses = " ".join(
+def line(record: ArchivedSimulation, width: int | None = None) -> str:
+    """One simulation in one line: number, origin, status, start time (ISO 8601, UTC), free
+    parameters and responses (``~``: an estimate) or why it failed. Wider than ``width``
+    characters, it is two, the parameters on the second, each cut to ``width``."""
+    head = (
+        f"{record.id:>6} {record.study}/{record.evaluation} {record.scene} "
+        f"rep{record.replicate} {record.status} {iso_time(record.started_at)}"
+    )
+    free = " ".join(
+        f"{name}={q.value:.4g}" for name, q in record.parameters.items() if name in record.free
+    )
+    outcome = " ".join(
         f"{name}={q.value:.4g}{'' if record.final.get(name) else '~'}"
         for name, q in record.responses.items()
+    ) or (f"reason: {record.reason}" if record.reason else "")
+    text = f"{head} {free} | {outcome}".rstrip(" |")
+    if width is None or len(text) <= width:
+        return text
+    lines = [f"{head} {outcome}".rstrip(), f"{'':7}{free}"]
+    return "\n".join(
+        text if len(text) <= width else text[: width - 1] + "…" for text in lines if text.strip()
     )
-    return (
-        f"{record.id:>6} {record.key[:12]} {record.study}/{record.evaluation} {record.scene} "
-        f"rep{record.replicate} seed {record.seed} {record.engine} {record.status} {responses}"
-    ).rstrip()
 
 
 def describe(record: ArchivedSimulation) -> str:
@@ -164,9 +211,9 @@ def describe(record: ArchivedSimulation) -> str:
                 for n, q in record.responses.items()
             },
             "cost": record.cost,
-            "started_at": record.started_at,
-            "ended_at": record.ended_at,
-            "recorded_at": record.recorded_at,
+            "started_at": iso_time(record.started_at),
+            "ended_at": iso_time(record.ended_at),
+            "recorded_at": iso_time(record.recorded_at),
             "source": record.source,
             "demcal_version": record.demcal_version,
         },
@@ -197,11 +244,13 @@ def import_command(store: Archive, folders: list[Path]) -> int:
     return 2 if failed else 0
 
 
-def stats_command(store: Archive) -> int:
-    rows = store.stats()
+def stats_command(store: Archive, study: str | None) -> int:
+    """Simulations and cost per study, scene, engine and status (of ``study`` only if given)."""
+    rows = [row for row in store.stats() if study in (None, row["study"])]
     store.warn_damaged()
     if not rows:
-        print(f"demcal: {shown(store.url)} holds no simulations yet")
+        which = "" if study is None else f" of study {study!r}"
+        print(f"demcal: {shown(store.url)} holds no simulations{which} yet")
         return 0
     total = sum(row["simulations"] for row in rows)
     print(f"{shown(store.url)}: {total} simulations")

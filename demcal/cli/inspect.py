@@ -4,33 +4,14 @@ from __future__ import annotations
 
 import argparse
 import time
-from pathlib import Path
 
-from demcal.cli.options import quoted
 from demcal.cli.run import print_best
+from demcal.cli.study_argument import study_of
 from demcal.daemon.control import running_daemon, saved_optimizer
 from demcal.errors import ConfigError, DemcalError
-from demcal.results.layout import RESULTS, StudyFiles
+from demcal.results.layout import RESULTS
 from demcal.results.records import BestRecord, FinishedRecord, Status
-from demcal.study.config import load_study_file
 from demcal.study.model import Study, load_frozen
-
-
-def study_of(argument: str) -> Study:
-    """The study named by its YAML file or its name: as it ran (its results/<name>/study.json)
-    once it has run, else as the YAML file gives it."""
-    frozen = StudyFiles.of(argument).study
-    try:
-        ran = not Path(argument).is_file() and "/" not in argument and frozen.is_file()
-    except OSError as exc:  # a name too long for the file system
-        raise ConfigError(
-            f"{quoted(argument)}: {exc.strerror or exc}; give the study's YAML file or its name"
-        ) from None
-    if ran:
-        return load_frozen(frozen)
-    study = load_study_file(argument, check_engine=False)
-    return load_frozen(study.files.study) if study.files.study.is_file() else study
-
 
 #: How ``demcal status`` words each status of the optimizer's evaluations.
 STATUS_WORDS: dict[str, str] = {
@@ -83,7 +64,7 @@ def status(args: argparse.Namespace) -> int:
 
 
 def studies(args: argparse.Namespace) -> int:
-    """Every study under the results folder with its state, counts and best objective."""
+    """Every study under the results folder with its state, counts and answer."""
     found = sorted(path.parent for path in RESULTS.glob("*/study.json"))
     if not found:
         print(f"demcal: no studies in {RESULTS}/ (a study appears there once it has run)")
@@ -99,9 +80,23 @@ def studies(args: argparse.Namespace) -> int:
             continue
         state, counts = study_state(study)
         best = BestRecord.read_if_any(study.files.best)
-        answer = "" if best is None else f"; best {best.evaluation}, objective {best.objective:.4g}"
-        print(f"{study.name}: {state}\n  {counts}{answer}")
+        print(f"{study.name}: {state}\n  {counts}{'' if best is None else answer_words(best)}")
     return 0
+
+
+def answer_words(best: BestRecord) -> str:
+    """The answer, ``; answer e0012 (predicted 0.42)``, and the lowest single run when it is
+    another point."""
+    if best.predicted_objective is None:
+        words = f"; answer {best.evaluation} (objective {best.objective:.4g})"
+    else:
+        words = f"; answer {best.evaluation} (predicted {best.predicted_objective:.4g})"
+    if best.lowest_run is not None:
+        words += (
+            f", lowest run {best.lowest_run['evaluation']} "
+            f"(objective {best.lowest_run['objective']:.4g})"
+        )
+    return words
 
 
 def watch(args: argparse.Namespace) -> int:

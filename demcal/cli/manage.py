@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from demcal.cli.inspect import study_of
+from demcal.cli.study_argument import study_of
 from demcal.daemon.control import add_point, lock_study, reopen_failed, request_stop, running_daemon
 
 

@@ -1,4 +1,4 @@
-"""``demcal metamodel build|validate|show CONFIG``: global metamodels of a material domain
+"""``demcal metamodel build|validate|show STUDY``: global metamodels of a material domain
 (:mod:`demcal.metamodel`)."""
 
 from __future__ import annotations
@@ -18,11 +18,12 @@ from demcal import metamodel
 from demcal.archive.store import Archive
 from demcal.archive.url import missing_file
 from demcal.cli.options import MOST_SIMULATIONS, whole_number
+from demcal.cli.study_argument import has_run, study_of, study_yaml
 from demcal.errors import ConfigError
 from demcal.resources import DEFAULT_CONFIG
 from demcal.results.storage import write_json
 from demcal.study.config import load_study_file
-from demcal.study.model import Study, load_frozen
+from demcal.study.model import Study
 from demcal.study.objective import relative_miss
 from demcal.workflow import LOCAL_PROFILE, check_profile
 
@@ -38,7 +39,9 @@ def arguments(sub: argparse.ArgumentParser) -> None:
         "config",
         nargs="?",
         default=DEFAULT_CONFIG,
-        help="the domain's study file (its free parameters span the domain)",
+        metavar="STUDY",
+        help="the domain's study: its YAML file, or its name once a campaign has run (its free "
+        "parameters span the domain)",
     )
     sub.add_argument(
         "--model",
@@ -66,13 +69,14 @@ def arguments(sub: argparse.ArgumentParser) -> None:
 def domain_study(config: str) -> tuple[Study, str]:
     """The domain's study (its frozen copy once a campaign has run, else the YAML) and its
     archive; refused without an archive, or when its SQLite file does not exist yet."""
-    study = load_study_file(config)
-    study = load_frozen(study.files.study) if study.files.study.is_file() else study
+    study = study_of(config)
     if study.archive is None:
         raise ConfigError("archive: false: the metamodels are trained on the archive; give one")
     absent = missing_file(study.archive)
     if absent is not None:
-        raise ConfigError(f"no archive at {absent} yet: run demcal sample {config} first")
+        raise ConfigError(
+            f"no archive at {absent} yet: run demcal sample {config} --points N first"
+        )
     return study, study.archive
 
 
@@ -188,7 +192,9 @@ def calibrate_arguments(sub: argparse.ArgumentParser) -> None:
     sub.add_argument(
         "--domain",
         required=True,
-        help="the domain's study file (whose metamodels demcal metamodel build made)",
+        metavar="STUDY",
+        help="the domain's study, its YAML file or its name (whose metamodels demcal metamodel "
+        "build made)",
     )
     sub.add_argument(
         "--model",
@@ -220,7 +226,9 @@ def calibrate_arguments(sub: argparse.ArgumentParser) -> None:
 def calibrate_command(args: argparse.Namespace) -> int:
     """``demcal calibrate-metamodel MATERIAL --domain DOMAIN``: a material calibrated on the
     domain's metamodels with no simulation, then optionally validated by simulation."""
-    material = load_study_file(args.config)
+    if args.validate:  # simulations of the material: its YAML file, as for demcal run
+        study_yaml(args.config, "calibrate-metamodel --validate")
+    material = study_of(args.config) if has_run(args.config) else load_study_file(args.config)
     domain, _ = domain_study(args.domain)
     free, held = metamodel.material_inputs(domain, material)
     models = metamodel.load(domain)
@@ -304,13 +312,14 @@ def metamodel_folder(material: Study, kind: str) -> Path:
 
 
 def extend_command(domain: Study, config: str) -> str:
-    """The command that adds simulations to the domain: its campaign, doubled (``--n`` is the
-    campaign's new size, not the number of points to add)."""
+    """The command that adds simulations to the domain: its campaign, doubled (``--points`` is
+    the campaign's new size, not the number of points to add)."""
     from demcal.results.records import CampaignRecord
 
     campaign = CampaignRecord.read_if_any(domain.files.campaign)
     size = 0 if campaign is None else len(campaign.unit_points)
-    return f"demcal sample {config} --n {max(2 * size, 2 * len(domain.free) + 2)}"
+    yaml = config if Path(config).is_file() else "DOMAIN.yaml"  # sample needs the YAML file
+    return f"demcal sample {yaml} --points {max(2 * size, 2 * len(domain.free) + 2)}"
 
 
 def no_solution_reason(result: metamodel.MetamodelCalibration, material: Study) -> str:
@@ -346,14 +355,21 @@ def validate_answer(
 ) -> dict[str, dict]:
     """Simulate the answer ``args.validate`` times; each response's relative error against the
     target and against the metamodels' prediction (printed, and returned per target)."""
-    from demcal.campaign import run
+    from demcal.campaign import run, runs_at_once, simulations_per_point
+    from demcal.cli.cost import cost_line, per_scene
     from demcal.cli.run import locked_study
     from demcal.jobs.evaluation import response_paths
     from demcal.results.records import PointRecord, ResponsesRecord, Status
 
     profile = Path(args.profile)
-    check_profile(profile)
+    settings = check_profile(profile)
     with locked_study(args.config) as study:
+        count = args.validate * simulations_per_point(study)
+        at_once = runs_at_once(settings)
+        print(
+            f"validation: {cost_line(study, per_scene(study, args.validate), count, at_once)}",
+            flush=True,
+        )
         names = [f"validate-{args.model}-{i}" for i in range(args.validate)]
         for name in names:
             params = study.files.evaluation(name).params

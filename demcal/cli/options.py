@@ -1,10 +1,12 @@
-"""Checked numbers on the command line: an option's value outside its range is refused by the
-parser, in one line that names the option and gives the range."""
+"""Options shared by the commands: checked numbers (a value outside its range is refused by the
+parser, in one line that names the option and gives the range), and the former spelling of a
+renamed option, still accepted."""
 
 from __future__ import annotations
 
 import argparse
 from collections.abc import Callable
+from typing import Any
 
 #: The largest integer a SQL database stores (SQLite's and PostgreSQL's BIGINT): a simulation's
 #: number in the archive, a row limit.
@@ -13,6 +15,9 @@ LARGEST_ROW = 2**63 - 1
 MOST_SIMULATIONS = 1000
 #: Longest bad value quoted in a message.
 SHOWN_CHARS = 40
+#: The metavar of the options that take free-parameter values; the parser tells a study's
+#: name that follows them from the values (``demcal solutions --point a=1 b=2 STUDY``).
+ASSIGNMENT = "NAME=VALUE"
 
 
 def whole_number(low: int, high: int) -> Callable[[str], int]:
@@ -31,6 +36,18 @@ def whole_number(low: int, high: int) -> Callable[[str], int]:
         return value
 
     return parse
+
+
+def former_name(sub: argparse.ArgumentParser, old: str, new: str, **kwargs: Any) -> None:
+    """Accept ``old``, the former name of option ``new``, for the same value (``kwargs``: its
+    ``type``, ``nargs``); left out of the help."""
+    sub.add_argument(
+        old,
+        dest=new.lstrip("-").replace("-", "_"),
+        default=argparse.SUPPRESS,  # the new option's default stands
+        help=argparse.SUPPRESS,
+        **kwargs,
+    )
 
 
 def quoted(text: str) -> str:

@@ -12,6 +12,7 @@ from typing import Any, TextIO
 
 import pandas as pd
 
+from demcal.cli.study_argument import study_yaml
 from demcal.daemon.control import lock_study
 from demcal.daemon.launcher import SnakemakeLauncher
 from demcal.daemon.loop import Calibration
@@ -37,12 +38,19 @@ DAEMON_LOG_FORMAT = "%(asctime)s %(levelname)s %(message)s"
 DEFAULT_WORKERS = 2
 
 
-def _workers(study: Study, settings: Mapping[str, Any], given: int | None) -> int:
-    """Evaluations in flight: --workers, else calibration.workers, else the jobs of the profile's
-    ``settings``, else 2."""
+def workers_of(study: Study, settings: Mapping[str, Any], given: int | None) -> tuple[int, str]:
+    """Evaluations in flight, and what set them: --workers, else calibration.workers, else the
+    jobs of the profile's ``settings``, else 2."""
     if given is not None and given < 1:
         raise ConfigError(f"--workers {given}: give at least 1 (evaluations in flight)")
-    return int(given or study.calibration.get("workers") or settings.get("jobs", DEFAULT_WORKERS))
+    for value, source in (
+        (given, "--workers"),
+        (study.calibration.get("workers"), "calibration.workers"),
+        (settings.get("jobs"), "the profile's jobs"),
+    ):
+        if value:
+            return int(value), source
+    return DEFAULT_WORKERS, "the default"
 
 
 def run(args: argparse.Namespace) -> int:
@@ -57,7 +65,8 @@ def run(args: argparse.Namespace) -> int:
 
 def _run(args: argparse.Namespace, log: TextIO | None) -> int:
     profile = Path(args.profile) if args.profile else None
-    with locked_study(args.config, args.frozen, args.watch_pid, log) as study:
+    config = args.config if args.frozen else study_yaml(args.config, "run")
+    with locked_study(config, args.frozen, args.watch_pid, log) as study:
         logging.basicConfig(
             filename=study.files.daemon_log,
             level=logging.INFO,
@@ -69,6 +78,9 @@ def _run(args: argparse.Namespace, log: TextIO | None) -> int:
             return 130
         print(f"demcal: calibration of {study.name!r} finished: {reason}")
         print_best(study)
+        if not args.frozen and study.files.best.exists() and not study.files.report.exists():
+            # the workflow's calibrate rule (--frozen) makes the report itself
+            print(f"report: demcal report {study.name} makes {study.files.report}")
     return 0
 
 
@@ -108,7 +120,7 @@ def calibrate(
     The progress goes to stderr (and ``log``). An interrupt (Ctrl-C) says what keeps running
     and is raised again."""
     settings = check_profile(profile)
-    workers = _workers(study, settings, workers)
+    workers, _ = workers_of(study, settings, workers)
     launcher = SnakemakeLauncher(study.files.study, profile, child_cores(settings, workers))
     calibration = Calibration(study, launcher, workers, watch_pid=watch_pid)
     display = ProgressDisplay(sys.stderr, log)

@@ -1,5 +1,5 @@
-"""``demcal sample CONFIG --n N``: a sampling campaign over the study's box, into the archive
-(:mod:`demcal.campaign`)."""
+"""``demcal sample STUDY.yaml --points N``: a sampling campaign over the study's box, into the
+archive (``demcal.campaign``)."""
 
 from __future__ import annotations
 
@@ -21,14 +21,22 @@ from demcal.campaign import (
     simulations_per_point,
     write_points,
 )
+from demcal.cli.options import former_name
 from demcal.cli.run import locked_study
+from demcal.cli.study_argument import study_yaml
 from demcal.errors import ConfigError
 from demcal.study.config import load_study_file
 from demcal.workflow import LOCAL_PROFILE, check_profile, runs_locally
 
 
 def arguments(sub: argparse.ArgumentParser) -> None:
-    sub.add_argument("--n", type=int, required=True, help="points of the design (the total)")
+    sub.add_argument(
+        "--points",
+        type=int,
+        metavar="N",
+        help="points of the design, in all (required; a larger N extends a campaign that has run)",
+    )
+    former_name(sub, "--n", "--points", type=int)
     sub.add_argument(
         "--design",
         default="fssf_f",
@@ -55,10 +63,13 @@ def arguments(sub: argparse.ArgumentParser) -> None:
 
 
 def sample(args: argparse.Namespace) -> int:
+    if args.points is None:
+        raise ConfigError("sample: give --points N, the number of points of the design")
     profile = Path(args.profile)
     settings = check_profile(profile)
-    given = load_study_file(args.config)
-    check_request(args.n, args.design, args.bundle, simulations_per_point(given))
+    config = study_yaml(args.config, "sample")
+    given = load_study_file(config)
+    check_request(args.points, args.design, args.bundle, simulations_per_point(given))
     if given.archive is None:
         raise ConfigError(
             "archive: false: a campaign is for the archive; give the study an archive"
@@ -69,8 +80,8 @@ def sample(args: argparse.Namespace) -> int:
             f"run on this machine's cores, not as cluster jobs",
             file=sys.stderr,
         )
-    with locked_study(args.config, name=args.name) as study:
-        campaign = plan(study, args.n, args.design)
+    with locked_study(config, name=args.name) as study:
+        campaign = plan(study, args.points, args.design)
         distance, cover = design_quality(campaign)
         # said before the points are written: a campaign of thousands takes a while to write
         print(

@@ -13,6 +13,7 @@ from typing import TextIO
 
 from demcal.daemon.launcher import alive
 from demcal.errors import ConfigError, DemcalError, SimulationFailed
+from demcal.jobs.evaluation import ask_to_stop
 from demcal.optimizer import Optimizer
 from demcal.results.layout import evaluation_id, proposal_id
 from demcal.results.records import ObjectiveRecord, PointRecord, Status
@@ -140,8 +141,9 @@ def request_stop(study: Study) -> None:
     files.stop_calibration.touch()
     for evaluation in files.evals.glob("*"):
         evaluation_files = study.files.evaluation(evaluation.name)
-        if evaluation_files.launch.exists() and not evaluation_files.objective.exists():
-            evaluation_files.stop.touch()
+        running = evaluation_files.launch.exists() and not evaluation_files.objective.exists()
+        if running and not evaluation_files.stop.exists():  # an early stop keeps its reason
+            ask_to_stop(evaluation_files, "stopped by demcal stop")
 
 
 #: Seconds to wait for the lock of a daemon whose Snakemake is gone (it ends within a poll).

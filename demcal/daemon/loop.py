@@ -43,6 +43,7 @@ from demcal.daemon.termination import (
 from demcal.errors import DemcalError, SimulationFailed
 from demcal.jobs.evaluation import (
     archive,
+    ask_to_stop,
     objective_record,
     rescore,
     response_paths,
@@ -507,7 +508,10 @@ class Calibration:
                     )
                 )
             if decision.stop:
-                self.files.evaluation(evaluation).stop.touch()
+                ask_to_stop(
+                    self.files.evaluation(evaluation),
+                    f"stopped early by early termination: {decision.reason}",
+                )
                 self.stop_requested.add(evaluation)
                 log.info("%s: early stop: %s", evaluation, decision.reason)
         append_estimates(self.files.early_termination, rows)

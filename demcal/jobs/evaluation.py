@@ -41,6 +41,7 @@ from demcal.results.records import (
     SimulationRecord,
     Status,
 )
+from demcal.results.storage import atomic_write_text
 from demcal.scenes.base import Scene
 from demcal.study.model import Study, load_frozen
 from demcal.study.objective import relative_miss, replicate_mean, replicate_spread
@@ -119,6 +120,25 @@ def not_started(study: Study, evaluation: str, scene: str, replicate: int) -> Ru
             label = f"{path.parent.parent.name} {path.parent.name}"
             return RunResult(Status.TERMINATED, f"{NOT_STARTED}{label} {before.status}")
     return None
+
+
+#: Why an evaluation stopped by a STOP file that gives no reason was stopped.
+STOPPED_BY_HAND = "stopped early by a STOP file that gives no reason (one made by hand)"
+
+
+def ask_to_stop(files: EvaluationFiles, reason: str) -> None:
+    """Ask the evaluation's running simulations to stop: its STOP file, saying who stopped it
+    and why (its objective job gives that as the reason it was stopped)."""
+    atomic_write_text(files.stop, reason)
+
+
+def stop_reason(files: EvaluationFiles) -> str:
+    """Why the evaluation was stopped, as its STOP file says (`ask_to_stop`)."""
+    try:
+        given = files.stop.read_text(errors="replace").strip()
+    except OSError:  # removed by hand since
+        given = ""
+    return bounded_reason(given) if given else STOPPED_BY_HAND
 
 
 def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> SimulationRecord:
@@ -360,7 +380,7 @@ def objective_record(study: Study, evaluation: str, response_paths: list[Path]) 
     if failures:
         record = replace(record, status=Status.FAILED, reason=bounded_reason("; ".join(failures)))
     elif terminated:
-        record = replace(record, status=Status.TERMINATED, reason="stopped early (STOP requested)")
+        record = replace(record, status=Status.TERMINATED, reason=stop_reason(files))
     elif missing := [t.key for t in study.targets if t.key not in values]:
         record = replace(
             record, status=Status.FAILED, reason=f"no value for targeted responses {missing}"

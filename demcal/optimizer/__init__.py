@@ -7,7 +7,7 @@ workers, early termination (Algorithms 3–5, Table 4.2); Rackl & Hanley
 model per response, and their Levenberg–Marquardt procedure.
 
 Public API (the first import line is what the daemon uses; the second
-is for adding a strategy, see below)::
+is for adding a strategy, see below):
 
     from demcal.optimizer import (
         Optimizer, OptimizerSettings, Proposal, Bounds, early_termination_decision,

@@ -1,13 +1,13 @@
 """The optimizer's own records: one evaluation, the best point, the confirmation runs.
 
-An :class:`Evaluation` is what the optimizer knows of one point it handed
+An `Evaluation` is what the optimizer knows of one point it handed
 out: where (unit box), its status, its objective value (the replicates'
 mean, the variance of that mean, the replicates) and its responses. It is
 frozen: the optimizer replaces a record when it is told, re-scored or
-reopened. :class:`BestPoint` is the answer :mod:`.best` picks and
-:class:`Confirmation` what the re-simulations of it found
-(:mod:`.confirmation`). The state file (:mod:`.state`) stores evaluations
-with :meth:`Evaluation.to_dict`.
+reopened. `BestPoint` is the answer `demcal.optimizer.best` picks and
+`Confirmation` what the re-simulations of it found
+(`demcal.optimizer.confirmation`). The state file (`demcal.optimizer.state`)
+stores evaluations with `Evaluation.to_dict`.
 """
 
 from __future__ import annotations
@@ -104,7 +104,7 @@ class Evaluation:
 
     @classmethod
     def from_dict(cls, record: dict[str, Any]) -> Evaluation:
-        """Inverse of :meth:`to_dict`."""
+        """Inverse of `to_dict`."""
         replicates = record.get("replicates")
         return cls(
             id=int(record["id"]),
@@ -144,7 +144,7 @@ class ReusedPoint:
 
 @dataclass(frozen=True)
 class BestPoint:
-    """The answer of a calibration so far (:func:`.best.best_point`).
+    """The answer of a calibration so far (`demcal.optimizer.best.best_point`).
 
     ``x`` in real units; ``value`` the observed objective (mean of the
     replicates); ``predicted`` the objective predicted there; ``chosen_by``
@@ -175,7 +175,7 @@ class ConfirmedResponse:
 
 @dataclass(frozen=True)
 class Confirmation:
-    """The confirmation runs so far (:func:`.confirmation.confirmation_summary`).
+    """The confirmation runs so far (`demcal.optimizer.confirmation.confirmation_summary`).
 
     ``confirms``: the id of the point they repeat; ``ids``: their ids;
     ``pending`` and ``failed``: how many are still running or gave no result.

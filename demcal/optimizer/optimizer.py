@@ -1,8 +1,8 @@
 """Asynchronous ask/tell optimizer with JSON state (Samuelsson 2023, Algorithm 5).
 
 The optimizer hands out the initial design first, then one adaptive point
-per request, chosen by the strategy named in the settings (:mod:`.registry`,
-:mod:`.strategies`) from a :class:`~.strategies.base.History` of the
+per request, chosen by the strategy named in the settings (`demcal.optimizer.registry`,
+`demcal.optimizer.strategies`) from a `History` of the
 evaluations. It keeps the bookkeeping and the step size; the strategy only
 chooses. Every point handed out, finished, given up or stopped early joins
 the distance set A, so running points repel new ones and parallel workers
@@ -10,13 +10,13 @@ never get the same point; only finished values enter the surrogate data B
 (section 3.6.2: a terminated run updates A but not B). Failed points
 additionally exclude a small ball around them.
 
-The best-point rule (:mod:`.best`), the early-termination reference
-(:mod:`.early_termination`), the confirmation runs (:mod:`.confirmation`),
-the objective's surrogate (:mod:`.objective_surrogate`) and the JSON state
-(:mod:`.state`) each have their own module.
+The best-point rule (`best`), the early-termination reference
+(`early_termination`), the confirmation runs (`confirmation`),
+the objective's surrogate (`objective_surrogate`) and the JSON state
+(`state`) each have their own module of `demcal.optimizer`.
 
-Given the targets (``objective``, a :class:`~demcal.study.objective.ResponseObjective`),
-the optimizer also keeps each evaluation's responses (:mod:`.responses`):
+Given the targets (``objective``, a `demcal.study.objective.ResponseObjective`),
+the optimizer also keeps each evaluation's responses (`demcal.optimizer.responses`):
 replicate values, and what a stopped run completed or estimated. One model
 per response then predicts the objective, which picks the best point and
 the early-termination threshold, and the response strategies search on it;
@@ -75,7 +75,7 @@ class Proposal:
 def _outcome(
     id: int, value: float | None, status: str, replicates: list[float] | None
 ) -> dict[str, Any]:
-    """The record fields of a told outcome (see :meth:`Optimizer.tell`)."""
+    """The record fields of a told outcome (see `Optimizer.tell`)."""
     if status not in STATUSES:
         raise ValueError(f"status: {status!r} is not one of {', '.join(STATUSES)}")
     variance, told = None, None
@@ -165,7 +165,7 @@ class Optimizer:
         #: mapped (``map_solutions``); None before
         self.search_ended: str | None = None
         #: evaluations of the solution-set mapping asked for beyond ``map_solutions``
-        #: (:meth:`explore`)
+        #: (`explore`)
         self.explore_more = 0
         self.objective = objective
         self._check_objective()
@@ -196,10 +196,11 @@ class Optimizer:
     def ask(self, n: int = 1) -> list[Proposal]:
         """Up to ``n`` new points; fewer once the evaluation budget is handed out.
 
-        Once the search has ended (:meth:`stop_reason`) with ``map_solutions``
-        left, the points map the solution set instead, after the confirmation
-        runs (:meth:`confirm`): the scatter they measure floors the models that
-        choose the mapping points.
+        Once the search has ended
+        ([`stop_reason`][demcal.optimizer.optimizer.Optimizer.stop_reason])
+        with ``map_solutions`` left, the points map the solution set instead, after the
+        confirmation runs ([`confirm`][demcal.optimizer.optimizer.Optimizer.confirm]): the
+        scatter they measure floors the models that choose the mapping points.
         """
         if self.search_ended is not None:
             confirmations = self.confirm(n)
@@ -346,7 +347,7 @@ class Optimizer:
 
     def _objective_of(self, responses: dict[str, list[float]]) -> tuple[float, list[float] | None]:
         """The objective of the replicates' responses, and per replicate when the counts agree
-        (the study's one computation, :class:`~demcal.study.objective.ResponseObjective`)."""
+        (the study's one computation, `demcal.study.objective.ResponseObjective`)."""
         objective = self.objective
         assert objective is not None, "tell scores responses only with an objective"
         targeted = {key: responses[key] for key in objective.keys}
@@ -428,10 +429,12 @@ class Optimizer:
         return [r.id for r in self.records if r.status == Status.PENDING]
 
     def best(self) -> BestPoint | None:
-        """The best evaluated point, and how it was chosen (``chosen_by``); see :mod:`.best`.
+        """The best evaluated point, and how it was chosen (``chosen_by``); see
+        `demcal.optimizer.best`.
 
-        Once the best point has been confirmed (:meth:`confirm`), it stays
-        the answer. None before any value.
+        Once the best point has been confirmed
+        ([`confirm`][demcal.optimizer.optimizer.Optimizer.confirm]), it stays the answer. None
+        before any value.
         """
         return best_point(
             self.records, self.bounds, self.response_predictor, self._fitted_surrogate
@@ -472,7 +475,7 @@ class Optimizer:
     @property
     def mapping_budget(self) -> int:
         """Evaluations that map the solution set in all: ``map_solutions`` and those
-        :meth:`explore` added."""
+        [`explore`][demcal.optimizer.optimizer.Optimizer.explore] added."""
         return self.settings.map_solutions + self.explore_more
 
     def explore(self, n: int) -> None:
@@ -522,8 +525,8 @@ class Optimizer:
     def early_termination(
         self, id: int, partial_estimate: float, run: RunProgress | None = None
     ) -> EarlyTerminationDecision:
-        """Apply :func:`early_termination_decision` to running evaluation ``id``; ``run``: where
-        it stands (share done, the estimate's heading), for the ``weighed`` rule."""
+        """Apply `early_termination_decision` to running evaluation ``id``; ``run``: where it
+        stands (share done, the estimate's heading), for the ``weighed`` rule."""
         record = self._record(id)
         et = self.settings.early_termination
         adaptive_budget = max(self.settings.max_evaluations - self.initial_size, 1)
@@ -583,7 +586,8 @@ class Optimizer:
         return [self._issue(unit, in_design=False, confirms=best.id) for _ in range(count)]
 
     def confirmation(self) -> Confirmation | None:
-        """The confirmation runs so far (see :func:`.confirmation.confirmation_summary`)."""
+        """The confirmation runs so far (see
+        `demcal.optimizer.confirmation.confirmation_summary`)."""
         return confirmation_summary(self.records, self.objective.keys if self.objective else [])
 
     def _index(self, id: int) -> int:
@@ -602,8 +606,8 @@ class Optimizer:
         return self.records[index]
 
     def _fitted_surrogate(self) -> Surrogate | None:
-        """The surrogate of the objective (:mod:`.objective_surrogate`), refitted only when its data
-        changed."""
+        """The surrogate of the objective (`demcal.optimizer.objective_surrogate`), refitted
+        only when its data changed."""
         data = training_data(self.records, self.bounds.dimension, self.objective)
         if data is None:
             return None
@@ -614,7 +618,8 @@ class Optimizer:
 
     # -------------------------------------------------------------- state
     def to_json(self) -> str:
-        """The whole state as JSON (:mod:`.state`); :meth:`from_json` resumes to the same next
+        """The whole state as JSON (`demcal.optimizer.state`);
+        [`from_json`][demcal.optimizer.optimizer.Optimizer.from_json] resumes to the same next
         proposal."""
         return state.encode(self)
 

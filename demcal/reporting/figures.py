@@ -1,4 +1,4 @@
-"""Figures of a calibration, from results/<study>/evaluations.csv (PNG, for the report).
+"""Figures of a calibration, from results/<study>/evaluations.csv (for the report and notebooks).
 
 - objective against evaluation number, with the best so far;
 - objective against wall-clock time and against accumulated CPU time (error
@@ -10,30 +10,36 @@
   time against the limit it was held to (early_termination.csv).
 Early-stopped evaluations are marked with crosses on the lower edge, failed
 ones with red bars: they have no objective.
+
+Each ``plot_*`` function draws one figure and returns it (a matplotlib
+``Figure``, shown as PNG when a notebook cell returns it); given a ``path``,
+it also writes it there as PNG (``save_png``), as the report does. The
+figures are drawn without pyplot: no window opens and no global state is
+kept, in a job, a daemon thread or a notebook alike.
 """
 
 from __future__ import annotations
 
 import html
+import io
 import shutil
 import subprocess
 from pathlib import Path
+from typing import BinaryIO
 
 import matplotlib
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-
-from demcal.daemon.termination import ESTIMATE_COLUMNS  # noqa: E402
-from demcal.errors import SimulationFailed  # noqa: E402
-from demcal.reporting.terminal import time_unit  # noqa: E402
-from demcal.results.layout import proposal_id  # noqa: E402
-from demcal.results.records import BestRecord, SimulationRecord, Status  # noqa: E402
-from demcal.results.storage import read_json  # noqa: E402
-from demcal.study.model import Study, load_frozen  # noqa: E402
-from demcal.workflow import dag_command  # noqa: E402
+from demcal.daemon.termination import ESTIMATE_COLUMNS
+from demcal.errors import SimulationFailed
+from demcal.reporting.terminal import time_unit
+from demcal.results.layout import proposal_id
+from demcal.results.records import BestRecord, SimulationRecord, Status
+from demcal.results.storage import read_json
+from demcal.study.model import Study, load_frozen
+from demcal.workflow import dag_command
 
 FIGURES = (
     "objective_vs_evaluation",
@@ -43,6 +49,8 @@ FIGURES = (
     "parallel_coordinates",
     "early_termination",
 )
+#: Resolution of the figures' PNG files [dots per inch].
+FIGURE_DPI = 110
 STATUS_COLOURS = {
     Status.OK: "tab:blue",
     Status.TERMINATED: "tab:orange",
@@ -76,22 +84,54 @@ def objective_label(study: Study) -> str:
     return "mismatch with the targets\n(sum of squared relative errors)"
 
 
-def _save(fig, path: Path) -> None:
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+#: Where a figure may be written: a file's path or a binary file open for writing.
+PngTarget = Path | BinaryIO
+
+
+class ReportFigure(Figure):
+    """A figure of demcal's, drawn without pyplot; a notebook shows it as PNG."""
+
+    def _repr_png_(self) -> bytes:
+        buffer = io.BytesIO()
+        save_png(self, buffer)
+        return buffer.getvalue()
+
+
+def new_figure(width: float, height: float) -> ReportFigure:
+    """An empty figure of ``width`` by ``height`` inches."""
+    return ReportFigure(figsize=(width, height))
+
+
+def save_png(figure: Figure, path: PngTarget, dpi: int = FIGURE_DPI) -> None:
+    """Write a drawn figure as PNG to ``path`` (a path or a binary file)."""
+    figure.savefig(path, dpi=dpi, format="png")
+
+
+def finish_figure(
+    figure: ReportFigure,
+    path: PngTarget | None,
+    dpi: int = FIGURE_DPI,
+    rect: tuple[float, float, float, float] = (0, 0, 1, 1),
+) -> ReportFigure:
+    """``figure`` laid out within ``rect`` (a share of its width and height), and written to
+    ``path`` as PNG when there is one."""
+    figure.tight_layout(rect=rect)
+    if path is not None:
+        save_png(figure, path, dpi)
+    return figure
 
 
 def _stacked(rows: int, height: float):
     """A column of ``rows`` panels sharing the evaluation-number axis."""
-    fig, axes = plt.subplots(rows, 1, figsize=(7, height * rows), sharex=True, squeeze=False)
+    fig = new_figure(7, height * rows)
+    axes = fig.subplots(rows, 1, sharex=True, squeeze=False)
     return fig, axes[:, 0]
 
 
-def _finish_stack(fig, axes, path: Path) -> None:
+def _finish_stack(fig, axes, path: PngTarget | None) -> ReportFigure:
     axes[0].legend(fontsize=7, ncol=4)
     axes[-1].set_xlabel("evaluation (number as in evals/e0000...)")
-    _save(fig, path)
+    return finish_figure(fig, path)
 
 
 def _mark_unfinished(ax, table: pd.DataFrame, x: str) -> None:
@@ -124,17 +164,26 @@ def _objective_axes(ax, table: pd.DataFrame, x: str, xlabel: str, ylabel: str) -
     ax.legend(fontsize=8)
 
 
-def plot_objective_vs_evaluation(study: Study, table: pd.DataFrame, path: Path) -> None:
-    fig, ax = plt.subplots(figsize=(7, 4))
+def plot_objective_vs_evaluation(
+    study: Study, table: pd.DataFrame, path: PngTarget | None = None
+) -> ReportFigure:
+    """The objective of each evaluation against its number, with the best so far (``table``:
+    `load_table`)."""
+    fig = new_figure(7, 4)
+    ax = fig.subplots()
     _objective_axes(
         ax, table, "number", "evaluation (number as in evals/e0000...)", objective_label(study)
     )
     ax.set_title(f"{study.name}: mismatch with the targets, evaluation by evaluation")
-    _save(fig, path)
+    return finish_figure(fig, path)
 
 
-def plot_objective_vs_time(study: Study, table: pd.DataFrame, path: Path) -> None:
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
+def plot_objective_vs_time(
+    study: Study, table: pd.DataFrame, path: PngTarget | None = None
+) -> ReportFigure:
+    """The objective against wall-clock time and against the simulations' CPU time spent."""
+    fig = new_figure(11, 4)
+    axes = fig.subplots(1, 2, sharey=True)
     for ax, column, what in (
         (axes[0], "since_start_s", "wall-clock time since start"),
         (axes[1], "cpu_total_s", "simulation CPU time spent"),
@@ -143,12 +192,14 @@ def plot_objective_vs_time(study: Study, table: pd.DataFrame, path: Path) -> Non
         scaled = table.assign(**{column: table[column] / size})
         _objective_axes(ax, scaled, column, f"{what} [{unit}]", objective_label(study))
     fig.suptitle(f"{study.name}: error against run time")
-    _save(fig, path)
+    return finish_figure(fig, path)
 
 
 def plot_parameter_traces(
-    study: Study, table: pd.DataFrame, best: BestRecord | None, path: Path
-) -> None:
+    study: Study, table: pd.DataFrame, best: BestRecord | None, path: PngTarget | None = None
+) -> ReportFigure:
+    """Each free parameter against the evaluation number, within its bounds, the answer's value
+    as a line."""
     fig, axes = _stacked(len(study.free), 2.2)
     for ax, p in zip(axes, study.free):
         for status, color in (
@@ -167,12 +218,14 @@ def plot_parameter_traces(
         unit = "" if p.spec.unit == "-" else f" [{p.spec.unit}]"
         ax.set_ylabel(p.name + unit, fontsize=8)
         ax.grid(True, alpha=0.3)
-    _finish_stack(fig, axes, path)
+    return _finish_stack(fig, axes, path)
 
 
 def plot_responses_vs_targets(
-    study: Study, table: pd.DataFrame, best: BestRecord | None, path: Path
-) -> None:
+    study: Study, table: pd.DataFrame, best: BestRecord | None, path: PngTarget | None = None
+) -> ReportFigure:
+    """Each targeted response against the evaluation number, with its target (and spread or
+    bounds) and the answer's evaluation as a star."""
     fig, axes = _stacked(len(study.targets), 2.4)
     ok = table[table["status"] == Status.OK]
     for ax, t in zip(axes, study.targets):
@@ -197,22 +250,22 @@ def plot_responses_vs_targets(
             ax.plot(row["number"], row[t.key], "*", color="black", markersize=12, label="best")
         ax.set_ylabel(f"{t.key}\n[{unit}]", fontsize=8)
         ax.grid(True, alpha=0.3)
-    _finish_stack(fig, axes, path)
+    return _finish_stack(fig, axes, path)
 
 
 def plot_parallel_coordinates(
-    study: Study, table: pd.DataFrame, best: BestRecord | None, path: Path
-) -> None:
+    study: Study, table: pd.DataFrame, best: BestRecord | None, path: PngTarget | None = None
+) -> ReportFigure:
     """Every finished evaluation as a line across the free parameters (each axis its bounds),
     coloured by the objective: where the good points lie in all dimensions at once."""
-    fig, ax = plt.subplots(figsize=(max(6.0, 1.6 * len(study.free)), 4.2))
+    fig = new_figure(max(6.0, 1.6 * len(study.free)), 4.2)
+    ax = fig.subplots()
     ok = table[table["status"] == Status.OK].sort_values("objective", ascending=False)
     scaled = np.column_stack([(ok[p.name] - p.lower) / (p.upper - p.lower) for p in study.free])
     positions = np.arange(len(study.free))
     if len(ok):
-        colours = plt.cm.viridis(
-            np.linspace(0.0, 1.0, len(ok))
-        )  # poor in dark purple, the best last, in yellow
+        # poor in dark purple, the best last, in yellow
+        colours = matplotlib.colormaps["viridis"](np.linspace(0.0, 1.0, len(ok)))
         for row, colour in zip(scaled, colours):
             ax.plot(positions, row, color=colour, alpha=0.6, lw=1)
     if best is not None:
@@ -232,7 +285,7 @@ def plot_parallel_coordinates(
     ax.set_title(
         f"{study.name}: evaluated points, dark = poor match, yellow = good match", fontsize=10
     )
-    _save(fig, path)
+    return finish_figure(fig, path)
 
 
 def load_estimates(study: Study) -> pd.DataFrame:
@@ -244,13 +297,17 @@ def load_estimates(study: Study) -> pd.DataFrame:
 
 
 def plot_early_termination(
-    study: Study, estimates: pd.DataFrame, statuses: dict[str, str], path: Path
-) -> None:
+    study: Study,
+    estimates: pd.DataFrame,
+    statuses: dict[str, str],
+    path: PngTarget | None = None,
+) -> ReportFigure:
     """The objective estimates of running evaluations over the calibration's time (points,
     joined per evaluation, coloured by how it ended) and the limit each was held to (dashed:
     c f* of the thesis' eq. 3.4, divided by the share of the run left under the weighed rule,
     so each run has its own); a cross where a run was stopped."""
-    fig, ax = plt.subplots(figsize=(7, 4.2))
+    fig = new_figure(7, 4.2)
+    ax = fig.subplots()
     if estimates.empty:
         ax.text(
             0.5,
@@ -262,8 +319,7 @@ def plot_early_termination(
             transform=ax.transAxes,
         )
         ax.set_axis_off()
-        _save(fig, path)
-        return
+        return finish_figure(fig, path)
     unit, size = time_unit(float(estimates["elapsed_s"].max()))
     shown, limit_label = set(), "limit it was held to"
     for evaluation, rows in estimates.groupby("evaluation", sort=True):
@@ -307,7 +363,7 @@ def plot_early_termination(
     ax.set_title(f"{study.name}: early termination, estimates of running evaluations", fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
-    _save(fig, path)
+    return finish_figure(fig, path)
 
 
 def evaluation_statuses(table: pd.DataFrame) -> dict[str, str]:
@@ -360,11 +416,14 @@ def answer_histories(study: Study, best: BestRecord) -> dict[str, list[tuple]]:
     return series
 
 
-def plot_answer_history(study: Study, best: BestRecord | None, path: Path) -> None:
+def plot_answer_history(
+    study: Study, best: BestRecord | None, path: PngTarget | None = None
+) -> ReportFigure:
     """The responses of the answer over simulated time: the mean and ±1 sd over its runs
     (replicates and confirmations), as Samuelsson (2023, Figure 5.5b) shows the flows of his
     chute's answer."""
-    fig, ax = plt.subplots(figsize=(7.0, 4.0))
+    fig = new_figure(7.0, 4.0)
+    ax = fig.subplots()
     series = {} if best is None else answer_histories(study, best)
     for key, runs in series.items():
         length = min(len(times) for times, _ in runs)
@@ -384,7 +443,7 @@ def plot_answer_history(study: Study, best: BestRecord | None, path: Path) -> No
     answer = "no answer" if best is None else f"the answer, {best.evaluation}"
     ax.set_title(f"{answer}: responses over time (band: ±1 sd)", fontsize=9)
     ax.grid(True, alpha=0.3)
-    _save(fig, path)
+    return finish_figure(fig, path)
 
 
 def write_answer_history(smk) -> None:
@@ -393,10 +452,63 @@ def write_answer_history(smk) -> None:
     plot_answer_history(study, BestRecord.read_if_any(study.files.best), Path(smk.output[0]))
 
 
+#: The columns of the answer's table (`answer_table`; best.csv).
+ANSWER_COLUMNS = [
+    "quantity",
+    "value",
+    "predicted",
+    "predicted_sd",
+    "target",
+    "target_spread",
+    "relative_error_percent",
+    "unit",
+    "note",
+]
+
+
+def answer_table(study: Study, best: BestRecord) -> pd.DataFrame:
+    """The answer against the targets, a row per quantity: each free parameter (``note``: on
+    which bound, if on one), each targeted response (simulated, predicted by the response
+    models with their sd, target and spread, relative error) and the objective; None where a
+    column does not apply."""
+    rows = [
+        {
+            "quantity": p.name,
+            "value": best.parameters[p.name],
+            "note": f"on its {best.on_bounds[p.name]} bound" if p.name in best.on_bounds else None,
+            "unit": p.spec.unit,
+        }
+        for p in study.free
+    ]
+    predicted = best.predicted_responses
+    for t in study.targets:
+        rows.append(
+            {
+                "quantity": t.key,
+                "value": best.responses.get(t.key),
+                "predicted": predicted.get(t.key, {}).get("mean"),
+                "predicted_sd": predicted.get(t.key, {}).get("sd"),
+                "target": t.shown() if t.is_band else t.value,
+                "target_spread": t.spread,
+                "relative_error_percent": 100 * best.relative_errors.get(t.key, np.nan),
+                "unit": study.scenes[t.scene].responses[t.response].unit,
+            }
+        )
+    rows.append(
+        {
+            "quantity": "objective",
+            "value": best.objective,
+            "predicted": best.predicted_objective,
+            "target": 0,
+            "unit": "-",
+        }
+    )
+    return pd.DataFrame(rows).reindex(columns=ANSWER_COLUMNS)
+
+
 def best_point_table(study: Study) -> pd.DataFrame:
-    """Parameters and responses of the best point against the targets."""
-    best_file = study.files.best
-    if not best_file.exists():
+    """best.csv: `answer_table` with empty cells, or a row saying there is no answer yet."""
+    if not study.files.best.exists():
         return pd.DataFrame(
             [
                 {
@@ -408,52 +520,7 @@ def best_point_table(study: Study) -> pd.DataFrame:
                 }
             ]
         )
-    best = BestRecord.read(best_file)
-    on_bounds = best.on_bounds
-    rows = [
-        {
-            "quantity": name,
-            "value": value,
-            "note": f"on its {on_bounds[name]} bound" if name in on_bounds else "",
-            "unit": next(p.spec.unit for p in study.free if p.name == name),
-        }
-        for name, value in best.parameters.items()
-    ]
-    predicted = best.predicted_responses
-    for t in study.targets:
-        rows.append(
-            {
-                "quantity": t.key,
-                "value": best.responses.get(t.key),
-                "predicted": predicted.get(t.key, {}).get("mean", ""),
-                "predicted_sd": predicted.get(t.key, {}).get("sd", ""),
-                "target": t.shown() if t.is_band else t.value,
-                "target_spread": "" if t.spread is None else t.spread,
-                "relative_error_percent": 100 * best.relative_errors.get(t.key, np.nan),
-                "unit": study.scenes[t.scene].responses[t.response].unit,
-            }
-        )
-    rows.append(
-        {
-            "quantity": "objective",
-            "value": best.objective,
-            "predicted": "" if best.predicted_objective is None else best.predicted_objective,
-            "target": 0,
-            "unit": "-",
-        }
-    )
-    columns = [
-        "quantity",
-        "value",
-        "predicted",
-        "predicted_sd",
-        "target",
-        "target_spread",
-        "relative_error_percent",
-        "unit",
-        "note",
-    ]
-    return pd.DataFrame(rows).reindex(columns=columns).fillna("")
+    return answer_table(study, BestRecord.read(study.files.best)).astype(object).fillna("")
 
 
 def write_report_files(smk) -> None:

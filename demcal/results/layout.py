@@ -27,7 +27,7 @@ workflow's rules build their patterns from the same place::
             logs/
             <scene>/rep<r>/ simulation.json, responses.json, partial.csv, state.npz
 
-What each file holds is its record in :mod:`demcal.results.records`.
+What each file holds is its record in `demcal.results.records`.
 """
 
 from __future__ import annotations

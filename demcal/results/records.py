@@ -1,20 +1,21 @@
-"""The records that the results files hold (:mod:`demcal.results.layout` says where they live).
+"""The records that the results files hold (`demcal.results.layout` says where they live).
 
 One frozen dataclass per file, each with ``to_dict``/``from_dict``, a format
 version and ``read``/``write``:
 
-======================  ====================================================
-``PointRecord``         ``evals/<id>/params.json``: the point and its runs
-``LaunchRecord``        ``evals/<id>/launch.json``: the child Snakemake
-``SimulationRecord``    ``<scene>/rep<r>/simulation.json``: one simulation
-``ResponsesRecord``     ``<scene>/rep<r>/responses.json``: its responses
-``ObjectiveRecord``     ``evals/<id>/objective.json`` (the objective job) and
-                        ``evals/<id>/rescored.json`` (a re-score after the
-                        targets were corrected)
-``BestRecord``          ``best.json``: the best point so far
-``FinishedRecord``      ``finished.json``: why the calibration ended
-``ReusedRecord``        ``reused.json``: the archive's simulations it reused
-======================  ====================================================
+| record | file: what it holds |
+|---|---|
+| ``PointRecord`` | ``evals/<id>/params.json``: the point and its runs |
+| ``LaunchRecord`` | ``evals/<id>/launch.json``: the child Snakemake |
+| ``SimulationRecord`` | ``<scene>/rep<r>/simulation.json``: one simulation |
+| ``ResponsesRecord`` | ``<scene>/rep<r>/responses.json``: its responses |
+| ``ObjectiveRecord`` | ``evals/<id>/objective.json`` and ``evals/<id>/rescored.json`` |
+| ``BestRecord`` | ``best.json``: the best point so far |
+| ``FinishedRecord`` | ``finished.json``: why the calibration ended |
+| ``ReusedRecord`` | ``reused.json``: the archive's simulations it reused |
+
+The objective job writes ``objective.json``; ``rescored.json`` holds a re-score of
+the same evaluation after the targets were corrected.
 
 A file written by this version carries ``"format": 1``; older files without
 the key still load. A reader that meets a missing, damaged or malformed

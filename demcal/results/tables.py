@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 from demcal.errors import SimulationFailed
 from demcal.jobs.evaluation import reused_objectives
+from demcal.optimizer import Optimizer
 from demcal.results.layout import evaluation_id
 from demcal.results.records import BestRecord, LaunchRecord, ObjectiveRecord, PointRecord, Status
 from demcal.results.storage import atomic_write_text
@@ -30,7 +31,7 @@ def _number(value: object) -> str:
     )
 
 
-def _iso(epoch: float | str | None) -> str:
+def iso_time(epoch: float | str | None) -> str:
     """A Unix time as ISO 8601 in UTC to the second, '' if unknown."""
     if epoch in ("", None):
         return ""
@@ -46,8 +47,9 @@ def evaluation_columns(study: Study) -> list[tuple[str, str, str]]:
         (
             "origin",
             "",
-            "new: simulated by this study; archive: reused from the archive (reused.json; "
-            "evaluation is the study/evaluation that simulated it)",
+            "new: simulated by this study in its search; confirmation: a re-simulation of the "
+            "answer with new seeds; mapping: simulated to map the solution set; archive: reused "
+            "from the archive (reused.json; evaluation is the study/evaluation that simulated it)",
         ),
         ("reason", "", "why it failed or was stopped"),
         (
@@ -76,6 +78,7 @@ def write_evaluations_csv(study: Study) -> None:
     Units and meanings of the columns go to the sidecar evaluations.columns.csv.
     """
     columns = evaluation_columns(study)
+    origins = _origins(study)
     buffer = io.StringIO()
     writer = csv.DictWriter(buffer, fieldnames=[c for c, _, _ in columns], extrasaction="ignore")
     writer.writeheader()
@@ -107,15 +110,15 @@ def write_evaluations_csv(study: Study) -> None:
         row = {
             "evaluation": files.id,
             "status": record.status,
-            "origin": "new",
+            "origin": origins.get(files.id, "new"),
             "reason": record.reason,
             "objective": record.objective,
             "attempts": point.attempt + 1,
             **point.parameters,
             **record.responses,
             **_replicate_columns(record),
-            "started_at": _iso(started),
-            "ended_at": _iso(ended),
+            "started_at": iso_time(started),
+            "ended_at": iso_time(ended),
             "wall_s": ended - started if ended is not None and started is not None else None,
             "cpu_s": record.cost.get("cpu_s"),
         }
@@ -124,6 +127,21 @@ def write_evaluations_csv(study: Study) -> None:
     sidecar = io.StringIO()
     csv.writer(sidecar).writerows([("column", "unit", "meaning"), *columns])
     atomic_write_text(study.files.evaluations_columns, sidecar.getvalue())
+
+
+def _origins(study: Study) -> dict[str, str]:
+    """The evaluations the optimizer's records (``optimizer.json``) mark as re-simulations of
+    the answer (``confirmation``) or as mapping the solution set (``mapping``), by id."""
+    if not study.files.optimizer.is_file():
+        return {}
+    records = Optimizer.from_json(
+        study.files.optimizer.read_text(), study.response_objective
+    ).records
+    return {
+        evaluation_id(r.id): "confirmation" if r.confirms is not None else "mapping"
+        for r in records
+        if r.confirms is not None or r.maps_solutions
+    }
 
 
 def _replicate_columns(record: ObjectiveRecord) -> dict[str, float]:

@@ -4,6 +4,7 @@ and its commands (on SQLite; tests/archive/test_store.py covers PostgreSQL)."""
 from __future__ import annotations
 
 import logging
+import re
 
 import pandas as pd
 import pytest
@@ -187,9 +188,17 @@ def test_the_commands(study, tmp_path, capsys):
     assert "study analytic-demo: 2 simulations found, 0 new" in capsys.readouterr().out
     assert main(["archive", "list", "--status", "ok"]) == 0
     lines = capsys.readouterr().out.splitlines()
-    assert len(lines) == 2 and "analytic-demo/e0000 cylinder_lift rep0" in lines[0]
-    assert main(["archive", "show", lines[0].split()[1]]) == 0
-    assert '"angle_of_repose": "' in capsys.readouterr().out
+    assert len(lines) == 2 and "analytic-demo/e0000 cylinder_lift rep0 ok 20" in lines[0]
+    assert re.search(r" ok \d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ \w+_friction_pp=\S+ ", lines[0])
+    assert " | angle_of_repose=" in lines[0]
+    assert main(["archive", "show", lines[0].split()[0]]) == 0
+    shown = capsys.readouterr().out
+    assert '"angle_of_repose": "' in shown and re.search(r'"started_at": "\d{4}-.*Z"', shown)
+    # --study keeps one study's simulations; --archive-of chooses the archive
+    assert main(["archive", "list", "--study", "my-beads"]) == 0
+    assert "no simulations in sqlite:///results/archive.sqlite match" in capsys.readouterr().out
+    assert main(["archive", "list", "--archive-of", "analytic-demo", "--of", "analytic-demo"]) == 0
+    assert len(capsys.readouterr().out.splitlines()) == 2
     assert main(["archive", "stats", "--study", "analytic-demo"]) == 0
     assert "analytic-demo cylinder_lift analytic ok: 2" in capsys.readouterr().out
     assert main(["archive", "export", str(tmp_path / "all.parquet")]) == 0

@@ -5,12 +5,19 @@
 # is written only when the calibration has ended (with its stop reason); the
 # daemon watches this Snakemake's pid and ends when it is gone, so a killed
 # Snakemake leaves no orphan that holds the study.
+#
+# A graph (--dag, --rulegraph) draws the jobs of one evaluation, "each", as the
+# calibration's inputs: the daemon runs them for every evaluation it starts, in
+# a child Snakemake. They are never jobs of this Snakemake.
+
+SHOWN = FILES.evaluation(SHOWN_ID)
 
 
 rule calibrate:
     input:
         # the study as this Snakemake froze it (the YAML is not read again)
-        study=STUDY_FILE,
+        study=STUDY_INPUT,
+        each_evaluation=[str(SHOWN.objective), str(SHOWN.archived)] if GRAPH else [],
     output:
         str(FILES.finished),
     log:
@@ -20,6 +27,8 @@ rule calibrate:
         python=sys.executable,
         profile=invocation_profile(sys.argv, os.environ),
         snakemake_pid=os.getpid(),
+    message:
+        calibration_plan(STUDY)
     shell:
         "{params.python:q} -m demcal.cli run {input.study:q} --frozen --profile {params.profile:q}"
         " --watch-pid {params.snakemake_pid} --log {log:q}"

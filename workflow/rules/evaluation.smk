@@ -106,7 +106,7 @@ rule release:
 
 rule simulate:
     input:
-        str(EVAL.params),
+        evaluation_params,
         lambda w: [
             str(path) for path in release_marker(STUDY, w.evaluation, w.scene, int(w.replicate))
         ],
