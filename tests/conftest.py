@@ -24,8 +24,8 @@ ANALYTIC_STUDY = {
     },
     "fixed": {"restitution_pp": 0.5},
     "targets": [
-        {"scene": "cylinder_lift", "response": "angle_of_repose", "value": 25.0},
-        {"scene": "cylinder_lift", "response": "bulk_density", "value": 1450.0},
+        {"scene": "cylinder_lift", "response": "angle_of_repose", "value": 25.0, "unit": "deg"},
+        {"scene": "cylinder_lift", "response": "bulk_density", "value": 1450.0, "unit": "kg/m^3"},
     ],
     "replicates": 2,
     "seed": 3,
@@ -116,8 +116,9 @@ def true_targets(truth: dict = TRUTH):
         **truth,
     }
     exact = SCENES.load("cylinder_lift").analytic_model(params, {})
+    units = {name: spec.unit for name, spec in SCENES.load("cylinder_lift").responses.items()}
     return [
-        {"scene": "cylinder_lift", "response": name, "value": value}
+        {"scene": "cylinder_lift", "response": name, "value": value, "unit": units[name]}
         for name, value in exact.items()
     ]
 

@@ -153,7 +153,13 @@ TARGET_QUANTITIES = ("value", "spread", "repeats", "at_least", "at_most")
 
 def _in_response_unit(target: dict, index: int, unit: str) -> tuple[dict, str | None]:
     """``target`` with its numbers in ``unit``, its response's unit, and a note of the
-    conversion (None when there was none); a ConfigError for a unit demcal cannot convert."""
+    conversion or of a unit left out (None when neither); a ConfigError for a unit demcal
+    cannot convert."""
+    if "unit" not in target and unit != "-":
+        return target, (
+            f"targets[{index}]: no unit given; read as {unit}, the unit {target['response']} "
+            f"is measured in"
+        )
     given = target.get("unit", unit)
     factor = conversion_factor(given, unit)
     if factor is None:
