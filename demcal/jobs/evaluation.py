@@ -141,6 +141,15 @@ def stop_reason(files: EvaluationFiles) -> str:
     return bounded_reason(given) if given else STOPPED_BY_HAND
 
 
+def simulator_of(study: Study, scene: str) -> tuple[dict, RunResult | None]:
+    """What simulates ``scene`` (`Study.simulator`), read before the run; when a file it names
+    cannot be read, {} and the failed result that records why (the run does not start)."""
+    try:
+        return study.simulator(scene), None
+    except OSError as exc:
+        return {}, RunResult(Status.FAILED, f"cannot read the simulator's files: {exc}")
+
+
 def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> SimulationRecord:
     """Run one scene replicate; write and return its simulation.json record."""
     files = study.files.evaluation(evaluation)
@@ -149,6 +158,7 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> Simul
     workdir.mkdir(parents=True, exist_ok=True)
     replicate_files.state.unlink(missing_ok=True)
     started_at = time.time()
+    simulator, unreadable = simulator_of(study, scene)
     try:
         point = PointRecord.read(files.params)
         attempt = point.attempt
@@ -171,7 +181,9 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> Simul
             stop_file=str(files.stop.resolve()),
             attempt=point.attempt,
         )
-        result = not_started(study, evaluation, scene, replicate) or run_engine(study, job)
+        result = (
+            not_started(study, evaluation, scene, replicate) or unreadable or run_engine(study, job)
+        )
     state_file = None
     if result.status == Status.OK and result.arrays:
         # numpy's stub types **kwds as if a key could be its allow_pickle: bool
@@ -183,7 +195,7 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> Simul
         replicate=replicate,
         engine=study.engine.name,
         engine_version=study.engine.version(),
-        simulator=study.simulator(scene),
+        simulator=simulator,
         settings=settings,
         timestep_fraction=study.timestep_fraction,
         responses_needed=study.responses_needed(scene),
