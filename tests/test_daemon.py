@@ -307,7 +307,8 @@ def test_new_target_values_rescore_stored_simulations_without_simulating(tmp_pat
     assert np.allclose(table["objective"], expected, rtol=1e-6)
     state = json.loads((tmp_path / "results/rescore/optimizer.json").read_text())
     assert state["best_observed"] == pytest.approx(expected.min())
-    changed["targets"][1].update(response="angle_of_repose", value=30.0)  # not a re-score
+    # another response: not a re-score
+    changed["targets"][1].update(response="angle_of_repose", value=30.0, unit="deg")
     changed["targets"] = changed["targets"][1:]
     config.write_text(yaml.safe_dump(changed))
     proc = demcal(tmp_path, "run", config)
