@@ -38,9 +38,9 @@ from demcal.archive.importer import import_results
 from demcal.archive.record import PSD_SETTINGS, ArchivedSimulation, Quantity
 from demcal.archive.schema import ParameterRow, ResponseRow, SimulationRow
 from demcal.archive.store import Archive, drop
-from demcal.archive.url import open_engine
+from demcal.physics.catalogue import CATALOG
+from demcal.results.archive_url import open_engine
 from demcal.results.records import Status
-from demcal.study.catalogue import CATALOG
 from demcal.study.config import load_study_file
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -230,7 +230,7 @@ def gradient_boosting_r2(domain, holdout: str, exclude: list[str]) -> dict[str, 
     training and held-out simulations as the global models: whether it would help."""
     from sklearn.ensemble import GradientBoostingRegressor
 
-    from demcal.metamodel import domain_data, unit_box
+    from demcal.domain.metamodel import domain_data, unit_box
 
     with Archive(domain.archive) as archive:
         train = domain_data(domain, archive, exclude=(holdout, *exclude))

@@ -25,7 +25,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from demcal.optimizer import Optimizer  # noqa: E402
-from demcal.study.objective import ResponseObjective, Target  # noqa: E402
+from demcal.optimizer.objective import ResponseObjective, Target  # noqa: E402
 
 
 def main() -> None:

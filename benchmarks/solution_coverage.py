@@ -68,21 +68,15 @@ sys.path.insert(0, str(HERE / "calibration"))
 from problems import PROBLEMS  # noqa: E402
 
 from demcal.analysis.solution_report import analyse  # noqa: E402
-from demcal.analysis.solutions import (  # noqa: E402
-    LIKELY,
-    SURE,
-    identifiability,
-    membership_probability,
-    sample_solutions,
-    simulation_noise_sd,
-)
+from demcal.analysis.solutions import identifiability, sample_solutions, simulation_noise_sd  # noqa: E402
 from demcal.engines.analytic import noisy_responses  # noqa: E402
 from demcal.optimizer import Optimizer  # noqa: E402
+from demcal.optimizer.membership import LIKELY, SURE, membership_probability  # noqa: E402
+from demcal.optimizer.objective import DEFAULT_FORM, ResponseObjective, Target  # noqa: E402
 from demcal.optimizer.responses import final_means, replicate_scatter  # noqa: E402
 from demcal.optimizer.settings import OptimizerSettings  # noqa: E402
 from demcal.scenes.cylinder_lift.analytic import analytic_model  # noqa: E402
-from demcal.study.config import default  # noqa: E402
-from demcal.study.objective import DEFAULT_FORM, ResponseObjective, Target  # noqa: E402
+from demcal.study.schema import default  # noqa: E402
 
 #: The report's k, Sobol sample count and seed (the defaults of ``analyse``).
 REPORT = {

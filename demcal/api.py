@@ -38,11 +38,12 @@ from typing import TYPE_CHECKING, Any, SupportsIndex
 
 import pandas as pd
 
+from demcal.analysis.solutions import SOLUTION_SAMPLES
+from demcal.daemon.tables import evaluation_columns
 from demcal.errors import ConfigError, DemcalError, bounded_reason
 from demcal.reporting.terminal import ANSWER_VERSUS_LOWEST_RUN, CHOSEN_BY
 from demcal.results.layout import RESULTS, StudyFiles
 from demcal.results.records import BestRecord, FinishedRecord
-from demcal.results.tables import evaluation_columns
 from demcal.study.config import load_study_file
 from demcal.study.model import Study, load_frozen
 
@@ -57,9 +58,6 @@ __all__ = ["Answer", "LowestRun", "Results", "Solutions", "StudyFile", "load", "
 
 #: The columns of evaluations.csv that hold times (ISO 8601 in UTC).
 TIME_COLUMNS = ("started_at", "ended_at")
-#: The fewest and most Sobol points a solution analysis samples over the box (a million
-#: points of a 2-parameter study take about 10 s and 300 MB).
-SOLUTION_SAMPLES = (64, 2**20)
 
 
 @dataclass
@@ -656,7 +654,7 @@ class StudyFile:
         """
         import sys
 
-        from demcal.cli.run import calibrate, locked_study
+        from demcal.daemon.session import calibrate, locked_study
         from demcal.workflow import LOCAL_PROFILE
 
         if workers is not None:
@@ -696,7 +694,7 @@ def _damaged(path: Path) -> Iterator[None]:
 def _daemon_log(study: Study) -> Iterator[None]:
     """The calibration's log messages in its ``daemon.log`` while the block runs (the
     ``demcal`` command sets this up once per process; a notebook may run several studies)."""
-    from demcal.cli.run import DAEMON_LOG_FORMAT
+    from demcal.daemon.session import DAEMON_LOG_FORMAT
 
     logger = logging.getLogger("demcal")
     handler = logging.FileHandler(study.files.daemon_log)

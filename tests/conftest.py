@@ -185,7 +185,7 @@ def analytic_example(**overrides) -> dict:
 def new_optimizer(study):
     """The optimizer a calibration of ``study`` starts with (as the daemon makes it)."""
     from demcal.optimizer import Optimizer
-    from demcal.study.objective import ResponseObjective
+    from demcal.optimizer.objective import ResponseObjective
 
     return Optimizer(
         [p.lower for p in study.free],
@@ -229,8 +229,8 @@ def run_in_process(study, evaluations: int, extra_points=(), reason="evaluation 
     process, then the tables and finished.json as the daemon writes them; the optimizer."""
     import time
 
+    from demcal.daemon.tables import write_best, write_evaluations_csv
     from demcal.results.storage import write_json
-    from demcal.results.tables import write_best, write_evaluations_csv
 
     write_json(study.files.calibration, {"started_at": time.time(), "study": study.name})
     optimizer = new_optimizer(study)

@@ -120,12 +120,12 @@ def test_the_bomb_would_expand_to_billions(tmp_path):
 def test_an_internal_error_says_where_its_traceback_is(tmp_path, monkeypatch, capsys):
     """A bug before the study's log exists: the traceback is printed, not promised in daemon.log."""
     import demcal.cli
-    import demcal.cli.run
+    import demcal.daemon.session
 
     def broken(*_):
         raise RuntimeError("a bug")
 
-    monkeypatch.setattr(demcal.cli.run, "load_study_file", broken)
+    monkeypatch.setattr(demcal.daemon.session, "load_study_file", broken)
     assert demcal.cli.main(["run", str(tmp_path / "any.yaml")]) == 3
     err = capsys.readouterr().err
     where = re.search(r"internal error: RuntimeError: a bug \(traceback (above|in (\S+));", err)

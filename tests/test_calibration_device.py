@@ -10,11 +10,11 @@ from demcal.engines.base import RunMonitor, SimulationJob
 from demcal.engines.lammps import LammpsEngine
 from demcal.errors import ConfigError
 from demcal.physics import measure
+from demcal.physics.catalogue import CATALOG
 from demcal.results.records import Status
 from demcal.results.storage import read_partial
 from demcal.scenes import SCENES
 from demcal.scenes.calibration_device import TINY_SETTINGS, device_geometry
-from demcal.study.catalogue import CATALOG
 
 SCENE = SCENES.load("calibration_device")
 

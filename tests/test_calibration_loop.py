@@ -318,9 +318,9 @@ def test_corrected_targets_rescore_into_their_own_record(tmp_path, monkeypatch):
 
 def test_explore_after_the_end_maps_the_set_on_the_next_run(tmp_path, monkeypatch, capsys):
     from demcal.analysis.solution_report import check_point, write_solutions
-    from demcal.analysis.solutions import LIKELY, POSSIBLE
     from demcal.cli.analysis import print_point_check
     from demcal.daemon.control import explore_solutions
+    from demcal.optimizer.membership import LIKELY, POSSIBLE
 
     monkeypatch.chdir(tmp_path)
     spreads = {"angle_of_repose": 1.0, "bulk_density": 10.0}

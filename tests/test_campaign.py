@@ -20,7 +20,8 @@ from conftest import ANALYTIC_STUDY, demcal, finish
 
 from demcal.archive.record import ArchivedSimulation
 from demcal.archive.store import Archive
-from demcal.campaign import (
+from demcal.daemon.launcher import alive
+from demcal.domain.campaign import (
     check_request,
     end_earlier_runs,
     forecast,
@@ -28,7 +29,6 @@ from demcal.campaign import (
     tally,
     write_points,
 )
-from demcal.daemon.launcher import alive
 from demcal.engines.base import descendants
 from demcal.errors import ConfigError
 from demcal.optimizer.designs import (

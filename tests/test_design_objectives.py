@@ -10,12 +10,12 @@ import pytest
 from conftest import ROOT
 from test_calibration_loop import calibrate
 
-from demcal.analysis.solutions import membership_probability
 from demcal.errors import ConfigError
+from demcal.optimizer.membership import membership_probability
+from demcal.optimizer.objective import ResponseObjective, Target, relative_miss, target_error
 from demcal.results.records import BestRecord
 from demcal.study.config import load_study
 from demcal.study.model import study_from_record, study_record
-from demcal.study.objective import ResponseObjective, Target, relative_miss, target_error
 
 CHUTE = {
     "study": "chute-design",

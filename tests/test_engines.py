@@ -21,11 +21,11 @@ from demcal.engines.base import RunMonitor, SimulationJob
 from demcal.engines.command import CommandEngine, SimulatorProgress, command_words
 from demcal.engines.lammps import LammpsEngine
 from demcal.errors import ConfigError
+from demcal.physics.catalogue import CATALOG
 from demcal.results.layout import EvaluationFiles
 from demcal.results.records import Status
 from demcal.results.storage import read_partial
 from demcal.scenes import SCENES
-from demcal.study.catalogue import CATALOG
 
 SCENE = SCENES.load("cylinder_lift")
 

@@ -12,7 +12,6 @@ import pytest
 from conftest import analytic_example
 from matplotlib.figure import Figure
 
-from demcal.daemon.termination import ESTIMATE_COLUMNS
 from demcal.reporting.figures import (
     FIGURES,
     answer_table,
@@ -22,6 +21,7 @@ from demcal.reporting.figures import (
     save_png,
     write_plots,
 )
+from demcal.results.layout import ESTIMATE_COLUMNS
 from demcal.results.records import BestRecord
 from demcal.study.config import load_study
 

@@ -14,11 +14,11 @@ from conftest import PARAMETER_CORNERS, run_and_extract
 
 from demcal.engines.base import SimulationJob
 from demcal.engines.lammps import LammpsEngine
+from demcal.physics.catalogue import CATALOG
 from demcal.results.records import Status
 from demcal.results.storage import read_partial
 from demcal.scenes import SCENES
 from demcal.scenes.cylinder_lift import TINY_SETTINGS
-from demcal.study.catalogue import CATALOG
 
 pytestmark = pytest.mark.lammps
 

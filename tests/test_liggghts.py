@@ -18,6 +18,7 @@ from demcal.engines import liggghts
 from demcal.engines.base import RunMonitor, SimulationJob
 from demcal.engines.liggghts import LiggghtsEngine, read_dump, write_ascii_stl
 from demcal.errors import ConfigError, SimulationFailed
+from demcal.physics.catalogue import CATALOG
 from demcal.physics.timestep import rayleigh_time
 from demcal.results.records import Status
 from demcal.results.storage import read_partial
@@ -29,7 +30,6 @@ from demcal.scenes.cylinder_lift.liggghts import (
     place_spheres,
     polygon_segments,
 )
-from demcal.study.catalogue import CATALOG
 from demcal.study.config import load_study
 
 SCENE = SCENES.load("cylinder_lift")

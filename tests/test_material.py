@@ -9,10 +9,10 @@ import pytest
 from conftest import ANALYTIC_STUDY
 
 from demcal.errors import ConfigError
+from demcal.optimizer.objective import ResponseObjective, Target
 from demcal.results.records import BestRecord
 from demcal.study.config import load_study
 from demcal.study.model import freeze, study_from_record, study_record
-from demcal.study.objective import ResponseObjective, Target
 
 ANSWER = {"sliding_friction_pp": 0.42, "rolling_friction_pp": 0.11, "d50": 2.2e-3}
 

@@ -13,10 +13,10 @@ import pytest
 import yaml
 from conftest import ANALYTIC_STUDY, demcal, finish
 
-from demcal import metamodel
 from demcal.archive.record import ArchivedSimulation, Quantity, digest
 from demcal.archive.store import Archive
 from demcal.cli import main
+from demcal.domain import metamodel
 from demcal.optimizer.designs import fssf_f, latin_hypercube
 from demcal.results.records import Status
 from demcal.study.config import load_study

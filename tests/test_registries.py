@@ -14,11 +14,11 @@ from demcal.engines import ENGINES
 from demcal.engines.base import Engine
 from demcal.optimizer import Optimizer, Strategy
 from demcal.optimizer.designs import initial_design
+from demcal.optimizer.objective import ResponseObjective, Target
 from demcal.optimizer.registry import DESIGNS, RESPONSE_MODELS, STRATEGIES, SURROGATES
 from demcal.optimizer.surrogates.base import ResponseModel, Surrogate
 from demcal.plugins import Entry, Registry, UnknownPlugin
 from demcal.scenes import SCENES, Scene
-from demcal.study.objective import ResponseObjective, Target
 
 REGISTRIES = [STRATEGIES, SURROGATES, RESPONSE_MODELS, DESIGNS, ENGINES, SCENES]
 LOWER, UPPER = [0.1, 0.02], [0.9, 0.3]

@@ -19,8 +19,8 @@ from test_reuse import run
 from demcal.archive.reuse import compatible_simulations
 from demcal.archive.store import Archive
 from demcal.daemon.loop import Calibration
+from demcal.domain.metamodel import domain_data
 from demcal.errors import ConfigError
-from demcal.metamodel import domain_data
 from demcal.results.records import ReusedRecord
 from demcal.study.config import load_study
 

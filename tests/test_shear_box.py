@@ -15,6 +15,7 @@ from demcal.engines.analytic import AnalyticEngine
 from demcal.engines.base import RunMonitor, SimulationJob
 from demcal.errors import ConfigError, SimulationFailed
 from demcal.physics import measure
+from demcal.physics.catalogue import CATALOG
 from demcal.physics.psd import sample_diameters
 from demcal.results.records import Status
 from demcal.results.storage import read_partial
@@ -26,7 +27,6 @@ from demcal.scenes.shear_box import (
     mean_sphere_volume,
 )
 from demcal.scenes.shear_box.lammps import random_loose_packing
-from demcal.study.catalogue import CATALOG
 
 SCENE = SCENES.load("shear_box")
 DEFAULTS = {name: spec.default for name, spec in CATALOG.items()}

@@ -6,15 +6,14 @@ import pytest
 from demcal.analysis.solutions import (
     identifiability,
     largest_total_index,
-    membership_probability,
     sample_solutions,
     sensitivity_indices,
     simulation_noise_sd,
-    tolerance_sd,
 )
+from demcal.optimizer.membership import membership_probability, tolerance_sd
+from demcal.optimizer.objective import ResponseObjective, Target
 from demcal.optimizer.responses import ResponsePredictor
 from demcal.optimizer.surrogates.cubic_rbf import ResponseRBF
-from demcal.study.objective import ResponseObjective, Target
 
 NAMES, UNITS = ["sliding_friction_pp", "sliding_friction_pw"], ["-", "-"]
 LOWER, UPPER = np.array([0.2, 0.2]), np.array([0.9, 0.9])

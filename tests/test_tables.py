@@ -12,10 +12,10 @@ from datetime import UTC, datetime
 import pytest
 from conftest import analytic_example, evaluate, new_optimizer, read_objective
 
+from demcal.daemon.tables import evaluation_columns, write_best, write_evaluations_csv
 from demcal.results.layout import evaluation_id
 from demcal.results.records import PointRecord, Status
 from demcal.results.storage import write_json
-from demcal.results.tables import evaluation_columns, write_best, write_evaluations_csv
 from demcal.study.config import load_study
 from demcal.study.model import freeze
 

@@ -9,7 +9,6 @@ import pytest
 from conftest import analytic_example
 
 from demcal.daemon.termination import (
-    ESTIMATE_COLUMNS,
     append_estimates,
     early_termination_decisions,
     latest_estimates,
@@ -17,10 +16,10 @@ from demcal.daemon.termination import (
     share_done,
 )
 from demcal.optimizer.early_termination import early_termination_decision
-from demcal.results.layout import EvaluationFiles
+from demcal.optimizer.objective import estimated_objective
+from demcal.results.layout import ESTIMATE_COLUMNS, EvaluationFiles
 from demcal.results.storage import PARTIAL_COLUMNS
 from demcal.study.config import load_study
-from demcal.study.objective import estimated_objective
 
 ANGLE, DENSITY = "cylinder_lift.angle_of_repose", "cylinder_lift.bulk_density"
 

@@ -11,13 +11,13 @@ import pytest
 from demcal.engines.base import RunMonitor, SimulationJob
 from demcal.engines.lammps import LammpsEngine
 from demcal.errors import ConfigError, SimulationFailed
+from demcal.physics.catalogue import CATALOG
 from demcal.reporting.figures import answer_histories, plot_answer_history
 from demcal.results.records import BestRecord, SimulationRecord, Status
 from demcal.results.storage import read_partial
 from demcal.scenes import SCENES
 from demcal.scenes.transfer_chute import DESIGN_SETTINGS, chute_geometry, expected_particle_mass
 from demcal.scenes.transfer_chute.lammps import flow_responses, window_rate
-from demcal.study.catalogue import CATALOG
 from demcal.study.config import load_study
 from demcal.study.model import freeze
 

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from demcal.errors import ConfigError
+from demcal.optimizer.objective import Target, objective_value, relative_error, replicate_mean
 from demcal.physics.contact import (
     effective_modulus,
     hertz_secant_stiffness,
@@ -13,7 +14,6 @@ from demcal.physics.contact import (
 )
 from demcal.physics.psd import diameter_range, sample_diameters
 from demcal.physics.timestep import check_fraction, rayleigh_time
-from demcal.study.objective import Target, objective_value, relative_error, replicate_mean
 
 
 def test_rayleigh_time_hand_value():
@@ -108,7 +108,7 @@ def test_contact_model_reads_each_contact_its_own_restitution_and_rolling_dampin
 
 
 def test_parameters_of_an_earlier_demcal_are_read_in_todays_names():
-    from demcal.study.catalogue import upgrade_parameters
+    from demcal.physics.catalogue import upgrade_parameters
 
     earlier = {"sliding_friction_pp": 0.3, "restitution": 0.7}
     assert upgrade_parameters(earlier) == {
@@ -143,7 +143,7 @@ def test_rayleigh_cost_is_zero_at_the_largest_time_step_and_the_weight_at_the_sm
 
 def test_objective_forms_agree_with_eq_3_3():
     """Per replicate and from early estimates, the objective is eq. 3.3 of those values."""
-    from demcal.study.objective import estimated_objective, replicate_objectives
+    from demcal.optimizer.objective import estimated_objective, replicate_objectives
 
     targets = [Target("s", "a", 20.0), Target("s", "b", 1000.0, weight=2.0)]
     replicates = {"s.a": [22.0, 18.0], "s.b": [900.0, 1100.0]}

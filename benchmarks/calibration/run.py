@@ -110,7 +110,7 @@ def make_demcal_optimizer(
     """A demcal optimizer for ``problem`` with strategy ``strategy``, ``budget`` evaluations,
     objective form and the number of asynchronous ``workers``."""
     from demcal.optimizer import Optimizer
-    from demcal.study.objective import ResponseObjective
+    from demcal.optimizer.objective import ResponseObjective
 
     settings = {"strategy": strategy, "max_evaluations": budget}
     objective = ResponseObjective(tuple(demcal_targets(problem)), form)
@@ -137,8 +137,8 @@ def tell_demcal(
     ``scene.response`` (demcal's target keys), e.g.
     ``{"cylinder_lift.angle_of_repose": [31.2, 33.0], ...}``;
     ``objective_value``: eq. 3.3 of the replicate means
-    (``demcal.study.objective.objective_value``); ``replicate_objectives``: eq. 3.3
-    of each replicate index alone (``demcal.study.objective.replicate_objectives``,
+    (``demcal.optimizer.objective.objective_value``); ``replicate_objectives``: eq. 3.3
+    of each replicate index alone (``demcal.optimizer.objective.replicate_objectives``,
     empty with one replicate).
 
     The optimizer is told the scalar objective, the per-replicate
@@ -154,7 +154,7 @@ def tell_demcal(
 
 
 def demcal_targets(problem: Problem):
-    from demcal.study.objective import Target
+    from demcal.optimizer.objective import Target
 
     targets, spreads = problem.targets, problem.spreads
     return [
@@ -177,7 +177,7 @@ def run_demcal(
 
     ``strategy``: a registered name, optionally ``@precision`` for that objective form.
     """
-    from demcal.study.objective import objective_value, replicate_objectives
+    from demcal.optimizer.objective import objective_value, replicate_objectives
 
     strategy, _, form = strategy.partition("@")
     targets = demcal_targets(problem)

@@ -68,7 +68,7 @@ FIELDS = [
 
 def simulate(problem: Problem, workers: int, seed: int, budget: int) -> dict:
     """One run of ``workers`` asynchronous workers; see the module docstring."""
-    from demcal.study.objective import objective_value, replicate_objectives
+    from demcal.optimizer.objective import objective_value, replicate_objectives
 
     targets = demcal_targets(problem)
     opt = make_demcal_optimizer(problem, "response_ei", budget, seed, workers=workers)

@@ -31,8 +31,9 @@ from demcal.jobs.evaluation import run_engine, scene_responses
 from demcal.physics.timestep import check_fraction
 from demcal.results.records import Status
 from demcal.results.storage import atomic_write_text
-from demcal.study.config import default, load_study_file
+from demcal.study.config import load_study_file
 from demcal.study.model import Study, load_frozen
+from demcal.study.schema import default
 
 DEFAULT_FRACTIONS = (0.5, 0.35, 0.25, 0.125)
 #: Sizes tried by default, as multiples of the configured size.

@@ -29,21 +29,23 @@ import numpy as np
 import pandas as pd
 
 from demcal.analysis.solutions import (
-    BAND_SD,
-    LIKELY,
-    SURE,
     SolutionSet,
     Verdict,
-    band_half_width,
     identifiability,
     largest_total_index,
-    membership_probability,
     sample_solutions,
     sensitivity_indices,
     simulation_noise_sd,
 )
 from demcal.daemon.control import saved_optimizer
 from demcal.errors import ConfigError, DemcalError
+from demcal.optimizer.membership import (
+    BAND_SD,
+    LIKELY,
+    SURE,
+    band_half_width,
+    membership_probability,
+)
 from demcal.optimizer.responses import (
     ResponsePredictor,
     final_means,

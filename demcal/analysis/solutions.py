@@ -27,23 +27,25 @@ and the bounds; the files and figures are in `demcal.analysis.solution_report`.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import norm, qmc
+from scipy.stats import qmc
 
+from demcal.optimizer.membership import (
+    BAND_SD,
+    LIKELY,
+    POSSIBLE,
+    SURE,
+    membership_probability,
+    tolerance_sd,
+)
+from demcal.optimizer.objective import Target
 from demcal.optimizer.responses import ResponsePredictor
-from demcal.study.objective import Target
 
-#: Half-width of the acceptance band in combined sd: the default k of the report and the mapping.
-BAND_SD = 2.0
 #: Width of a parameter's span over the solution set, relative to the bounds, at or below which
 #: it counts as pinned, and above which it counts as not identified.
 PINNED_SHARE, NOT_IDENTIFIED_SHARE = 0.25, 0.6
-#: Membership probabilities: at least POSSIBLE, the models cannot rule a point out; at least
-#: LIKELY, it belongs to the estimate of the set; at least SURE, its membership is decided.
-POSSIBLE, LIKELY, SURE = 0.05, 0.5, 0.95
 #: How far (share of the bounds) the possible set may reach beyond the likely one at either end
 #: for a span to count as established.
 ESTABLISHED_MARGIN = 0.05
@@ -53,6 +55,9 @@ INSENSITIVE_INDEX = 0.05
 MIN_SOLUTIONS = 20
 #: A solution set with fewer likely points than this is sampled again, densely, around itself.
 THIN_SET = 300
+#: The fewest and most Sobol points a solution analysis samples over the box (a million
+#: points of a 2-parameter study take about 10 s and 300 MB).
+SOLUTION_SAMPLES = (64, 2**20)
 #: Prediction batch size (memory of the Kriging predictions).
 BATCH = 8192
 
@@ -76,54 +81,6 @@ def simulation_noise_sd(
         replicates = math.sqrt((replicate_variance or {}).get(key, 0.0))
         noise[key] = max(residual, model.noise_sd, replicates)
     return noise
-
-
-def tolerance_sd(target: Target, noise_sd: float, model_sd: float | np.ndarray) -> np.ndarray:
-    """The combined standard deviation a prediction may miss its target by, per point.
-
-    sqrt(spread² + noise² + model sd²): the measurement spread of the target,
-    the scatter of single simulations, and the model's uncertainty there.
-    """
-    spread = target.spread or 0.0
-    return np.sqrt(spread**2 + noise_sd**2 + np.asarray(model_sd) ** 2)
-
-
-def band_half_width(target: Target, noise_sd: float, k: float) -> float:
-    """How far a noise-free response may lie from its target and still meet it: k combined sd
-    of the target's spread and the simulation noise (`tolerance_sd` without the model
-    term)."""
-    return float(k * tolerance_sd(target, noise_sd, 0.0))
-
-
-def membership_probability(
-    targets: tuple[Target, ...],
-    means: dict[str, np.ndarray],
-    stds: dict[str, np.ndarray],
-    noise_sd: dict[str, float],
-    k: float,
-) -> np.ndarray:
-    """The probability, per point, that every response meets its target within ``k`` sd.
-
-    Each response's noise-free value is normal with the model's predicted
-    mean and sd (the model's own uncertainty, independent between
-    responses), and must lie within k sqrt(spread² + noise²) of the target
-    (`tolerance_sd` without the model term). Near 1 where the
-    simulations show the point meets every target, near 0 where they rule
-    it out, and in between where no simulation has been near enough to say:
-    the membership a level-set estimation maps (Bryan et al. 2005).
-    """
-    probability = None
-    for t in targets:
-        half_width = band_half_width(t, noise_sd[t.key], k)
-        mean, sd = np.asarray(means[t.key], float), np.asarray(stds[t.key], float)
-        low, high = t.accepted(half_width)
-        inside = ((low <= mean) & (mean <= high)).astype(float)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            spread = norm.cdf((high - mean) / sd) - norm.cdf((low - mean) / sd)
-        p = np.where(sd > 0.0, spread, inside)
-        probability = p if probability is None else probability * p
-    assert probability is not None, "an objective has at least one target"
-    return probability
 
 
 def membership_word(probability: float) -> str:
@@ -418,16 +375,6 @@ def identifiability(
             )
         )
     return verdicts
-
-
-def posterior_line(intervals: Mapping[str, Sequence[float]], effective_samples: float) -> str:
-    """The posterior's central 90 % interval per parameter in one line (``intervals``: name ->
-    (low, high)), for those who read posteriors."""
-    text = ", ".join(f"{name} {_fmt(low)}–{_fmt(high)}" for name, (low, high) in intervals.items())
-    return (
-        f"posterior (uniform prior over the bounds, Gaussian targets; {effective_samples:.0f} "
-        f"effective samples), central 90 %: {text}"
-    )
 
 
 def _why(name: str, total_index: dict[str, float] | None) -> str:

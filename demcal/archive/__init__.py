@@ -6,8 +6,8 @@
 - :mod:`demcal.archive.schema`: the tables; ``migrations/``: their Alembic migrations;
 - :mod:`demcal.archive.importer`: ``demcal archive import``;
 - :mod:`demcal.archive.tables`: the archive as a table, CSV or Parquet;
-- :mod:`demcal.archive.url`: where an archive lives (SQLite file or PostgreSQL URL).
+- :mod:`demcal.results.archive_url`: where an archive lives (SQLite file or PostgreSQL URL).
 
-This package imports nothing at its top: the study model reads :mod:`demcal.archive.url`,
+This package imports nothing at its top: the study model reads :mod:`demcal.results.archive_url`,
 and the record modules read the study model.
 """

@@ -13,11 +13,11 @@ import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from demcal.daemon.termination import LatestReports
 from demcal.errors import SimulationFailed
+from demcal.physics.catalogue import CATALOG
 from demcal.results.layout import ReplicateFiles
 from demcal.results.records import ResponsesRecord, SimulationRecord, Status
-from demcal.study.catalogue import CATALOG
+from demcal.results.storage import LatestReports
 from demcal.study.model import Study, demcal_version
 
 #: Scene settings that describe the particle-size distribution (Samuelsson 2023; Richter &

@@ -18,8 +18,8 @@ from collections.abc import Callable
 
 from demcal.archive.record import ArchivedSimulation, digest
 from demcal.archive.store import Archive
-from demcal.archive.url import shown
 from demcal.errors import ConfigError
+from demcal.results.archive_url import shown
 from demcal.results.records import ReusedRecord
 from demcal.study.model import Study
 

@@ -52,8 +52,8 @@ from sqlalchemy.exc import SQLAlchemyError
 
 from demcal.archive.record import ArchivedSimulation, Quantity, digest
 from demcal.archive.schema import Base, ParameterRow, ResponseRow, SimulationRow
-from demcal.archive.url import open_engine, shown
 from demcal.errors import DemcalError
+from demcal.results.archive_url import open_engine, shown
 from demcal.results.records import Status
 
 P = ParamSpec("P")

@@ -40,216 +40,108 @@ import os
 import sys
 import traceback
 from collections.abc import Callable, Sequence
-from importlib import metadata
+from dataclasses import dataclass
+from importlib import import_module, metadata
 from pathlib import Path
 from typing import Any, NoReturn
 
-from demcal.api import SOLUTION_SAMPLES
-from demcal.cli import (
-    analysis,
-    archive,
-    check,
-    inspect,
-    manage,
-    metamodel,
-    psd,
-    report,
-    run,
-    sample,
-)
-from demcal.cli.options import ASSIGNMENT, MOST_SIMULATIONS, former_name, whole_number
+from demcal.cli.options import ASSIGNMENT
 from demcal.errors import DemcalError
 from demcal.resources import DEFAULT_CONFIG
-from demcal.workflow import LOCAL_PROFILE
-
-#: The most simulations in flight of ``demcal convergence``.
-MOST_WORKERS = 1024
 
 
-def evaluation_arguments(sub: argparse.ArgumentParser) -> None:
-    sub.add_argument(
-        "--profile",
-        default=str(LOCAL_PROFILE),
-        help="Snakemake profile directory for the evaluations (default: demcal's profiles/local)",
-    )
-    sub.add_argument("--workers", type=int, help="evaluations in flight")
+@dataclass(frozen=True)
+class Command:
+    """A command: its name, what it does, and where its function and its own options are
+    (``"module:function"`` in demcal.cli). Only the module of the command that runs is
+    imported: a refused study or a mistyped option costs no more than the command needs."""
+
+    name: str
+    text: str
+    function: str
+    arguments: str | None = None
+
+    def load(self, attribute: str) -> Callable[..., Any]:
+        module, _, name = attribute.partition(":")
+        found: Callable[..., Any] = getattr(import_module(f"demcal.cli.{module}"), name)
+        return found
 
 
-def run_arguments(sub: argparse.ArgumentParser) -> None:
-    evaluation_arguments(sub)
-    # set by the workflow's calibrate rule: the daemon ends with its Snakemake
-    sub.add_argument("--watch-pid", type=int, help=argparse.SUPPRESS)
-    # set by the calibrate rule too: the config is the study.json it froze
-    sub.add_argument("--frozen", action="store_true", help=argparse.SUPPRESS)
-    sub.add_argument(
-        "--log", help="also append the messages and a progress line every 30 s to this file"
-    )
-
-
-def watch_arguments(sub: argparse.ArgumentParser) -> None:
-    sub.add_argument(
-        "--every", type=float, default=10.0, help="seconds between updates of the page (default 10)"
-    )
-
-
-def add_point_arguments(sub: argparse.ArgumentParser) -> None:
-    sub.add_argument("values", nargs="+", metavar=ASSIGNMENT)
-
-
-def solutions_arguments(sub: argparse.ArgumentParser) -> None:
-    sub.add_argument(
-        "--tolerance",
-        type=float,
-        default=2.0,
-        metavar="K",
-        help="tolerance in combined standard deviations (target spread and simulation noise; "
-        "default 2)",
-    )
-    former_name(sub, "--k", "--tolerance", type=float)
-    sub.add_argument(
-        "--samples",
-        type=whole_number(*SOLUTION_SAMPLES),
-        default=2**16,
-        help=f"Sobol points sampled over the box, {SOLUTION_SAMPLES[0]} to "
-        f"{SOLUTION_SAMPLES[1]} (default 65536)",
-    )
-    sub.add_argument(
-        "--point",
-        nargs="+",
-        metavar=ASSIGNMENT,
-        help="judge one parameter set (every free parameter, once) against the targets",
-    )
-    sub.add_argument(
-        "--explore",
-        type=whole_number(1, MOST_SIMULATIONS),
-        metavar="N",
-        help="queue N simulations where membership in the solution set is least certain, "
-        f"for the next run (1 to {MOST_SIMULATIONS})",
-    )
-
-
-#: The most seeds per variant of ``demcal convergence``.
-MOST_SEEDS = 100
-
-
-def convergence_arguments(sub: argparse.ArgumentParser) -> None:
-    sub.add_argument("--scene", help="default: the study's first scene")
-    sub.add_argument(
-        "--fractions",
-        type=float,
-        nargs="+",
-        help="time steps as fractions of the Rayleigh time (default 0.5 0.35 0.25 0.125)",
-    )
-    sub.add_argument(
-        "--sizes",
-        type=float,
-        nargs="+",
-        help="values of the scene's size setting (particle count or box "
-        "scale; default 0.5, 1 and 2 times the configured one)",
-    )
-    sub.add_argument(
-        "--seeds",
-        type=whole_number(1, MOST_SEEDS),
-        default=2,
-        help=f"seeds per variant, 1 to {MOST_SEEDS}",
-    )
-    workers = whole_number(1, MOST_WORKERS)
-    sub.add_argument(
-        "--workers",
-        type=workers,
-        default=os.cpu_count() or 1,
-        help=f"simulations in flight, 1 to {MOST_WORKERS} (default: this machine's cores)",
-    )
-    former_name(sub, "--jobs", "--workers", type=workers)
-    sub.add_argument(
-        "--point",
-        nargs="*",
-        default=[],
-        metavar=ASSIGNMENT,
-        help="free parameter values (default: centre of the bounds)",
-    )
-
-
-Command = Callable[[argparse.Namespace], int]
-Arguments = Callable[[argparse.ArgumentParser], None] | None
-
-#: Every command: its name, what it does, the function that runs it and its own options.
-COMMANDS: tuple[tuple[str, str, Command, Arguments], ...] = (
-    (
+#: Every command, in the order ``demcal --help`` lists them.
+COMMANDS: tuple[Command, ...] = (
+    Command(
         "check",
         "validate a study as 'demcal run' would and say what it would run; runs nothing",
-        check.check,
-        evaluation_arguments,
+        "check:check",
+        "options:evaluation_arguments",
     ),
-    ("run", "run (or resume) a calibration", run.run, run_arguments),
-    (
+    Command("run", "run (or resume) a calibration", "run:run", "run:arguments"),
+    Command(
         "report",
         "the figures and report.html of a finished calibration (results/<study>/)",
-        report.report,
-        None,
+        "report:report",
     ),
-    ("status", "show the state of a calibration", inspect.status, None),
-    ("studies", "list the studies in results/ with their state", inspect.studies, None),
-    ("stop", "stop a running calibration cleanly", manage.stop, None),
-    (
+    Command("status", "show the state of a calibration", "inspect:status"),
+    Command("studies", "list the studies in results/ with their state", "inspect:studies"),
+    Command("stop", "stop a running calibration cleanly", "manage:stop"),
+    Command(
         "watch",
         "a live view of a running calibration (results/<study>/live.html)",
-        inspect.watch,
-        watch_arguments,
+        "inspect:watch",
+        "inspect:watch_arguments",
     ),
-    (
+    Command(
         "add-point",
         "add a point by hand (NAME=VALUE for every free parameter)",
-        manage.add_point_command,
-        add_point_arguments,
+        "manage:add_point_command",
+        "manage:add_point_arguments",
     ),
-    (
+    Command(
         "rerun-failed",
         "rerun the failed evaluations (new seeds) on the next run",
-        manage.rerun_failed,
-        None,
+        "manage:rerun_failed",
     ),
-    (
+    Command(
         "solutions",
         "the parameter sets that meet the targets, and which parameters the targets pin",
-        analysis.solutions,
-        solutions_arguments,
+        "analysis:solutions",
+        "analysis:solutions_arguments",
     ),
-    (
+    Command(
         "convergence",
         "error against run time: one point at several time steps and sizes",
-        analysis.convergence,
-        convergence_arguments,
+        "analysis:convergence",
+        "analysis:convergence_arguments",
     ),
-    (
+    Command(
         "psd",
         "particle-size distribution: psd fit SIEVE.csv fits GGS, RRSB and LOGN to sieve data",
-        psd.psd,
-        psd.arguments,
+        "psd:psd",
+        "psd:arguments",
     ),
-    (
+    Command(
         "sample",
         "a sampling campaign: a space-filling design over the study's box, into the archive",
-        sample.sample,
-        sample.arguments,
+        "sample:sample",
+        "sample:arguments",
     ),
-    (
+    Command(
         "metamodel",
         "global metamodels of a sampled domain: build, validate (held-out R²), show",
-        metamodel.metamodel_command,
-        metamodel.arguments,
+        "metamodel:metamodel_command",
+        "metamodel:arguments",
     ),
-    (
+    Command(
         "calibrate-metamodel",
         "calibrate a material on a domain's metamodels, no simulation (then --validate N)",
-        metamodel.calibrate_command,
-        metamodel.calibrate_arguments,
+        "metamodel:calibrate_command",
+        "metamodel:calibrate_arguments",
     ),
-    (
+    Command(
         "archive",
         "the archive of every simulation: list, show, export, import, stats",
-        archive.archive,
-        archive.arguments,
+        "archive:archive",
+        "archive:arguments",
     ),
 )
 
@@ -334,34 +226,40 @@ def versions() -> str:
     return f"demcal {demcal_version()} (Snakemake {snakemake}, LAMMPS {lammps_version()})"
 
 
-def parser() -> argparse.ArgumentParser:
-    """The demcal command line: one subcommand per entry of ``COMMANDS``."""
+def parser(argv: Sequence[str] = ()) -> argparse.ArgumentParser:
+    """The demcal command line: one subcommand per entry of ``COMMANDS``; the options of the
+    command ``argv`` names (its first word that is not an option) are added, the others'
+    are not needed to parse it."""
     top = Parser(prog="demcal", description="Calibrate DEM simulations.")
     top.add_argument(
         "--version", action=Versions, help="demcal's version, and Snakemake's and LAMMPS'"
     )
+    chosen = next((word for word in argv if not word.startswith("-")), None)
     commands = top.add_subparsers(dest="command", required=True)
-    for name, text, func, arguments in COMMANDS:
-        sub = commands.add_parser(name, help=text, description=text)
-        sub.set_defaults(func=func)
-        if name not in WITHOUT_CONFIG:
+    for command in COMMANDS:
+        sub = commands.add_parser(command.name, help=command.text, description=command.text)
+        if command.name != chosen:
+            continue
+        sub.set_defaults(func=command.load(command.function))
+        if command.name not in WITHOUT_CONFIG:
             sub.add_argument(
                 "config",
                 nargs="?",
                 metavar="STUDY",
                 help="the study's YAML file"
-                + ("" if name in YAML_ONLY else ", or its name once it has run")
+                + ("" if command.name in YAML_ONLY else ", or its name once it has run")
                 + f" (default {DEFAULT_CONFIG})",
             )
-        if arguments is not None:
-            arguments(sub)
+        if command.arguments is not None:
+            command.load(command.arguments)(sub)
     return top
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run one demcal command; a user's mistake or a disk error is one line, never a traceback."""
-    args = parser().parse_args(argv)
-    command: Command = args.func
+    words = sys.argv[1:] if argv is None else argv
+    args = parser(words).parse_args(words)
+    command: Callable[[argparse.Namespace], int] = args.func
     try:
         return command(args)
     except DemcalError as exc:

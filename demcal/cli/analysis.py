@@ -4,14 +4,17 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 from typing import TYPE_CHECKING
 
-from demcal.analysis.solutions import membership_word, posterior_line
-from demcal.campaign import runs_at_once
+from demcal.analysis.solutions import SOLUTION_SAMPLES, membership_word
 from demcal.cli.cost import cost_line, per_scene
+from demcal.cli.options import ASSIGNMENT, MOST_SIMULATIONS, former_name, whole_number
 from demcal.cli.study_argument import study_of, study_source
 from demcal.daemon.control import explore_solutions, lock_study
+from demcal.domain.campaign import runs_at_once
 from demcal.errors import ConfigError
+from demcal.reporting.terminal import posterior_line
 from demcal.study.model import Study
 from demcal.workflow import LOCAL_PROFILE, check_profile
 
@@ -112,3 +115,81 @@ def convergence(args: argparse.Namespace) -> int:
     )
     study.run(sweep, args.seeds, args.workers)
     return 0
+
+
+#: The most simulations in flight of ``demcal convergence``.
+MOST_WORKERS = 1024
+
+
+def solutions_arguments(sub: argparse.ArgumentParser) -> None:
+    sub.add_argument(
+        "--tolerance",
+        type=float,
+        default=2.0,
+        metavar="K",
+        help="tolerance in combined standard deviations (target spread and simulation noise; "
+        "default 2)",
+    )
+    former_name(sub, "--k", "--tolerance", type=float)
+    sub.add_argument(
+        "--samples",
+        type=whole_number(*SOLUTION_SAMPLES),
+        default=2**16,
+        help=f"Sobol points sampled over the box, {SOLUTION_SAMPLES[0]} to "
+        f"{SOLUTION_SAMPLES[1]} (default 65536)",
+    )
+    sub.add_argument(
+        "--point",
+        nargs="+",
+        metavar=ASSIGNMENT,
+        help="judge one parameter set (every free parameter, once) against the targets",
+    )
+    sub.add_argument(
+        "--explore",
+        type=whole_number(1, MOST_SIMULATIONS),
+        metavar="N",
+        help="queue N simulations where membership in the solution set is least certain, "
+        f"for the next run (1 to {MOST_SIMULATIONS})",
+    )
+
+
+#: The most seeds per variant of ``demcal convergence``.
+MOST_SEEDS = 100
+
+
+def convergence_arguments(sub: argparse.ArgumentParser) -> None:
+    sub.add_argument("--scene", help="default: the study's first scene")
+    sub.add_argument(
+        "--fractions",
+        type=float,
+        nargs="+",
+        help="time steps as fractions of the Rayleigh time (default 0.5 0.35 0.25 0.125)",
+    )
+    sub.add_argument(
+        "--sizes",
+        type=float,
+        nargs="+",
+        help="values of the scene's size setting (particle count or box "
+        "scale; default 0.5, 1 and 2 times the configured one)",
+    )
+    sub.add_argument(
+        "--seeds",
+        type=whole_number(1, MOST_SEEDS),
+        default=2,
+        help=f"seeds per variant, 1 to {MOST_SEEDS}",
+    )
+    workers = whole_number(1, MOST_WORKERS)
+    sub.add_argument(
+        "--workers",
+        type=workers,
+        default=os.cpu_count() or 1,
+        help=f"simulations in flight, 1 to {MOST_WORKERS} (default: this machine's cores)",
+    )
+    former_name(sub, "--jobs", "--workers", type=workers)
+    sub.add_argument(
+        "--point",
+        nargs="*",
+        default=[],
+        metavar=ASSIGNMENT,
+        help="free parameter values (default: centre of the bounds)",
+    )

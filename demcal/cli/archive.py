@@ -18,14 +18,14 @@ from demcal.archive import tables
 from demcal.archive.importer import ImportReport, import_results, study_folders
 from demcal.archive.record import ArchivedSimulation
 from demcal.archive.store import Archive
-from demcal.archive.url import check_url, missing_file, shown
 from demcal.cli.options import LARGEST_ROW, former_name, whole_number
 from demcal.cli.study_argument import has_run, study_of
+from demcal.daemon.tables import iso_time
 from demcal.errors import ConfigError, DemcalError
+from demcal.results.archive_url import check_url, missing_file, shown
 from demcal.results.layout import RESULTS
 from demcal.results.records import Status
-from demcal.results.tables import iso_time
-from demcal.study.config import default
+from demcal.study.schema import default
 
 
 def arguments(sub: argparse.ArgumentParser) -> None:

@@ -7,11 +7,11 @@ import argparse
 import sys
 from pathlib import Path
 
-from demcal.campaign import runs_at_once
 from demcal.cli.cost import cost_line, per_scene
 from demcal.cli.inspect import study_state
-from demcal.cli.run import workers_of
 from demcal.cli.study_argument import study_yaml
+from demcal.daemon.session import workers_of
+from demcal.domain.campaign import runs_at_once
 from demcal.study.config import load_study_file
 from demcal.study.model import Study
 from demcal.workflow import check_profile

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from demcal.campaign import simulation_times
+from demcal.domain.campaign import simulation_times
 from demcal.reporting.terminal import duration
 from demcal.study.model import Study
 

@@ -126,3 +126,9 @@ def watch(args: argparse.Namespace) -> int:
             time.sleep(args.every)
     except KeyboardInterrupt:
         return 0
+
+
+def watch_arguments(sub: argparse.ArgumentParser) -> None:
+    sub.add_argument(
+        "--every", type=float, default=10.0, help="seconds between updates of the page (default 10)"
+    )

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from demcal.cli.options import ASSIGNMENT
 from demcal.cli.study_argument import study_of
 from demcal.daemon.control import add_point, lock_study, reopen_failed, request_stop, running_daemon
 
@@ -47,3 +48,7 @@ def rerun_failed(args: argparse.Namespace) -> int:
             f"with new seeds on the next 'demcal run' or 'snakemake --profile ...'"
         )
     return 0
+
+
+def add_point_arguments(sub: argparse.ArgumentParser) -> None:
+    sub.add_argument("values", nargs="+", metavar=ASSIGNMENT)

@@ -1,5 +1,5 @@
 """``demcal metamodel build|validate|show STUDY``: global metamodels of a material domain
-(:mod:`demcal.metamodel`)."""
+(:mod:`demcal.domain.metamodel`)."""
 
 from __future__ import annotations
 
@@ -14,17 +14,17 @@ from pathlib import Path
 
 import numpy as np
 
-from demcal import metamodel
 from demcal.archive.store import Archive
-from demcal.archive.url import missing_file
 from demcal.cli.options import MOST_SIMULATIONS, whole_number
 from demcal.cli.study_argument import has_run, study_of, study_yaml
+from demcal.domain import metamodel
 from demcal.errors import ConfigError
+from demcal.optimizer.objective import relative_miss
 from demcal.resources import DEFAULT_CONFIG
+from demcal.results.archive_url import missing_file
 from demcal.results.storage import write_json
 from demcal.study.config import load_study_file
 from demcal.study.model import Study
-from demcal.study.objective import relative_miss
 from demcal.workflow import LOCAL_PROFILE, check_profile
 
 #: The largest seed of the model fits (NumPy's legacy seeding takes 32 bits).
@@ -325,7 +325,7 @@ def extend_command(domain: Study, config: str) -> str:
 def no_solution_reason(result: metamodel.MetamodelCalibration, material: Study) -> str:
     """Why no parameter set is likely to meet every target: the models do not reach the
     targets, or they do but are too unsure there to say where."""
-    from demcal.analysis.solutions import band_half_width
+    from demcal.optimizer.membership import band_half_width
 
     best, solutions = result.optima[0], result.analysis.solutions
     band = {
@@ -355,9 +355,9 @@ def validate_answer(
 ) -> dict[str, dict]:
     """Simulate the answer ``args.validate`` times; each response's relative error against the
     target and against the metamodels' prediction (printed, and returned per target)."""
-    from demcal.campaign import run, runs_at_once, simulations_per_point
     from demcal.cli.cost import cost_line, per_scene
-    from demcal.cli.run import locked_study
+    from demcal.daemon.session import locked_study
+    from demcal.domain.campaign import run, runs_at_once, simulations_per_point
     from demcal.jobs.evaluation import response_paths
     from demcal.results.records import PointRecord, ResponsesRecord, Status
 

@@ -8,6 +8,8 @@ import argparse
 from collections.abc import Callable
 from typing import Any
 
+from demcal.workflow import LOCAL_PROFILE
+
 #: The largest integer a SQL database stores (SQLite's and PostgreSQL's BIGINT): a simulation's
 #: number in the archive, a row limit.
 LARGEST_ROW = 2**63 - 1
@@ -55,3 +57,12 @@ def quoted(text: str) -> str:
     if len(text) <= SHOWN_CHARS:
         return repr(text)
     return f"{text[:SHOWN_CHARS]!r}... ({len(text)} characters)"
+
+
+def evaluation_arguments(sub: argparse.ArgumentParser) -> None:
+    sub.add_argument(
+        "--profile",
+        default=str(LOCAL_PROFILE),
+        help="Snakemake profile directory for the evaluations (default: demcal's profiles/local)",
+    )
+    sub.add_argument("--workers", type=int, help="evaluations in flight")

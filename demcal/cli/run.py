@@ -4,20 +4,17 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import csv
 import logging
-import sys
-from collections.abc import Iterator, Mapping
+from collections import Counter
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Any, TextIO
+from typing import TextIO
 
-import pandas as pd
-
+from demcal.cli.options import evaluation_arguments
 from demcal.cli.study_argument import study_yaml
-from demcal.daemon.control import lock_study
-from demcal.daemon.launcher import SnakemakeLauncher
-from demcal.daemon.loop import Calibration
-from demcal.daemon.progress import ProgressDisplay
-from demcal.errors import ConfigError, DemcalError
+from demcal.daemon.session import DAEMON_LOG_FORMAT, calibrate, locked_study
+from demcal.errors import DemcalError
 from demcal.jobs.evaluation import reused_objectives
 from demcal.reporting.terminal import (
     ANSWER_VERSUS_LOWEST_RUN,
@@ -27,30 +24,7 @@ from demcal.reporting.terminal import (
 )
 from demcal.results.layout import StudyFiles
 from demcal.results.records import BestRecord, ObjectiveRecord, ReusedRecord
-from demcal.study.config import check_study_name, load_study_file
-from demcal.study.model import Study, freeze, load_frozen
-from demcal.workflow import check_profile, child_cores
-
-#: Lines of the calibration's daemon.log.
-DAEMON_LOG_FORMAT = "%(asctime)s %(levelname)s %(message)s"
-
-#: Evaluations in flight when neither the study, the command line nor the profile says.
-DEFAULT_WORKERS = 2
-
-
-def workers_of(study: Study, settings: Mapping[str, Any], given: int | None) -> tuple[int, str]:
-    """Evaluations in flight, and what set them: --workers, else calibration.workers, else the
-    jobs of the profile's ``settings``, else 2."""
-    if given is not None and given < 1:
-        raise ConfigError(f"--workers {given}: give at least 1 (evaluations in flight)")
-    for value, source in (
-        (given, "--workers"),
-        (study.calibration.get("workers"), "calibration.workers"),
-        (settings.get("jobs"), "the profile's jobs"),
-    ):
-        if value:
-            return int(value), source
-    return DEFAULT_WORKERS, "the default"
+from demcal.study.model import Study
 
 
 def run(args: argparse.Namespace) -> int:
@@ -85,60 +59,6 @@ def _run(args: argparse.Namespace, log: TextIO | None) -> int:
 
 
 @contextlib.contextmanager
-def locked_study(
-    config: str | Path,
-    frozen: bool = False,
-    watch_pid: int | None = None,
-    log: TextIO | None = None,
-    name: str | None = None,
-) -> Iterator[Study]:
-    """The study of ``config`` as its jobs will read it, with the study's daemon lock held
-    inside the block. A YAML is validated, its warnings said, and frozen under the lock; with
-    ``frozen`` (the workflow's calibrate rule), ``config`` is the study.json it froze. ``name``
-    renames the study of a YAML (``demcal sample --name``)."""
-    study = load_frozen(config) if frozen else load_study_file(config)
-    if name is not None:
-        study.name = check_study_name(name, "--name")
-    with contextlib.closing(lock_study(study, watch_pid)):
-        if not frozen:
-            for warning in study.warnings:
-                _say(f"demcal: warning: {warning}", log)
-            study = freeze(study)  # from here on: the study as the jobs read it
-        yield study
-
-
-def calibrate(
-    study: Study,
-    profile: Path | None,
-    workers: int | None = None,
-    watch_pid: int | None = None,
-    log: TextIO | None = None,
-) -> str:
-    """Run the calibration of a frozen study whose lock is held (:func:`locked_study`) until it
-    ends, one child Snakemake per evaluation with ``profile``; return why it ended.
-
-    The progress goes to stderr (and ``log``). An interrupt (Ctrl-C) says what keeps running
-    and is raised again."""
-    settings = check_profile(profile)
-    workers, _ = workers_of(study, settings, workers)
-    launcher = SnakemakeLauncher(study.files.study, profile, child_cores(settings, workers))
-    calibration = Calibration(study, launcher, workers, watch_pid=watch_pid)
-    display = ProgressDisplay(sys.stderr, log)
-    try:
-        reason = calibration.run(display)
-    except KeyboardInterrupt:
-        display.close()
-        _say(
-            f"demcal: interrupted; {len(calibration.children)} evaluations keep running "
-            f"and are collected by the next 'demcal run' ('demcal stop' stops them)",
-            log,
-        )
-        raise
-    display.close()
-    return reason
-
-
-@contextlib.contextmanager
 def _log_file(path: str | None) -> Iterator[TextIO | None]:
     """The --log file opened for appending (None without one)."""
     if path is None:
@@ -147,13 +67,6 @@ def _log_file(path: str | None) -> Iterator[TextIO | None]:
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     with open(path, "a") as log:
         yield log
-
-
-def _say(message: str, log: TextIO | None = None) -> None:
-    """A message on stderr, and in the log if there is one."""
-    for stream in (sys.stderr, log):
-        if stream is not None:
-            print(message, file=stream, flush=True)
 
 
 def print_best(study: Study) -> None:
@@ -219,10 +132,22 @@ def print_best(study: Study) -> None:
 def _commonest_failure(files: StudyFiles) -> str:
     """ ", most often: REASON (n of N)" from evaluations.csv; "" when it has none."""
     try:
-        reasons = pd.read_csv(files.evaluations_csv)["reason"].dropna()
-    except (OSError, ValueError, KeyError):
+        with open(files.evaluations_csv, newline="") as handle:
+            reasons = [row["reason"] for row in csv.DictReader(handle) if row.get("reason")]
+    except (OSError, ValueError, KeyError, csv.Error):
         return ""
-    if reasons.empty:
+    if not reasons:
         return ""
-    counts = reasons.value_counts()
-    return f", most often: {counts.index[0]!r} ({counts.iloc[0]} of {len(reasons)})"
+    reason, count = Counter(reasons).most_common(1)[0]
+    return f", most often: {reason!r} ({count} of {len(reasons)})"
+
+
+def arguments(sub: argparse.ArgumentParser) -> None:
+    evaluation_arguments(sub)
+    # set by the workflow's calibrate rule: the daemon ends with its Snakemake
+    sub.add_argument("--watch-pid", type=int, help=argparse.SUPPRESS)
+    # set by the calibrate rule too: the config is the study.json it froze
+    sub.add_argument("--frozen", action="store_true", help=argparse.SUPPRESS)
+    sub.add_argument(
+        "--log", help="also append the messages and a progress line every 30 s to this file"
+    )

@@ -1,5 +1,5 @@
 """``demcal sample STUDY.yaml --points N``: a sampling campaign over the study's box, into the
-archive (``demcal.campaign``)."""
+archive (``demcal.domain.campaign``)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,10 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from demcal.campaign import (
+from demcal.cli.options import former_name
+from demcal.cli.study_argument import study_yaml
+from demcal.daemon.session import locked_study
+from demcal.domain.campaign import (
     CAMPAIGN_DESIGNS,
     FAIL_FAST,
     Tally,
@@ -21,9 +24,6 @@ from demcal.campaign import (
     simulations_per_point,
     write_points,
 )
-from demcal.cli.options import former_name
-from demcal.cli.run import locked_study
-from demcal.cli.study_argument import study_yaml
 from demcal.errors import ConfigError
 from demcal.study.config import load_study_file
 from demcal.workflow import LOCAL_PROFILE, check_profile, runs_locally

@@ -12,13 +12,13 @@ from pathlib import Path
 from typing import TextIO
 
 from demcal.daemon.launcher import alive
+from demcal.daemon.tables import write_evaluations_csv
 from demcal.errors import ConfigError, DemcalError, SimulationFailed
 from demcal.jobs.evaluation import ask_to_stop
 from demcal.optimizer import Optimizer
 from demcal.results.layout import evaluation_id, proposal_id
 from demcal.results.records import ObjectiveRecord, PointRecord, Status
 from demcal.results.storage import atomic_write_text
-from demcal.results.tables import write_evaluations_csv
 from demcal.study.model import Study
 
 

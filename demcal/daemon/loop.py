@@ -32,6 +32,7 @@ from collections.abc import Callable
 from demcal.daemon.control import saved_optimizer
 from demcal.daemon.launcher import Child, Launcher, Running, SnakemakeLauncher, alive
 from demcal.daemon.progress import Progress, answer_text
+from demcal.daemon.tables import write_best, write_evaluations_csv
 from demcal.daemon.termination import (
     append_estimates,
     early_termination_decisions,
@@ -61,7 +62,6 @@ from demcal.results.records import (
     Status,
 )
 from demcal.results.storage import atomic_write_text, log_tail, read_json, write_json
-from demcal.results.tables import write_best, write_evaluations_csv
 from demcal.study.model import RESUMABLE_OPTIMIZER_SETTINGS, Study
 
 log = logging.getLogger("demcal.daemon")

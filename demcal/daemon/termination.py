@@ -18,28 +18,8 @@ from functools import lru_cache
 from pathlib import Path
 
 from demcal.optimizer import EarlyTerminationDecision
-from demcal.results.layout import EvaluationFiles
-from demcal.results.storage import GrowingCsv, partial_row
-
-
-class LatestReports(GrowingCsv):
-    """(value, final) of the latest report of each response in a simulation's partial.csv,
-    and its latest progress (0-1)."""
-
-    def __init__(self, path: Path):
-        super().__init__(path, "partial.csv")
-
-    def forget(self) -> None:
-        self.latest: dict[str, tuple[float, bool]] = {}
-        self.progress = 0.0
-
-    def take(self, row: dict) -> None:
-        report = partial_row(row)
-        if report is None:
-            return
-        self.progress = min(max(report["progress"], 0.0), 1.0)
-        if report["response"] is not None and report["value"] is not None:
-            self.latest[report["response"]] = (report["value"], report["final"])
+from demcal.results.layout import ESTIMATE_COLUMNS, EvaluationFiles
+from demcal.results.storage import LatestReports
 
 
 @lru_cache(maxsize=4096)  # far more files than simulations run at once; one evicted starts over
@@ -126,7 +106,6 @@ def early_termination_decisions(
 #: Columns of early_termination.csv: one row each time a running evaluation's estimate changes.
 #: ``limit``: what the estimate was held to (empty: none applied); ``judged``: the estimate
 #: compared with it (the estimate, or where its falling trend heads).
-ESTIMATE_COLUMNS = ("elapsed_s", "evaluation", "running_s", "estimate", "limit", "stop", "judged")
 
 
 def append_estimates(path: Path, rows: list[tuple]) -> None:

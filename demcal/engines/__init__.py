@@ -20,6 +20,8 @@ module ``demcal/scenes/<scene>/<engine>.py`` named in the scene's
 
 from __future__ import annotations
 
+from typing import Any
+
 from demcal.engines.base import Engine
 from demcal.plugins import Entry, Registry
 
@@ -34,6 +36,7 @@ ENGINES: Registry[Entry] = Registry(
 )
 
 
-def make_engine(name: str, settings: dict) -> Engine:
+def make_engine(name: str, settings: dict[str, Any]) -> Engine:
     """The engine registered as ``name`` with its ``settings``."""
-    return ENGINES.load(name)(settings)
+    engine_class: type[Engine] = ENGINES.load(name)
+    return engine_class(settings)

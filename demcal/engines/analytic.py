@@ -18,16 +18,23 @@ Engine settings:
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 
-from demcal.engines.base import Engine, RunMonitor, RunResult, SimulationJob
+from demcal.engines.base import DeclaredScene, Engine, RunMonitor, RunResult, SimulationJob
 from demcal.errors import ConfigError
 from demcal.results.records import Status
 
+#: The analytic engine's driver, a scene's closed-form model: (parameters, settings) ->
+#: {response: value}.
+AnalyticModel = Callable[[dict[str, float], dict[str, Any]], dict[str, float]]
 
-def _injected_failure(failures: list[dict], parameters: dict) -> dict | None:
+
+def _injected_failure(
+    failures: list[dict[str, Any]], parameters: dict[str, float]
+) -> dict[str, Any] | None:
     """The first failure rule whose intervals all contain the parameters, or None."""
     for rule in failures:
         if all(low <= parameters[name] <= high for name, (low, high) in rule["when"].items()):
@@ -36,8 +43,12 @@ def _injected_failure(failures: list[dict], parameters: dict) -> dict | None:
 
 
 def noisy_responses(
-    model: Callable[[dict, dict], dict], parameters: dict, settings: dict, noise, seed: int
-) -> dict:
+    model: AnalyticModel,
+    parameters: dict[str, float],
+    settings: dict[str, Any],
+    noise: float | dict[str, float],
+    seed: int,
+) -> dict[str, float]:
     """The closed-form model's responses, each times (1 + N(0, noise^2)), seeded."""
     exact = model(parameters, settings)
     rng = np.random.default_rng(seed)
@@ -54,7 +65,7 @@ class AnalyticEngine(Engine):
     INERT_SETTINGS = ("timeout", "duration", "chunks", "failures")
     steps_in_time = False
 
-    def check(self, scenes: list) -> None:
+    def check(self, scenes: Sequence[DeclaredScene]) -> None:
         for i, rule in enumerate(self.settings.get("failures", [])):
             for name in rule.get("when", {}):
                 if not any(name in s.parameters for s in scenes):
@@ -66,8 +77,12 @@ class AnalyticEngine(Engine):
         return "analytic-1"
 
     def run(
-        self, job: SimulationJob, monitor: RunMonitor, driver: Callable[[dict, dict], dict]
+        self, job: SimulationJob, monitor: RunMonitor, driver: AnalyticModel | None
     ) -> RunResult:
+        if driver is None:
+            return RunResult(
+                Status.FAILED, f"analytic engine has no driver for scene {job.scene!r}"
+            )
         start_wall, start_cpu = time.monotonic(), time.process_time()
         chunks = int(self.settings.get("chunks", 10))
         duration = float(self.settings.get("duration", 0.0))
@@ -76,7 +91,7 @@ class AnalyticEngine(Engine):
             driver, job.parameters, job.settings, self.settings.get("noise", 0.01), job.seed
         )
 
-        def cost(steps: int) -> dict:
+        def cost(steps: int) -> dict[str, float]:
             return {
                 "wall_s": time.monotonic() - start_wall,
                 "cpu_s": time.process_time() - start_cpu,

@@ -20,9 +20,10 @@ import signal
 import subprocess
 import time
 from abc import ABC, abstractmethod
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -35,7 +36,7 @@ class SimulationJob:
 
     scene: str
     parameters: dict[str, float]
-    settings: dict
+    settings: dict[str, Any]
     seed: int
     responses: list[str]
     timestep_fraction: float
@@ -71,7 +72,7 @@ def signal_name(returncode: int) -> str:
 GRACE_SECONDS = 10.0
 
 
-def stop_process_group(proc: subprocess.Popen) -> None:
+def stop_process_group(proc: subprocess.Popen[bytes]) -> None:
     """End a simulator started in its own session: SIGTERM, then SIGKILL after the grace time."""
     os.killpg(proc.pid, signal.SIGTERM)
     try:
@@ -143,7 +144,7 @@ def end_processes(pids: set[int], grace: float = GRACE_SECONDS) -> None:
 class RunMonitor:
     """What a running simulation uses to report progress and learn of a stop request."""
 
-    def __init__(self, job: SimulationJob, clock=time.monotonic):
+    def __init__(self, job: SimulationJob, clock: Callable[[], float] = time.monotonic):
         self.stop_file = Path(job.stop_file)
         self.partial = PartialWriter(job.partial_file, clock)
 
@@ -161,6 +162,18 @@ class RunMonitor:
         self.partial.write(min(max(fraction, 0.0), 1.0), stage, estimates, final)
 
 
+class DeclaredScene(Protocol):
+    """What an engine reads of a scene (``demcal.scenes.base.Scene``), which it never imports."""
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def parameters(self) -> tuple[str, ...]: ...
+
+    def driver(self, engine: str) -> Callable[..., Any] | None: ...
+
+
 class Engine(ABC):
     """A simulator. Subclasses set ``name`` and implement ``run``.
 
@@ -176,10 +189,11 @@ class Engine(ABC):
     #: engine does not.
     steps_in_time: bool = True
 
-    def __init__(self, settings: dict | None = None):
+    def __init__(self, settings: dict[str, Any] | None = None):
         self.settings = dict(settings or {})
 
-    def check(self, scenes: list) -> None:  # noqa: B027  (optional: most engines need no check)
+    # optional, so not abstract: most engines need no check
+    def check(self, scenes: Sequence[DeclaredScene]) -> None:  # noqa: B027
         """Raise ConfigError if this engine cannot run these scenes here (binary missing, ...)."""
 
     def gives_estimates(self) -> bool:
@@ -194,7 +208,7 @@ class Engine(ABC):
     #: :meth:`outcome`.
     INERT_SETTINGS: tuple[str, ...] = ("timeout",)
 
-    def outcome(self) -> dict:
+    def outcome(self) -> dict[str, Any]:
         """What of this engine decides a simulation's responses, beyond the parameters,
         settings, seed and time step: its name, version and settings. Two simulations are
         interchangeable data only if these agree (``Study.simulator``)."""
@@ -210,7 +224,9 @@ class Engine(ABC):
         return None
 
     @abstractmethod
-    def run(self, job: SimulationJob, monitor: RunMonitor, driver: Callable | None) -> RunResult:
+    def run(
+        self, job: SimulationJob, monitor: RunMonitor, driver: Callable[..., Any] | None
+    ) -> RunResult:
         """Run one simulation to its end, a stop request, or a failure with reason.
 
         ``driver`` is the scene's driver for this engine (``Scene.driver``),

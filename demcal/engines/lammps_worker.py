@@ -15,11 +15,13 @@ import pkgutil
 import sys
 import time
 import traceback
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from demcal.engines.base import RunMonitor, SimulationJob
+from demcal.engines.base import RunMonitor, RunResult, SimulationJob
 from demcal.engines.lammps import RESULT_FILE, STATE_FILE, preload_mpi
 from demcal.errors import SimulationFailed
 from demcal.results.records import Status
@@ -38,8 +40,11 @@ def main(job_path: str) -> int:
     job = SimulationJob(**record["job"])
     monitor = RunMonitor(job)
     start = time.process_time()
-    driver = pkgutil.resolve_name(record["driver"])
+    driver: Callable[[SimulationJob, RunMonitor], RunResult] = pkgutil.resolve_name(
+        record["driver"]
+    )
     preload_mpi()
+    result_record: dict[str, Any]
     try:
         result = driver(job, monitor)
     except SimulationFailed as exc:
@@ -49,7 +54,9 @@ def main(job_path: str) -> int:
         result_record = {"status": Status.FAILED, "reason": f"LAMMPS error: {_lammps_message(exc)}"}
     else:
         if result.arrays:
-            np.savez(job_file.parent / STATE_FILE, **result.arrays)
+            # the names become savez keywords, typed as its options: no array is "allow_pickle"
+            arrays: dict[str, Any] = result.arrays
+            np.savez(job_file.parent / STATE_FILE, **arrays)
         result_record = {
             "status": result.status,
             "reason": result.reason,

@@ -30,13 +30,14 @@ import resource
 import shutil
 import subprocess
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Protocol
 
 import numpy as np
 
 from demcal.engines.base import (
+    DeclaredScene,
     Engine,
     RunMonitor,
     RunResult,
@@ -44,8 +45,8 @@ from demcal.engines.base import (
     signal_name,
     stop_process_group,
 )
+from demcal.engines.particles import BLOWUP_FACTOR
 from demcal.errors import ConfigError, SimulationFailed
-from demcal.physics.particles import BLOWUP_FACTOR
 from demcal.results.records import Status
 from demcal.results.storage import log_tail
 
@@ -106,7 +107,8 @@ def liggghts_version(binary: str) -> str:
 def facet_normals(triangles: np.ndarray) -> np.ndarray:
     """Unit normals (right-hand rule over the vertex order) of triangles (n, 3, 3)."""
     normals = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
-    return normals / np.linalg.norm(normals, axis=1, keepdims=True)
+    unit: np.ndarray = normals / np.linalg.norm(normals, axis=1, keepdims=True)
+    return unit
 
 
 def write_ascii_stl(path: Path, name: str, triangles: np.ndarray) -> None:
@@ -149,7 +151,7 @@ class LiggghtsEngine(Engine):
 
     name = "liggghts"
 
-    def check(self, scenes: list) -> None:
+    def check(self, scenes: Sequence[DeclaredScene]) -> None:
         if self.settings:
             raise ConfigError(f"engine liggghts: takes no settings, got {sorted(self.settings)}")
         if shutil.which(BINARY) is None:
@@ -225,7 +227,9 @@ class LiggghtsEngine(Engine):
         return RunResult(Status.OK, measurements=measurements, arrays=arrays, cost=cost)
 
     @staticmethod
-    def _watch(proc, monitor: RunMonitor, case: LiggghtsCase, log: Path) -> bool:
+    def _watch(
+        proc: subprocess.Popen[bytes], monitor: RunMonitor, case: LiggghtsCase, log: Path
+    ) -> bool:
         """Wait for the child, forwarding its progress lines; kill it on STOP (returns True)."""
         shares = case.stages
         offset = 0

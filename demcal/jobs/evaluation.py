@@ -31,6 +31,7 @@ import numpy as np
 
 from demcal.engines.base import RunMonitor, RunResult, SimulationJob
 from demcal.errors import ConfigError, DemcalError, SimulationFailed, bounded_reason
+from demcal.optimizer.objective import relative_miss, replicate_mean, replicate_spread
 from demcal.results.layout import EvaluationFiles, ReplicateFiles
 from demcal.results.records import (
     NOT_STARTED,
@@ -44,7 +45,6 @@ from demcal.results.records import (
 from demcal.results.storage import atomic_write_text
 from demcal.scenes.base import Scene
 from demcal.study.model import Study, load_frozen
-from demcal.study.objective import relative_miss, replicate_mean, replicate_spread
 
 log = logging.getLogger("demcal")
 
@@ -275,7 +275,7 @@ def archive(study: Study, evaluation: str) -> int:
     """
     from demcal.archive.record import replicate_record
     from demcal.archive.store import Archive
-    from demcal.archive.url import shown
+    from demcal.results.archive_url import shown
 
     files, added = study.files.evaluation(evaluation), 0
     if study.archive is not None:

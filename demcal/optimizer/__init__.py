@@ -19,7 +19,7 @@ is for adding a strategy, see below):
         # lower/upper: list[float] in real units; settings: OptimizerSettings,
         # or the plain dict of the config section ``optimizer:`` (unknown keys
         # and out-of-range values raise ValueError naming key, value, range);
-        # objective: a demcal.study.objective.ResponseObjective (the targets),
+        # objective: a demcal.optimizer.objective.ResponseObjective (the targets),
         # needed by the strategies that model each response (response_ei,
         # rackl_hanley) and used by all for the best point when given;
         # reused: ReusedPoint (.evaluation) of other studies, ok records from

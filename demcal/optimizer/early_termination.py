@@ -28,12 +28,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from demcal.study.objective import objective_values
+from demcal.optimizer.objective import objective_values
 
 from .responses import ESTIMATE_RELATIVE_SD, replicate_scatter
 
 if TYPE_CHECKING:
-    from demcal.study.objective import ResponseObjective
+    from demcal.optimizer.objective import ResponseObjective
 
     from .evaluation import BestPoint, Evaluation
     from .responses import ResponsePredictor

@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from demcal.optimizer.objective import ResponseObjective
 from demcal.results.records import Status
-from demcal.study.objective import ResponseObjective
 
 from .evaluation import Evaluation
 from .registry import SURROGATES

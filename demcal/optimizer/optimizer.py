@@ -15,7 +15,7 @@ The best-point rule (`best`), the early-termination reference
 the objective's surrogate (`objective_surrogate`) and the JSON state
 (`state`) each have their own module of `demcal.optimizer`.
 
-Given the targets (``objective``, a `demcal.study.objective.ResponseObjective`),
+Given the targets (``objective``, a `demcal.optimizer.objective.ResponseObjective`),
 the optimizer also keeps each evaluation's responses (`demcal.optimizer.responses`):
 replicate values, and what a stopped run completed or estimated. One model
 per response then predicts the objective, which picks the best point and
@@ -34,8 +34,8 @@ from typing import Any
 
 import numpy as np
 
+from demcal.optimizer.objective import ResponseObjective
 from demcal.results.records import Status
-from demcal.study.objective import ResponseObjective
 
 from . import candidates as st
 from . import state
@@ -347,7 +347,7 @@ class Optimizer:
 
     def _objective_of(self, responses: dict[str, list[float]]) -> tuple[float, list[float] | None]:
         """The objective of the replicates' responses, and per replicate when the counts agree
-        (the study's one computation, `demcal.study.objective.ResponseObjective`)."""
+        (the study's one computation, `demcal.optimizer.objective.ResponseObjective`)."""
         objective = self.objective
         assert objective is not None, "tell scores responses only with an objective"
         targeted = {key: responses[key] for key in objective.keys}

@@ -22,8 +22,8 @@ from typing import Protocol
 
 import numpy as np
 
+from demcal.optimizer.objective import ResponseObjective, Target
 from demcal.results.records import Status
-from demcal.study.objective import ResponseObjective, Target
 
 from .evaluation import Evaluation
 from .registry import RESPONSE_MODELS
@@ -158,7 +158,7 @@ class ResponseModels:
 class PredictsResponse(Protocol):
     """What a predictor needs of a response's model: mean and sd at points of the unit box,
     and the scatter of single simulations (an optimizer's :class:`ResponseModel`, or a global
-    metamodel seen from a material's box, :class:`demcal.metamodel.MaterialResponse`)."""
+    metamodel seen from a material's box, :class:`demcal.domain.metamodel.MaterialResponse`)."""
 
     def predict(self, x: np.ndarray) -> np.ndarray: ...
 

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from demcal.study.objective import ResponseObjective
+from demcal.optimizer.objective import ResponseObjective
 
 from .bounds import Bounds
 from .candidates import StepSize

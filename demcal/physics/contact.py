@@ -28,7 +28,10 @@ def hertz_secant_stiffness(force: float, effective_radius: float, effective_mod:
 
     Hertz: F = 4/3 E* sqrt(R*) delta^(3/2).
     """
-    overlap = (3.0 * force / (4.0 * effective_mod * math.sqrt(effective_radius))) ** (2.0 / 3.0)
+    # float ** float is typed Any (a negative base gives a complex); the load is positive
+    overlap: float = (3.0 * force / (4.0 * effective_mod * math.sqrt(effective_radius))) ** (
+        2.0 / 3.0
+    )
     return force / overlap
 
 

@@ -24,18 +24,19 @@ import html
 import io
 import shutil
 import subprocess
+from collections.abc import Sequence
 from pathlib import Path
-from typing import BinaryIO
+from typing import Any, BinaryIO, Protocol
 
 import matplotlib
 import numpy as np
 import pandas as pd
+from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
-from demcal.daemon.termination import ESTIMATE_COLUMNS
 from demcal.errors import SimulationFailed
 from demcal.reporting.terminal import time_unit
-from demcal.results.layout import proposal_id
+from demcal.results.layout import ESTIMATE_COLUMNS, proposal_id
 from demcal.results.records import BestRecord, SimulationRecord, Status
 from demcal.results.storage import read_json
 from demcal.study.model import Study, load_frozen
@@ -51,7 +52,7 @@ FIGURES = (
 )
 #: Resolution of the figures' PNG files [dots per inch].
 FIGURE_DPI = 110
-STATUS_COLOURS = {
+STATUS_COLOURS: dict[str, str] = {
     Status.OK: "tab:blue",
     Status.TERMINATED: "tab:orange",
     Status.FAILED: "tab:red",
@@ -82,6 +83,14 @@ def objective_label(study: Study) -> str:
     if study.objective_form == "precision":
         return "mismatch with the targets\n(sum of squared errors in target spreads)"
     return "mismatch with the targets\n(sum of squared relative errors)"
+
+
+class ScriptJob(Protocol):
+    """What Snakemake hands a workflow script as ``snakemake`` (the parts used here)."""
+
+    output: Sequence[str]
+    log: Sequence[str]
+    params: Any  # the rule's params by name (study_file)
 
 
 #: Where a figure may be written: a file's path or a binary file open for writing.
@@ -121,23 +130,23 @@ def finish_figure(
     return figure
 
 
-def _stacked(rows: int, height: float):
-    """A column of ``rows`` panels sharing the evaluation-number axis."""
+def _stacked(rows: int, height: float) -> tuple[ReportFigure, np.ndarray]:
+    """A column of ``rows`` panels sharing the evaluation-number axis (an array of Axes)."""
     fig = new_figure(7, height * rows)
     axes = fig.subplots(rows, 1, sharex=True, squeeze=False)
     return fig, axes[:, 0]
 
 
-def _finish_stack(fig, axes, path: PngTarget | None) -> ReportFigure:
+def _finish_stack(fig: ReportFigure, axes: np.ndarray, path: PngTarget | None) -> ReportFigure:
     axes[0].legend(fontsize=7, ncol=4)
     axes[-1].set_xlabel("evaluation (number as in evals/e0000...)")
     return finish_figure(fig, path)
 
 
-def _mark_unfinished(ax, table: pd.DataFrame, x: str) -> None:
-    for status, style in (
-        (Status.TERMINATED, dict(marker="x", color="tab:orange")),
-        (Status.FAILED, dict(marker="|", color="tab:red")),
+def _mark_unfinished(ax: Axes, table: pd.DataFrame, x: str) -> None:
+    for status, marker, color in (
+        (Status.TERMINATED, "x", "tab:orange"),
+        (Status.FAILED, "|", "tab:red"),
     ):
         rows = table[table["status"] == status]
         if len(rows):
@@ -149,11 +158,12 @@ def _mark_unfinished(ax, table: pd.DataFrame, x: str) -> None:
                 transform=ax.get_xaxis_transform(),
                 clip_on=False,
                 label=f"{status} ({len(rows)})",
-                **style,
+                marker=marker,
+                color=color,
             )
 
 
-def _objective_axes(ax, table: pd.DataFrame, x: str, xlabel: str, ylabel: str) -> None:
+def _objective_axes(ax: Axes, table: pd.DataFrame, x: str, xlabel: str, ylabel: str) -> None:
     ok = table[table["status"] == Status.OK].sort_values(x)
     ax.semilogy(ok[x], ok["objective"], "o", color="tab:blue", label="evaluated")
     ax.semilogy(ok[x], ok["objective"].cummin(), "-", color="black", label="best so far")
@@ -321,10 +331,11 @@ def plot_early_termination(
         ax.set_axis_off()
         return finish_figure(fig, path)
     unit, size = time_unit(float(estimates["elapsed_s"].max()))
-    shown, limit_label = set(), "limit it was held to"
+    shown: set[str] = set()
+    limit_label: str | None = "limit it was held to"
     for evaluation, rows in estimates.groupby("evaluation", sort=True):
-        status = statuses.get(evaluation, Status.PENDING)
-        label = None if status in shown else {Status.PENDING: "running"}.get(status, status)
+        status = statuses.get(str(evaluation), Status.PENDING)
+        label = None if status in shown else "running" if status == Status.PENDING else status
         shown.add(status)
         colour = STATUS_COLOURS.get(status, "grey")
         ax.semilogy(
@@ -395,10 +406,12 @@ def answer_runs(study: Study, best: BestRecord) -> list[str]:
     return [best.evaluation, *((best.confirmation or {}).get("evaluations") or [])]
 
 
-def answer_histories(study: Study, best: BestRecord) -> dict[str, list[tuple]]:
+def answer_histories(
+    study: Study, best: BestRecord
+) -> dict[str, list[tuple[np.ndarray, np.ndarray]]]:
     """Per ``scene.response``, the (times, values) of every saved run of the answer, from the
     scenes that keep a time series (``Scene.history``)."""
-    series: dict[str, list[tuple]] = {}
+    series: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
     for name, scene in study.scenes.items():
         if scene.history is None:
             continue
@@ -446,7 +459,7 @@ def plot_answer_history(
     return finish_figure(fig, path)
 
 
-def write_answer_history(smk) -> None:
+def write_answer_history(smk: ScriptJob) -> None:
     """Entry point of the workflow's answer_history job."""
     study = load_frozen(smk.params.study_file)
     plot_answer_history(study, BestRecord.read_if_any(study.files.best), Path(smk.output[0]))
@@ -523,7 +536,7 @@ def best_point_table(study: Study) -> pd.DataFrame:
     return answer_table(study, BestRecord.read(study.files.best)).astype(object).fillna("")
 
 
-def write_report_files(smk) -> None:
+def write_report_files(smk: ScriptJob) -> None:
     """Entry point of the workflow's plots job."""
     import logging
 
@@ -565,7 +578,7 @@ def simulated_evaluation(study: Study) -> Path:
     raise SystemExit(f"{study.files.evals}: no evaluation of this study to draw")
 
 
-def write_evaluation_dag(smk) -> None:
+def write_evaluation_dag(smk: ScriptJob) -> None:
     """Entry point of the workflow's evaluation_dag job."""
     target = simulated_evaluation(load_frozen(smk.params.study_file))
     proc = subprocess.run(

@@ -12,15 +12,16 @@ from __future__ import annotations
 import base64
 import json
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 
-from demcal.analysis.solutions import posterior_line
 from demcal.reporting.terminal import (
     ANSWER_VERSUS_LOWEST_RUN,
     CHOSEN_BY,
     duration,
     error_text,
+    posterior_line,
     target_text,
     with_sd,
 )
@@ -51,9 +52,10 @@ def _image(path: Path) -> list[str]:
     ]
 
 
-def _read(path: Path) -> dict | None:
+def _read(path: Path) -> dict[str, Any] | None:
     try:
-        return json.loads(path.read_text())
+        record: dict[str, Any] | None = json.loads(path.read_text())  # a JSON object or null
+        return record
     except (OSError, ValueError):
         return None
 

@@ -14,6 +14,7 @@ import base64
 import html
 import io
 import time
+from collections.abc import Callable
 
 import matplotlib.pyplot as plt
 import pandas as pd
@@ -33,7 +34,7 @@ from demcal.results.storage import atomic_write_text, read_partial
 from demcal.study.model import Study
 
 
-def _png(draw) -> str:
+def _png(draw: Callable[[io.BytesIO], object]) -> str:
     """An <img> of the figure that ``draw(out)`` saves to ``out``, embedded as a data URI."""
     buffer = io.BytesIO()
     draw(buffer)

@@ -5,12 +5,13 @@ from __future__ import annotations
 import json
 import math
 import subprocess
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from demcal.errors import SimulationFailed
+from demcal.optimizer.objective import Target, relative_miss
 from demcal.results.records import BestRecord, ObjectiveRecord, Status
 from demcal.study.model import Study
-from demcal.study.objective import Target, relative_miss
 from demcal.workflow import report_command
 
 
@@ -42,7 +43,7 @@ CHOSEN_BY = {
 
 def with_sd(value: float | None, sd: float | None) -> str:
     """A value to 4 digits with its standard deviation, or a dash when there is none."""
-    if value in (None, ""):
+    if value is None:
         return "–"
     return f"{value:.4g}" + (f" ±{sd:.2g}" if sd else "")
 
@@ -63,7 +64,7 @@ def error_text(target: Target, simulated: float | None, error: float | None, uni
     return f"{100 * error:+.1f}%"
 
 
-def _given(value) -> str:
+def _given(value: object) -> str:
     """A parameter value as recorded: a number to 4 digits, anything else (a hand-written
     params.json's text) as it was given."""
     is_number = isinstance(value, (int, float)) and not isinstance(value, bool)
@@ -200,3 +201,13 @@ def write_report(study: Study) -> str:
         tail = " | ".join(proc.stderr.strip().splitlines()[-3:])
         return f"demcal: the report could not be made ({tail}); figures in {report.parent}/plots/"
     return f"demcal: report: {report} (figures in {report.parent}/plots/)"
+
+
+def posterior_line(intervals: Mapping[str, Sequence[float]], effective_samples: float) -> str:
+    """The posterior's central 90 % interval per parameter in one line (``intervals``: name ->
+    (low, high)), for those who read posteriors."""
+    text = ", ".join(f"{name} {low:.3g}–{high:.3g}" for name, (low, high) in intervals.items())
+    return (
+        f"posterior (uniform prior over the bounds, Gaussian targets; {effective_samples:.0f} "
+        f"effective samples), central 90 %: {text}"
+    )

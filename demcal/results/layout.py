@@ -10,7 +10,7 @@ workflow's rules build their patterns from the same place::
         study.json          the resolved study, frozen at the start (demcal.study.model)
         calibration.json    start time of the calibration
         optimizer.json      the optimizer's whole state, rewritten after every event
-        evaluations.csv     one row per evaluation (demcal.tables)
+        evaluations.csv     one row per evaluation (demcal.daemon.tables)
         best.json           the best point so far
         finished.json       written only when the calibration has ended, with its reason
         reused.json         the archive's simulations the study started from (reuse: archive)
@@ -36,6 +36,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 RESULTS = Path("results")
+#: The columns of a study's early_termination.csv (the daemon appends; the figures read).
+ESTIMATE_COLUMNS = ("elapsed_s", "evaluation", "running_s", "estimate", "limit", "stop", "judged")
 
 
 @dataclass(frozen=True)

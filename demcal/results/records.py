@@ -38,9 +38,9 @@ from pathlib import Path
 from typing import Any, ClassVar, Self
 
 from demcal.errors import SimulationFailed
+from demcal.physics.catalogue import upgrade_parameters
 from demcal.results.layout import EvaluationFiles
 from demcal.results.storage import read_json, write_json
-from demcal.study.catalogue import upgrade_parameters
 
 #: Format of the records this version writes (the ``"format"`` key of every file).
 FORMAT = 1

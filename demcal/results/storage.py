@@ -271,3 +271,23 @@ def log_tail(path: Path, lines: int = 5) -> str:
         line if len(line) <= TAIL_LINE_CHARS else "..." + line[-TAIL_LINE_CHARS:]
         for line in text[-lines:]
     )
+
+
+class LatestReports(GrowingCsv):
+    """(value, final) of the latest report of each response in a simulation's partial.csv,
+    and its latest progress (0-1)."""
+
+    def __init__(self, path: Path):
+        super().__init__(path, "partial.csv")
+
+    def forget(self) -> None:
+        self.latest: dict[str, tuple[float, bool]] = {}
+        self.progress = 0.0
+
+    def take(self, row: dict) -> None:
+        report = partial_row(row)
+        if report is None:
+            return
+        self.progress = min(max(report["progress"], 0.0), 1.0)
+        if report["response"] is not None and report["value"] is not None:
+            self.latest[report["response"]] = (report["value"], report["final"])

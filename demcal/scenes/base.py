@@ -7,10 +7,14 @@ import pkgutil
 import sys
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 from demcal.errors import ConfigError
+from demcal.physics.catalogue import CATALOG, ParameterSpec
 from demcal.results.storage import file_sha256
-from demcal.study.catalogue import CATALOG, ParameterSpec
+
+if TYPE_CHECKING:
+    import numpy as np
 
 #: Largest possible angle of a slope (repose, shear), deg.
 MAX_ANGLE = 90.0
@@ -33,7 +37,7 @@ class SettingSpec:
     description: str
     lower: float | None = None
     upper: float | None = None
-    choices: tuple | None = None
+    choices: tuple[object, ...] | None = None
     integer: bool = False
     #: a study may make it free, with bounds, beside the material parameters (``parameters:``)
     variable: bool = False
@@ -46,7 +50,7 @@ class SettingSpec:
         hi = "inf" if self.upper is None else f"{self.upper:g}"
         return f"{kind} in [{lo}, {hi}] {self.unit}".rstrip()
 
-    def check(self, field_name: str, value):
+    def check(self, field_name: str, value: object) -> object:
         """Return ``value`` if allowed, else raise ConfigError naming field, value and range."""
         if self.choices is not None:
             if value not in self.choices:
@@ -67,7 +71,7 @@ class SettingSpec:
         return int(value) if self.integer else float(value)
 
 
-#: The material parameters every scene reads (names in demcal.study.catalogue): contact
+#: The material parameters every scene reads (names in demcal.physics.catalogue): contact
 #: friction, rolling resistance and restitution between particles (pp) and with walls (pw),
 #: the rolling damping ratio, stiffness and particle density.
 MATERIAL_PARAMETERS = (
@@ -175,20 +179,25 @@ class Scene:
     parameters: tuple[str, ...]
     responses: dict[str, ResponseSpec]
     settings: dict[str, SettingSpec]
-    analytic_model: Callable[[dict, dict], dict]
-    extractors: dict[str, Callable[[dict, dict], float]] = field(default_factory=dict)
+    analytic_model: Callable[[dict[str, float], dict[str, Any]], dict[str, float]]
+    extractors: dict[str, Callable[[dict[str, np.ndarray], dict[str, Any]], float]] = field(
+        default_factory=dict
+    )
     drivers: dict[str, str] = field(default_factory=dict)
     #: Cross-setting checks a single range cannot express: (settings, field prefix) -> None.
-    check_settings: Callable[[dict, str], None] | None = None
+    check_settings: Callable[[dict[str, Any], str], None] | None = None
     #: The setting that sets the simulated amount of material (particle count or a scale
     #: factor), varied by the convergence study.
     size_setting: str = "particle_count"
     #: Responses over simulated time from a run's saved state, for the report's figure of
     #: the answer: (state, settings) -> {response: (times [s], values)}; None: the scene has
     #: no time series worth showing.
-    history: Callable[[dict, dict], dict[str, tuple]] | None = None
+    history: (
+        Callable[[dict[str, np.ndarray], dict[str, Any]], dict[str, tuple[np.ndarray, np.ndarray]]]
+        | None
+    ) = None
 
-    def driver(self, engine: str) -> Callable | None:
+    def driver(self, engine: str) -> Callable[..., Any] | None:
         """What the engine named ``engine`` runs for this scene; None if the scene has none.
 
         The analytic engine gets ``analytic_model``; any other engine the
@@ -210,7 +219,7 @@ class Scene:
         files = {getattr(sys.modules.get(name or ""), "__file__", None) for name in modules}
         return sorted(file_sha256(path) for path in files if path)
 
-    def resolve_settings(self, given: dict | None, field_prefix: str) -> dict:
+    def resolve_settings(self, given: dict[str, Any] | None, field_prefix: str) -> dict[str, Any]:
         """Defaults overlaid with the given settings, each checked against its spec."""
         given = dict(given or {})
         unknown = sorted(set(given) - set(self.settings))

@@ -7,7 +7,6 @@ allowed, before any simulation starts.
 
 from __future__ import annotations
 
-import functools
 import itertools
 import math
 import re
@@ -17,117 +16,23 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-import jsonschema
 import yaml
 
-from demcal.archive.url import check_url
 from demcal.engines import make_engine
 from demcal.engines.base import Engine
-from demcal.errors import ConfigError, unknown_field
+from demcal.errors import ConfigError
 from demcal.optimizer import OptimizerSettings
+from demcal.optimizer.objective import DEFAULT_FORM, Target
 from demcal.optimizer.registry import STRATEGIES
+from demcal.physics.catalogue import CATALOG, SPLIT_PARAMETERS
 from demcal.physics.timestep import RAYLEIGH_PARAMETERS, check_fraction
-from demcal.resources import SCHEMA_PATH
+from demcal.results.archive_url import check_url
 from demcal.scenes import SCENES, ResponseSpec, Scene
 from demcal.scenes.base import variable_settings
-from demcal.study.catalogue import CATALOG, SPLIT_PARAMETERS
 from demcal.study.material import CalibratedMaterial, load_material, load_robust_material
 from demcal.study.model import FreeParameter, Study
-from demcal.study.objective import DEFAULT_FORM, Target
+from demcal.study.schema import default, load_schema, validate_schema
 from demcal.study.units import CONVERSIONS, conversion_factor
-
-
-def _field_path(error: jsonschema.ValidationError) -> str:
-    parts = []
-    for item in error.absolute_path:
-        parts.append(f"[{item}]" if isinstance(item, int) else f".{item}")
-    return "".join(parts).lstrip(".") or "(top level)"
-
-
-def _schema_message(error: jsonschema.ValidationError, schema: dict) -> str:
-    """One clear sentence for a schema violation: field, value, what is allowed."""
-    where, kind = _field_path(error), error.validator
-    # jsonschema's stubs add an "unset" marker to these; a reported error has them all set
-    value: Any = error.instance
-    expected: Any = error.validator_value
-    subschema: Any = error.schema
-    if kind == "additionalProperties":
-        allowed = sorted(subschema.get("properties", {}))
-        extra = sorted(set(value) - set(allowed)) if isinstance(value, dict) else []
-        name = f"{where}.{extra[0]}" if where != "(top level)" and extra else (extra or [where])[0]
-        return unknown_field(name, allowed)
-    if kind == "required":
-        return f"{where}: missing required field {error.message.split(' ')[0]}"
-    if kind in ("enum", "const"):
-        choices = expected if kind == "enum" else [expected]
-        return f"{where}: {value!r} is not one of {', '.join(map(str, choices))}"
-    if kind in ("oneOf", "anyOf"):
-        forms = [
-            "one of " + ", ".join(map(str, form["enum"]))
-            if "enum" in form
-            else {"array": "a list"}.get(form.get("type"), str(form.get("type")))
-            for form in expected
-        ]
-        return f"{where}: {value!r} is not allowed; give {' or '.join(forms)}"
-    if kind == "pattern":
-        return (
-            f"{where}: {value!r} is not a valid name (letters, digits, '_' and '-', "
-            f"starting with a letter)"
-        )
-    if kind in ("minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum"):
-        words = {"minimum": ">=", "maximum": "<=", "exclusiveMinimum": ">", "exclusiveMaximum": "<"}
-        return f"{where}: {value!r} must be {words[kind]} {expected}"
-    if kind in ("minItems", "minProperties"):
-        given = len(value)
-        return f"{where}: {given or 'none'} given; give at least {expected}" + (
-            " (their standard deviation is the spread)" if where.endswith("repeats") else ""
-        )
-    if kind == "type":
-        wanted = expected if isinstance(expected, list) else [expected]
-        if isinstance(value, str) and {"number", "integer"} & set(wanted):
-            return f"{where}: {value!r} is text, not a number ({' or '.join(wanted)}); " + (
-                "write it without quotes"
-                if _reads_as_number(value)
-                else "a percentage is not read: give the number in the field's unit"
-                if value.strip().endswith("%")
-                else "give a plain number (units go in the unit field)"
-            )
-        return f"{where}: {value!r} is not of type {expected}"
-    return f"{where}: {error.message}"
-
-
-def _reads_as_number(text: str) -> bool:
-    """Whether ``text`` is a number written in quotes."""
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
-
-
-@functools.cache
-def load_schema() -> dict:
-    schema: dict = yaml.safe_load(SCHEMA_PATH.read_text())  # a mapping: the schema's top level
-    return schema
-
-
-def default(*path: str) -> Any:
-    """The schema's ``default`` of a study field, e.g. ``default("calibration", "retries")``.
-
-    The schema is the one place for the defaults of the study file.
-    """
-    node = load_schema()
-    for name in path:
-        node = node.get("items", node)["properties"][name]  # arrays: the items' fields
-    return node["default"]
-
-
-def validate_schema(config: dict) -> None:
-    schema = load_schema()
-    validator = jsonschema.Draft202012Validator(schema)
-    error = jsonschema.exceptions.best_match(validator.iter_errors(config))
-    if error is not None:
-        raise ConfigError(_schema_message(error, schema))
 
 
 def _scenes_of(config: dict) -> dict[str, Scene]:

@@ -26,13 +26,12 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from demcal.errors import ConfigError, SimulationFailed
+from demcal.physics.catalogue import CATALOG, upgrade_parameters
 from demcal.results.layout import StudyFiles
 from demcal.results.records import BestRecord
 from demcal.results.storage import read_json
-from demcal.study.catalogue import CATALOG, upgrade_parameters
 
 
 @dataclass(frozen=True)
@@ -171,9 +170,11 @@ def draw_materials(
     """``count`` materials drawn without replacement (seeded) from the likely part of the
     calibration's solution set in ``folder``: the values of ``names`` of each, the
     solutions.csv and its SHA-256. A ConfigError naming ``material`` if there are too few."""
-    # imported here: the solution analysis brings scipy, which the Snakefile's start
-    # (it loads every study's material) should not pay for
-    from demcal.analysis.solutions import LIKELY
+    # imported here: pandas, and the SciPy that membership brings, are more than the
+    # Snakefile's start (it loads every study's material) and a refused study should pay for
+    import pandas as pd
+
+    from demcal.optimizer.membership import LIKELY
 
     path = StudyFiles(folder).solutions
     try:

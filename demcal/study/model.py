@@ -26,18 +26,19 @@ from demcal.engines import make_engine
 from demcal.engines.base import Engine
 from demcal.errors import ConfigError, SimulationFailed
 from demcal.optimizer import OptimizerSettings
-from demcal.physics.timestep import RAYLEIGH_PARAMETERS, rayleigh_cost, rayleigh_time_range
-from demcal.results.layout import StudyFiles
-from demcal.results.storage import read_json, write_json_if_changed
-from demcal.scenes import SCENES, Scene
-from demcal.scenes.base import variable_settings
-from demcal.study.catalogue import (
+from demcal.optimizer.objective import DEFAULT_FORM, ResponseObjective, Target, bounds_of
+from demcal.physics.catalogue import (
     CATALOG,
     SPLIT_PARAMETERS,
     ParameterSpec,
     upgrade_parameters,
 )
-from demcal.study.objective import DEFAULT_FORM, ResponseObjective, Target, bounds_of
+from demcal.physics.timestep import RAYLEIGH_PARAMETERS, rayleigh_cost, rayleigh_time_range
+from demcal.results.layout import StudyFiles
+from demcal.results.storage import read_json, write_json_if_changed
+from demcal.scenes import SCENES, Scene
+from demcal.scenes.base import variable_settings
+from demcal.study.schema import default
 
 #: Optimizer settings a resumed calibration takes from the current study file.
 RESUMABLE_OPTIMIZER_SETTINGS = (
@@ -374,8 +375,6 @@ def study_from_record(record: dict) -> Study:
 
 def _default_archive() -> str:
     """The archive of a study frozen before studies named one: the default archive."""
-    from demcal.study.config import default  # the schema's default (config imports this module)
-
     url: str = default("archive")["url"]
     return url
 

@@ -15,7 +15,7 @@ from sqlalchemy import func, select
 
 from demcal.archive.schema import ParameterRow, ResponseRow, SimulationRow
 from demcal.archive.store import Archive
-from demcal.archive.url import open_engine
+from demcal.results.archive_url import open_engine
 
 WRITERS, OWN, SHARED = 4, 25, 10
 

@@ -14,7 +14,7 @@ from sqlalchemy import text
 
 from demcal.archive.importer import import_results
 from demcal.archive.store import Archive
-from demcal.archive.url import open_engine
+from demcal.results.archive_url import open_engine
 from demcal.results.records import Status
 from demcal.study.config import load_study
 from demcal.study.model import freeze

@@ -15,10 +15,10 @@ from demcal.archive import tables
 from demcal.archive.importer import import_results
 from demcal.archive.record import from_results
 from demcal.archive.store import Archive
-from demcal.archive.url import check_url
 from demcal.cli import main
 from demcal.errors import ConfigError
 from demcal.jobs.evaluation import archive, extract, simulate
+from demcal.results.archive_url import check_url
 from demcal.results.layout import StudyFiles
 from demcal.results.records import PointRecord, ResponsesRecord, SimulationRecord, Status
 from demcal.results.storage import PartialWriter

@@ -14,7 +14,7 @@ from sqlalchemy import insert, text
 from demcal.archive.record import ArchivedSimulation, Quantity
 from demcal.archive.schema import Base, ParameterRow, SimulationRow
 from demcal.archive.store import VERSION_TABLE, Archive, ArchiveError
-from demcal.archive.url import open_engine
+from demcal.results.archive_url import open_engine
 from demcal.results.records import Status
 
 

@@ -6,9 +6,9 @@ import pytest
 from demcal.optimizer import RunProgress, early_termination_decision, estimate_heading
 from demcal.optimizer.early_termination import estimate_noise, termination_factor
 from demcal.optimizer.evaluation import Evaluation, ObservedResponse
+from demcal.optimizer.objective import ResponseObjective, Target
 from demcal.optimizer.responses import ESTIMATE_RELATIVE_SD
 from demcal.results.records import Status
-from demcal.study.objective import ResponseObjective, Target
 
 
 @pytest.mark.parametrize(

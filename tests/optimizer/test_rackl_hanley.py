@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from demcal.optimizer import Optimizer
+from demcal.optimizer.objective import ResponseObjective, Target, objective_values
 from demcal.optimizer.strategies.rackl_hanley import FD_STEP, jacobian, lm_step, stencil
-from demcal.study.objective import ResponseObjective, Target, objective_values
 
 LOWER, UPPER = [0.1, 0.02], [0.9, 0.3]
 

@@ -8,8 +8,8 @@ import pytest
 
 from demcal.optimizer import Optimizer
 from demcal.optimizer.evaluation import ObservedResponse
+from demcal.optimizer.objective import ResponseObjective, Target, objective_values
 from demcal.optimizer.responses import ResponseModels, observations
-from demcal.study.objective import ResponseObjective, Target, objective_values
 
 
 def lift(x):

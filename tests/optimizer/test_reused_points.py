@@ -9,8 +9,8 @@ from scipy.spatial.distance import cdist
 from demcal.optimizer import Optimizer
 from demcal.optimizer.designs import fill_gaps
 from demcal.optimizer.evaluation import ReusedPoint
+from demcal.optimizer.objective import ResponseObjective, Target
 from demcal.results.records import Status
-from demcal.study.objective import ResponseObjective, Target
 
 OBJECTIVE = ResponseObjective((Target("s", "a", 1.0), Target("s", "b", 2.0)))
 

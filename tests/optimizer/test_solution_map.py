@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from demcal.analysis.solutions import membership_probability
 from demcal.optimizer import Optimizer
+from demcal.optimizer.membership import membership_probability
+from demcal.optimizer.objective import ResponseObjective, Target
 from demcal.optimizer.responses import replicate_scatter
-from demcal.study.objective import ResponseObjective, Target
 
 
 def angle(x):

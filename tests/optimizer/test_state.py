@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from demcal.optimizer import Optimizer
+from demcal.optimizer.objective import ResponseObjective
 from demcal.optimizer.settings import OptimizerSettings
-from demcal.study.objective import ResponseObjective
 
 DATA = Path(__file__).parent / "data"
 

@@ -33,8 +33,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.optimize import least_squares
 
+from demcal.optimizer.objective import ResponseObjective, weighted_residuals
 from demcal.results.records import Status
-from demcal.study.objective import ResponseObjective, weighted_residuals
 
 from ..responses import ResponsePredictor
 from .base import History, Strategy

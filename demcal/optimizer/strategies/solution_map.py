@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from demcal.analysis.solutions import BAND_SD, membership_probability
+from demcal.optimizer.membership import BAND_SD, membership_probability
 from demcal.results.records import Status
 
 from .. import candidates as st

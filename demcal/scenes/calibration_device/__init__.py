@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -76,7 +77,7 @@ class DeviceGeometry:
 
 
 def device_geometry(
-    settings: dict, particle_volume: float, d_max: float, insertion_solid_fraction: float
+    settings: dict[str, Any], particle_volume: float, d_max: float, insertion_solid_fraction: float
 ) -> DeviceGeometry:
     """Place the parts for ``particle_volume`` [m^3] of spheres no larger than ``d_max``.
 
@@ -105,7 +106,7 @@ def device_geometry(
     return DeviceGeometry(edge, edge_height, outlet_left, bottom, top, fill_top, right, thickness)
 
 
-def _angle_of_repose(state: dict, settings: dict) -> float:
+def _angle_of_repose(state: dict[str, np.ndarray], settings: dict[str, Any]) -> float:
     """Sigmoid fit of the pile's longer flank, measured from its crest outwards."""
     position, height = measure.surface_profile_along_x(
         state["heap_x"], state["heap_r"], settings["d50"], (0.0, settings["floor_length"])
@@ -119,7 +120,7 @@ def _angle_of_repose(state: dict, settings: dict) -> float:
     return measure.heap_angle_sigmoid_fit(position[towards_slide] - crest, height[towards_slide])
 
 
-def check_geometry(settings: dict, field_prefix: str) -> None:
+def check_geometry(settings: dict[str, Any], field_prefix: str) -> None:
     """Cross-setting checks a single range cannot express."""
     _, d_max = diameter_range(settings["d50"], settings["sigma_ln"], settings["psd_truncation"])
     for name, multiple in (("orifice_width", 3.0), ("depth", 3.0), ("floor_length", 10.0)):

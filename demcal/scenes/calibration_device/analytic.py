@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 from demcal.scenes.base import saturating
 
 
-def analytic_model(p: dict, settings: dict) -> dict:
+def analytic_model(p: dict[str, float], settings: dict[str, Any]) -> dict[str, float]:
     """Closed-form stand-in for the test engine: plausible monotone trends, not physics.
 
     The mass flow falls with particle friction (Beverloo-like slot flow,

@@ -17,9 +17,9 @@ import numpy as np
 
 from demcal.engines.base import RunMonitor, RunResult, SimulationJob
 from demcal.engines.lammps_driver import LammpsDriver, num, setup_commands
+from demcal.engines.particles import INSERTION_SOLID_FRACTION
 from demcal.physics import measure
 from demcal.physics.contact import GRAVITY
-from demcal.physics.particles import INSERTION_SOLID_FRACTION
 from demcal.scenes.calibration_device import EARLY_ESTIMATE_AT, MASS_FLOW_BAND, device_geometry
 
 CONTAINER = "the device"

@@ -18,6 +18,10 @@ figure depends on how it is measured as much as on the material.
 
 from __future__ import annotations
 
+from typing import Any
+
+import numpy as np
+
 from demcal.errors import ConfigError
 from demcal.physics import measure
 from demcal.physics.psd import diameter_range
@@ -34,7 +38,7 @@ from demcal.scenes.base import (
 from demcal.scenes.cylinder_lift.analytic import analytic_model
 
 
-def _bulk_density(state: dict, settings: dict) -> float:
+def _bulk_density(state: dict[str, np.ndarray], settings: dict[str, Any]) -> float:
     density, _height = measure.fill_bulk_density(
         state["fill_x"],
         state["fill_r"],
@@ -45,7 +49,7 @@ def _bulk_density(state: dict, settings: dict) -> float:
     return density
 
 
-def _angle_of_repose(state: dict, settings: dict) -> float:
+def _angle_of_repose(state: dict[str, np.ndarray], settings: dict[str, Any]) -> float:
     if settings["aor_method"] == "flank_fit":
         return measure.heap_angle_flank_fit(
             state["heap_x"],
@@ -58,7 +62,7 @@ def _angle_of_repose(state: dict, settings: dict) -> float:
     )
 
 
-def check_geometry(settings: dict, field_prefix: str) -> None:
+def check_geometry(settings: dict[str, Any], field_prefix: str) -> None:
     """Cross-setting checks a single range cannot express."""
     d_min, d_max = diameter_range(settings["d50"], settings["sigma_ln"], settings["psd_truncation"])
     if settings["cylinder_diameter"] < 6.0 * d_max:

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 from demcal.scenes.base import saturating
 
 
-def analytic_model(p: dict, settings: dict) -> dict:
+def analytic_model(p: dict[str, float], settings: dict[str, Any]) -> dict[str, float]:
     """Closed-form stand-in for the test engine: smooth, monotone, plausible trends.
 
     The angle rises with sliding and rolling friction and saturates; the

@@ -17,10 +17,10 @@ import numpy as np
 
 from demcal.engines.base import RunMonitor, RunResult, SimulationJob
 from demcal.engines.lammps_driver import LammpsDriver, num, setup_commands
+from demcal.engines.particles import INSERTION_SOLID_FRACTION
 from demcal.errors import SimulationFailed
 from demcal.physics import measure
 from demcal.physics.contact import GRAVITY
-from demcal.physics.particles import INSERTION_SOLID_FRACTION
 
 CONTAINER = "the closed cylinder"
 

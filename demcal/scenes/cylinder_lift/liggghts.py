@@ -8,7 +8,7 @@ The case writes a data file with the spheres (same diameters as the LAMMPS
 driver for the same seed, placed at random without overlap), ASCII STL meshes
 of the cylinder and the rim ring, and an input script that runs the stages
 fill/settle, lift and heap/settle in loops of
-``demcal.physics.particles.CHUNK_TIME`` with the same rest and blow-up tests
+``demcal.engines.particles.CHUNK_TIME`` with the same rest and blow-up tests
 as the LAMMPS driver. Dumps: ``fill.dump`` after the
 fill has settled (fill_x, fill_r, fill_mass; early estimate of the bulk
 density) and, when the angle of repose is asked for, ``heap.dump`` after the
@@ -46,10 +46,10 @@ import numpy as np
 from demcal.engines.base import SimulationJob
 from demcal.engines.lammps_driver import num
 from demcal.engines.liggghts import SCRIPT, positions, write_ascii_stl
+from demcal.engines.particles import BLOWUP_FACTOR, INSERTION_SOLID_FRACTION, simulation_particles
 from demcal.errors import SimulationFailed
 from demcal.physics import measure
 from demcal.physics.contact import GRAVITY
-from demcal.physics.particles import BLOWUP_FACTOR, INSERTION_SOLID_FRACTION, simulation_particles
 
 DATA, TUBE_STL, RING_STL, FILL_DUMP, HEAP_DUMP = (
     "particles.data",
@@ -113,7 +113,7 @@ def place_spheres(
         for _ in range(MAX_TRIES):
             rho, phi = radius * math.sqrt(rng.random()), 2.0 * math.pi * rng.random()
             p = (rho * math.cos(phi), rho * math.sin(phi), z_low + (z_high - z_low) * rng.random())
-            key = tuple(math.floor(c / gap) for c in p)
+            key = (math.floor(p[0] / gap), math.floor(p[1] / gap), math.floor(p[2] / gap))
             if all(
                 (p[0] - q[0]) ** 2 + (p[1] - q[1]) ** 2 + (p[2] - q[2]) ** 2 >= gap2
                 for dx in (-1, 0, 1)
@@ -157,7 +157,8 @@ class CylinderLiftInput:
             particles.timestep,
             particles.chunk_steps,
         )
-        self.radius = self.s["cylinder_diameter"] / 2.0
+        cylinder_diameter: float = self.s["cylinder_diameter"]
+        self.radius = cylinder_diameter / 2.0
         self.insert_radius = self.radius - 0.6 * self.d_max
         self.insert_top = 0.6 * self.d_max + particles.volume / (
             INSERTION_SOLID_FRACTION * math.pi * self.insert_radius**2
@@ -231,7 +232,8 @@ class CylinderLiftInput:
     @property
     def rest_energy(self) -> float:
         """Kinetic energy [J] below which the material is at rest (rms speed rest_speed)."""
-        return 0.5 * self.total_mass * self.s["rest_speed"] ** 2
+        rest_speed: float = self.s["rest_speed"]
+        return 0.5 * self.total_mass * rest_speed**2
 
     @property
     def blowup_energy(self) -> float:

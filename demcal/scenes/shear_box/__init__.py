@@ -32,6 +32,9 @@ number median: convert d50 before entering a sieve analysis here. About
 from __future__ import annotations
 
 import math
+from typing import Any
+
+import numpy as np
 
 from demcal.errors import ConfigError
 from demcal.physics import measure
@@ -60,7 +63,7 @@ MIN_SLOPE_COLUMNS = 5
 MAX_PARTICLES = 100_000
 
 
-def box_dimensions(settings: dict) -> tuple[float, float, float]:
+def box_dimensions(settings: dict[str, Any]) -> tuple[float, float, float]:
     """Inner length (outflow direction), width and height of the scaled box [m] (eq. 4)."""
     _, d_max = diameter_range(settings["d50"], settings["sigma_ln"], settings["psd_truncation"])
     base = (settings["base_length"], settings["base_width"], settings["base_height"])
@@ -83,7 +86,7 @@ def mean_sphere_volume(d50: float, sigma_ln: float, truncation: float) -> float:
     return math.pi / 6.0 * d50**3 * moment
 
 
-def fill_particle_count(settings: dict) -> int:
+def fill_particle_count(settings: dict[str, Any]) -> int:
     """Spheres generated: enough to fill the box at ``FILL_SOLID_FRACTION``."""
     length, width, height = box_dimensions(settings)
     return math.ceil(
@@ -95,11 +98,11 @@ def fill_particle_count(settings: dict) -> int:
     )
 
 
-def _bulk_density(state: dict, settings: dict) -> float:
+def _bulk_density(state: dict[str, np.ndarray], settings: dict[str, Any]) -> float:
     return measure.box_bulk_density(state["fill_x"], state["fill_mass"], box_dimensions(settings))
 
 
-def _shear_angle(state: dict, settings: dict) -> float:
+def _shear_angle(state: dict[str, np.ndarray], settings: dict[str, Any]) -> float:
     length, _, _ = box_dimensions(settings)
     return measure.box_slope_angle(
         state["slope_x"],
@@ -110,7 +113,7 @@ def _shear_angle(state: dict, settings: dict) -> float:
     )
 
 
-def check_settings(settings: dict, field_prefix: str) -> None:
+def check_settings(settings: dict[str, Any], field_prefix: str) -> None:
     """Cross-setting checks a single range cannot express."""
     if settings["angle_band_lower"] >= settings["angle_band_upper"]:
         raise ConfigError(

@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from demcal.engines.base import RunMonitor, RunResult, SimulationJob
 from demcal.engines.lammps_driver import LammpsDriver, num, setup_commands
@@ -34,8 +35,8 @@ MIN_OUTFLOW_FALL_TIMES = 3.0
 
 def random_loose_packing(
     diameters: np.ndarray,
-    lower: np.ndarray,
-    upper: np.ndarray,
+    lower: ArrayLike,
+    upper: ArrayLike,
     rng: np.random.Generator,
     max_tries: int = 1000,
 ) -> np.ndarray:
@@ -52,7 +53,7 @@ def random_loose_packing(
     lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
     cell = float(diameters.max())
     centres = np.full((len(diameters), 3), np.nan)
-    grid: dict[tuple, list[int]] = {}
+    grid: dict[tuple[int, ...], list[int]] = {}
     offsets = [(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)]
     for index in np.argsort(-diameters, kind="stable"):
         radius = diameters[index] / 2.0

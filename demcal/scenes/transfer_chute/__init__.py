@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.stats import norm
@@ -91,7 +92,7 @@ class ChuteGeometry:
         return self.pivot_z - self.funnel_depth * math.cos(self.tilt)
 
 
-def chute_geometry(settings: dict) -> ChuteGeometry:
+def chute_geometry(settings: dict[str, Any]) -> ChuteGeometry:
     s = settings
     return ChuteGeometry(
         belt_height=s["belt_height"],
@@ -110,20 +111,23 @@ def chute_geometry(settings: dict) -> ChuteGeometry:
     )
 
 
-def expected_particle_mass(settings: dict, density: float) -> float:
+def expected_particle_mass(settings: dict[str, Any], density: float) -> float:
     """Mean mass [kg] of a sphere of the scene's truncated lognormal PSD: ρ π/6 d50³ E[e^(3σZ)]
     with Z standard normal cut at ±k, E = e^(4.5σ²) (Φ(k−3σ) − Φ(−k−3σ)) / (Φ(k) − Φ(−k))."""
+    d50: float = settings["d50"]
     sigma, k = settings["sigma_ln"], settings["psd_truncation"]
     shift = 3.0 * sigma
-    cube = (
+    cube: float = (
         math.exp(0.5 * shift * shift)
         * (norm.cdf(k - shift) - norm.cdf(-k - shift))
         / (norm.cdf(k) - norm.cdf(-k))
     )
-    return density * math.pi / 6.0 * settings["d50"] ** 3 * cube
+    return density * math.pi / 6.0 * d50**3 * cube
 
 
-def flow_history(state: dict, settings: dict) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+def flow_history(
+    state: dict[str, np.ndarray], settings: dict[str, Any]
+) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """The mass flows left and right [kg/s] over time: the delivered mass over the last
     ``HISTORY_WINDOW`` (at least one count) before each count, per second (the thesis'
     Figure 5.5b)."""
@@ -139,7 +143,7 @@ def flow_history(state: dict, settings: dict) -> dict[str, tuple[np.ndarray, np.
     }
 
 
-def check_chute(settings: dict, field_prefix: str) -> None:
+def check_chute(settings: dict[str, Any], field_prefix: str) -> None:
     """Cross-setting checks: the outlet passes the largest particles, the steady window
     lies in the feed, and no part of the funnel reaches the belt or the divider."""
     s = settings

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 from scipy.stats import norm
 
@@ -12,7 +13,7 @@ from demcal.physics.contact import GRAVITY
 STREAM_SD = 0.08
 
 
-def analytic_model(p: dict, settings: dict) -> dict:
+def analytic_model(p: dict[str, float], settings: dict[str, Any]) -> dict[str, float]:
     """Closed-form stand-in for the test engine: a ballistic throw, a funnel that keeps part
     of the stream's offset, and a normal stream cut by the divider. Not physics: it gives the
     pipeline and the optimizer a known landscape with a set of even splits.

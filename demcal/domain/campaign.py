@@ -32,7 +32,6 @@ from typing import Any
 import numpy as np
 
 from demcal.archive.store import Archive
-from demcal.archive.url import missing_file
 from demcal.daemon.launcher import is_snakemake_for
 from demcal.engines.base import GRACE_SECONDS
 from demcal.errors import ConfigError, SimulationFailed
@@ -45,6 +44,7 @@ from demcal.optimizer.designs import (
 )
 from demcal.optimizer.registry import DESIGNS
 from demcal.reporting.terminal import duration
+from demcal.results.archive_url import missing_file
 from demcal.results.layout import evaluation_id
 from demcal.results.records import CampaignRecord, PointRecord, ResponsesRecord, Status
 from demcal.study.model import Study

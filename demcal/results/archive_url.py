@@ -9,15 +9,13 @@ folder demcal runs in, like ``results/``) or a PostgreSQL database
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
-
-from sqlalchemy import Engine, create_engine, event
-from sqlalchemy.engine import URL, make_url
-from sqlalchemy.exc import ArgumentError
-from sqlalchemy.pool import NullPool
+from typing import TYPE_CHECKING, Any
 
 from demcal.errors import ConfigError
 from demcal.results.layout import RESULTS
+
+if TYPE_CHECKING:
+    from sqlalchemy import Engine
 
 #: The archive of a study that names none: one SQLite file for every study of the project.
 DEFAULT_URL = f"sqlite:///{RESULTS.as_posix()}/archive.sqlite"
@@ -32,6 +30,11 @@ EXAMPLES = "sqlite:///results/archive.sqlite or postgresql://user@host:5432/data
 def check_url(text: object, where: str = "archive.url") -> str:
     """``text`` if it is an SQLite file or PostgreSQL URL (``postgres://`` spelled
     ``postgresql://``); else a ConfigError naming ``where`` and what is allowed."""
+    # SQLAlchemy is imported on first use, here and below: a study without an archive, or a
+    # refused one, does not pay for it
+    from sqlalchemy.engine import make_url
+    from sqlalchemy.exc import ArgumentError
+
     if not isinstance(text, str) or not text.strip():
         raise ConfigError(f"{where}: {text!r} is not a database URL; give one like {EXAMPLES}")
     try:
@@ -78,6 +81,8 @@ def check_url(text: object, where: str = "archive.url") -> str:
 def missing_file(url: str) -> Path | None:
     """The file of an SQLite archive at ``url`` (checked) that does not exist yet; None when
     the file exists or the archive is a PostgreSQL database."""
+    from sqlalchemy.engine import make_url
+
     parsed = make_url(check_url(url))
     if parsed.get_backend_name() != "sqlite" or parsed.database is None:
         return None
@@ -87,6 +92,8 @@ def missing_file(url: str) -> Path | None:
 
 def shown(url: str) -> str:
     """The URL without its password, for messages and logs."""
+    from sqlalchemy.engine import make_url
+
     return make_url(url).render_as_string(hide_password=True)
 
 
@@ -95,7 +102,11 @@ def open_engine(url: str) -> Engine:
     made. SQLite writes take the database's write lock when their transaction begins
     (``BEGIN IMMEDIATE``), so concurrent writers queue for up to SQLITE_BUSY_SECONDS
     instead of failing on a lock upgrade; reads begin a plain transaction."""
-    parsed: URL = make_url(check_url(url))
+    from sqlalchemy import create_engine
+    from sqlalchemy.engine import make_url
+    from sqlalchemy.pool import NullPool
+
+    parsed = make_url(check_url(url))
     if parsed.get_backend_name() == "sqlite":
         assert parsed.database is not None  # check_url refused a URL without a file
         Path(parsed.database).parent.mkdir(parents=True, exist_ok=True)
@@ -114,6 +125,7 @@ def open_engine(url: str) -> Engine:
 def _sqlite_transactions(engine: Engine) -> None:
     """Let SQLAlchemy, not Python's sqlite3 module, begin SQLite's transactions (the recipe of
     SQLAlchemy's SQLite dialect documentation), a writer's as ``BEGIN IMMEDIATE``."""
+    from sqlalchemy import event
 
     @event.listens_for(engine, "connect")
     def connect(dbapi_connection: Any, _record: Any) -> None:
