@@ -35,8 +35,8 @@ from pathlib import Path
 from sqlalchemy import func, select
 
 from demcal.archive.importer import import_results
-from demcal.archive.record import PSD_SETTINGS, ArchivedSimulation, Quantity
 from demcal.archive.schema import ParameterRow, ResponseRow, SimulationRow
+from demcal.archive.simulation import PSD_SETTINGS, ArchivedSimulation, Quantity
 from demcal.archive.store import Archive, drop
 from demcal.physics.catalogue import CATALOG
 from demcal.results.archive_url import open_engine

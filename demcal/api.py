@@ -655,7 +655,7 @@ class StudyFile:
         import sys
 
         from demcal.daemon.session import calibrate, locked_study
-        from demcal.workflow import LOCAL_PROFILE
+        from demcal.snakemake_command import LOCAL_PROFILE
 
         if workers is not None:
             workers = _whole_number(workers, "run: workers", 1)

@@ -18,7 +18,7 @@ import pytest
 import yaml
 from conftest import ANALYTIC_STUDY, demcal, finish
 
-from demcal.archive.record import ArchivedSimulation
+from demcal.archive.simulation import ArchivedSimulation
 from demcal.archive.store import Archive
 from demcal.daemon.launcher import alive
 from demcal.domain.campaign import (

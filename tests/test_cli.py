@@ -11,7 +11,7 @@ import pytest
 import yaml
 from conftest import ANALYTIC_STUDY, demcal, finish
 
-from demcal.archive.record import ArchivedSimulation, Quantity
+from demcal.archive.simulation import ArchivedSimulation, Quantity
 from demcal.cli import main, parser
 from demcal.cli.archive import line
 from demcal.cli.inspect import answer_words

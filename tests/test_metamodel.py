@@ -13,7 +13,7 @@ import pytest
 import yaml
 from conftest import ANALYTIC_STUDY, demcal, finish
 
-from demcal.archive.record import ArchivedSimulation, Quantity, digest
+from demcal.archive.simulation import ArchivedSimulation, Quantity, digest
 from demcal.archive.store import Archive
 from demcal.cli import main
 from demcal.domain import metamodel
@@ -125,7 +125,7 @@ def test_show_says_when_the_archive_has_moved_on(domain, capsys):
 
 def test_models_of_an_earlier_format_are_built_again(domain, capsys):
     assert main(["metamodel", "build", "domain.yaml", "--model", "kriging"]) == 0
-    path = metamodel.models_file(domain)
+    path = domain.files.metamodels
     models = metamodel.load(domain)
     del models.__dict__["format"]  # as pickled before the field existed
     path.write_bytes(pickle.dumps(models))

@@ -6,7 +6,7 @@ import pytest
 
 from demcal.errors import DemcalError, SimulationFailed
 from demcal.results.records import LaunchRecord, ObjectiveRecord, PointRecord
-from demcal.workflow import check_profile
+from demcal.snakemake_command import check_profile
 
 
 @pytest.mark.parametrize(

@@ -1,4 +1,4 @@
-"""The Snakemake command lines demcal starts (demcal.workflow): where SLURM's client is
+"""The Snakemake command lines demcal starts (demcal.snakemake_command): where SLURM's client is
 installed but no controller answers, a run on local cores sees no SLURM configuration, so that
 the SLURM plugin's question to the controller fails at once instead of after 10 s."""
 
@@ -9,7 +9,7 @@ import subprocess
 
 import pytest
 
-from demcal import workflow
+from demcal import snakemake_command
 
 NO_SLURM = ["env", f"SLURM_CONF={os.devnull}"]
 
@@ -28,12 +28,12 @@ def slurm_client(monkeypatch):
         code, output = state["ping"]
         return subprocess.CompletedProcess(command, code, output, "")
 
-    monkeypatch.setattr(workflow.shutil, "which", lambda name: f"/usr/bin/{name}")
-    monkeypatch.setattr(workflow.subprocess, "run", run)
+    monkeypatch.setattr(snakemake_command.shutil, "which", lambda name: f"/usr/bin/{name}")
+    monkeypatch.setattr(snakemake_command.subprocess, "run", run)
     monkeypatch.delenv("SLURM_JOB_ID", raising=False)
-    workflow.slurm_unreachable.cache_clear()
+    snakemake_command.slurm_unreachable.cache_clear()
     yield state
-    workflow.slurm_unreachable.cache_clear()
+    snakemake_command.slurm_unreachable.cache_clear()
 
 
 @pytest.mark.parametrize(
@@ -41,29 +41,36 @@ def slurm_client(monkeypatch):
 )
 def test_a_local_run_sees_no_slurm_where_no_controller_answers(slurm_client, ping):
     slurm_client["ping"] = ping
-    child = workflow.child_command("study.json", "objective.json", None, None)
+    child = snakemake_command.child_command("study.json", "objective.json", None, None)
     assert child[:2] == NO_SLURM and child[3:5] == ["-m", "snakemake"]
-    assert workflow.report_command("study.json", "report.html")[:2] == NO_SLURM
+    assert snakemake_command.report_command("study.json", "report.html")[:2] == NO_SLURM
     assert slurm_client["pings"] == 1  # asked once per process
 
 
 def test_slurm_runs_and_controllers_that_may_answer_are_left_alone(slurm_client, monkeypatch):
-    slurm = workflow.PROFILES_DIR / "slurm"
-    assert workflow.child_command("study.json", "objective.json", slurm, None)[:2] != NO_SLURM
+    slurm = snakemake_command.PROFILES_DIR / "slurm"
+    assert (
+        snakemake_command.child_command("study.json", "objective.json", slurm, None)[:2] != NO_SLURM
+    )
     for ping in [(0, "Slurmctld(primary) at vm is UP"), None]:  # up, or too slow to say
         slurm_client["ping"] = ping
-        workflow.slurm_unreachable.cache_clear()
-        assert workflow.child_command("study.json", "objective.json", None, None)[:2] != NO_SLURM
+        snakemake_command.slurm_unreachable.cache_clear()
+        assert (
+            snakemake_command.child_command("study.json", "objective.json", None, None)[:2]
+            != NO_SLURM
+        )
     slurm_client["ping"] = (1, "")
     monkeypatch.setenv("SLURM_JOB_ID", "42")  # inside an allocation: srun must keep working
-    workflow.slurm_unreachable.cache_clear()
-    assert workflow.child_command("study.json", "objective.json", None, None)[:2] != NO_SLURM
+    snakemake_command.slurm_unreachable.cache_clear()
+    assert (
+        snakemake_command.child_command("study.json", "objective.json", None, None)[:2] != NO_SLURM
+    )
 
 
 def test_without_a_slurm_client_nothing_is_asked(monkeypatch):
-    monkeypatch.setattr(workflow.shutil, "which", lambda name: None)
-    workflow.slurm_unreachable.cache_clear()
+    monkeypatch.setattr(snakemake_command.shutil, "which", lambda name: None)
+    snakemake_command.slurm_unreachable.cache_clear()
     try:
-        assert not workflow.slurm_unreachable()
+        assert not snakemake_command.slurm_unreachable()
     finally:
-        workflow.slurm_unreachable.cache_clear()
+        snakemake_command.slurm_unreachable.cache_clear()

@@ -382,7 +382,7 @@ def write_solutions(
     return analysis
 
 
-def write_report_files(smk) -> None:
+def write_solution_files(smk) -> None:
     """Entry point of the workflow's solutions job: the figures, or figures saying
     why there are none."""
     import logging

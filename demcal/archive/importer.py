@@ -1,7 +1,7 @@
 """``demcal archive import``: the simulations already in a study's results folder, archived.
 
 Every scene replicate with both its ``simulation.json`` and its ``responses.json`` becomes
-one record (:func:`demcal.archive.record.from_results`, as its job would have written it),
+one record (:func:`demcal.archive.simulation.from_results`, as its job would have written it),
 so importing a folder whose simulations were archived by their jobs, or importing it twice,
 adds nothing. A replicate still running (no responses yet), with damaged files, or with a
 value that is not a finite number (a NaN response: the archive could not use it) is skipped
@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from demcal.archive.record import ArchivedSimulation, replicate_record
+from demcal.archive.simulation import ArchivedSimulation, replicate_record
 from demcal.archive.store import Archive, number_flaw
 from demcal.errors import ConfigError, SimulationFailed
 from demcal.results.layout import ReplicateFiles, StudyFiles

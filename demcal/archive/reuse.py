@@ -16,7 +16,7 @@ from __future__ import annotations
 from collections import defaultdict
 from collections.abc import Callable
 
-from demcal.archive.record import ArchivedSimulation, digest
+from demcal.archive.simulation import ArchivedSimulation, digest
 from demcal.archive.store import Archive
 from demcal.errors import ConfigError
 from demcal.results.archive_url import shown

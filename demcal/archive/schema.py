@@ -49,7 +49,7 @@ class SimulationRow(Base):
     __tablename__ = "simulations"
 
     id: Mapped[int] = mapped_column(Integer, primary_key=True)
-    #: sha256 of the provenance (demcal.archive.record.ArchivedSimulation.key): one row each
+    #: sha256 of the provenance (demcal.archive.simulation.ArchivedSimulation.key): one row each
     key: Mapped[str] = mapped_column(String(64), unique=True)
     study: Mapped[str] = mapped_column(String(200))
     evaluation: Mapped[str] = mapped_column(String(200))

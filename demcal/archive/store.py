@@ -50,8 +50,8 @@ from sqlalchemy import (
 from sqlalchemy.dialects import postgresql, sqlite
 from sqlalchemy.exc import SQLAlchemyError
 
-from demcal.archive.record import ArchivedSimulation, Quantity, digest
 from demcal.archive.schema import Base, ParameterRow, ResponseRow, SimulationRow
+from demcal.archive.simulation import ArchivedSimulation, Quantity, digest
 from demcal.errors import DemcalError
 from demcal.results.archive_url import open_engine, shown
 from demcal.results.records import Status
@@ -302,7 +302,7 @@ class Archive:
         Compatible means: the same scene, engine, ``simulator`` (the digest of what simulated
         it: `ArchivedSimulation.simulator`; a record that does not know its simulator
         matches none) and ``settings`` (those the archive does not keep as parameters:
-        [`ArchivedSimulation.settings_hash`][demcal.archive.record.ArchivedSimulation.settings_hash]);
+        [`ArchivedSimulation.settings_hash`][demcal.archive.simulation.ArchivedSimulation.settings_hash]);
         exactly the parameters ``fixed`` and ``inputs`` (the models' inputs, the free
         parameters and any fixed one the models take as input), with every fixed parameter
         that is not an input at its value; a status in ``statuses``.

@@ -15,8 +15,8 @@ from demcal.daemon.control import explore_solutions, lock_study
 from demcal.domain.campaign import runs_at_once
 from demcal.errors import ConfigError
 from demcal.reporting.terminal import posterior_line
+from demcal.snakemake_command import LOCAL_PROFILE, check_profile
 from demcal.study.model import Study
-from demcal.workflow import LOCAL_PROFILE, check_profile
 
 if TYPE_CHECKING:
     from demcal.analysis.solution_report import SolutionAnalysis

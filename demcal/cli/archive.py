@@ -14,9 +14,9 @@ import shutil
 import sys
 from pathlib import Path
 
-from demcal.archive import tables
+from demcal.archive.export import frame, write_table
 from demcal.archive.importer import ImportReport, import_results, study_folders
-from demcal.archive.record import ArchivedSimulation
+from demcal.archive.simulation import ArchivedSimulation
 from demcal.archive.store import Archive
 from demcal.cli.options import LARGEST_ROW, former_name, whole_number
 from demcal.cli.study_argument import has_run, study_of
@@ -145,7 +145,7 @@ def archive(args: argparse.Namespace) -> int:
         )
         store.warn_damaged()
     if args.action == "export":
-        tables.write(tables.frame(records), args.file)
+        write_table(frame(records), args.file)
         print(f"demcal: {len(records)} simulations from {shown(url)} written to {args.file}")
         return 0
     width = shutil.get_terminal_size().columns if sys.stdout.isatty() else None

@@ -12,9 +12,9 @@ from demcal.cli.inspect import study_state
 from demcal.cli.study_argument import study_yaml
 from demcal.daemon.session import workers_of
 from demcal.domain.campaign import runs_at_once
+from demcal.snakemake_command import check_profile
 from demcal.study.config import load_study_file
 from demcal.study.model import Study
-from demcal.workflow import check_profile
 
 
 def check(args: argparse.Namespace) -> int:

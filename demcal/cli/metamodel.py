@@ -17,15 +17,15 @@ import numpy as np
 from demcal.archive.store import Archive
 from demcal.cli.options import MOST_SIMULATIONS, whole_number
 from demcal.cli.study_argument import has_run, study_of, study_yaml
-from demcal.domain import metamodel
+from demcal.domain import calibration, metamodel
 from demcal.errors import ConfigError
 from demcal.optimizer.objective import relative_miss
 from demcal.resources import DEFAULT_CONFIG
 from demcal.results.archive_url import missing_file
 from demcal.results.storage import write_json
+from demcal.snakemake_command import LOCAL_PROFILE, check_profile
 from demcal.study.config import load_study_file
 from demcal.study.model import Study
-from demcal.workflow import LOCAL_PROFILE, check_profile
 
 #: The largest seed of the model fits (NumPy's legacy seeding takes 32 bits).
 LARGEST_SEED = 2**32 - 1
@@ -230,7 +230,7 @@ def calibrate_command(args: argparse.Namespace) -> int:
         study_yaml(args.config, "calibrate-metamodel --validate")
     material = study_of(args.config) if has_run(args.config) else load_study_file(args.config)
     domain, _ = domain_study(args.domain)
-    free, held = metamodel.material_inputs(domain, material)
+    free, held = calibration.material_inputs(domain, material)
     models = metamodel.load(domain)
     if args.model not in next(iter(models.models.values())):
         raise ConfigError(f"--model {args.model}: not built; run demcal metamodel build --model")
@@ -245,7 +245,7 @@ def calibrate_command(args: argparse.Namespace) -> int:
 
     start = time.monotonic()
     explore = extend_command(domain, args.domain)
-    result = metamodel.calibrate(models, args.model, material, free, held, args.starts, explore)
+    result = calibration.calibrate(models, args.model, material, free, held, args.starts, explore)
     best = result.optima[0]
     print(
         f"demcal calibrate-metamodel: {material.name} on the {args.model} models of "
@@ -270,10 +270,10 @@ def calibrate_command(args: argparse.Namespace) -> int:
         f"models' uncertainty)"
     )
     if not likely:
-        print(f"  {no_solution_reason(result, material)}")
+        print(f"  {calibration.no_solution_reason(result, material)}")
     for verdict in result.analysis.verdicts:
         print(f"  {verdict.sentence}")
-    folder = metamodel_folder(material, args.model)
+    folder = material.files.metamodel_calibration(args.model)
     folder.mkdir(parents=True, exist_ok=True)
     table, figure, path = (
         folder / "solutions.csv",
@@ -305,12 +305,6 @@ def calibrate_command(args: argparse.Namespace) -> int:
     return 0
 
 
-def metamodel_folder(material: Study, kind: str) -> Path:
-    """Where a material's calibration on the ``kind`` models keeps its files (apart from a
-    calibration's own solutions.csv and plots)."""
-    return material.files.dir / "metamodel" / kind
-
-
 def extend_command(domain: Study, config: str) -> str:
     """The command that adds simulations to the domain: its campaign, doubled (``--points`` is
     the campaign's new size, not the number of points to add)."""
@@ -322,36 +316,8 @@ def extend_command(domain: Study, config: str) -> str:
     return f"demcal sample {yaml} --points {max(2 * size, 2 * len(domain.free) + 2)}"
 
 
-def no_solution_reason(result: metamodel.MetamodelCalibration, material: Study) -> str:
-    """Why no parameter set is likely to meet every target: the models do not reach the
-    targets, or they do but are too unsure there to say where."""
-    from demcal.optimizer.membership import band_half_width
-
-    best, solutions = result.optima[0], result.analysis.solutions
-    band = {
-        t.key: band_half_width(t, solutions.noise_sd[t.key], solutions.k) for t in material.targets
-    }
-    if all(
-        (accepted := t.accepted(band[t.key]))[0] <= best.predicted[t.key] <= accepted[1]
-        for t in material.targets
-    ):
-        widths = ", ".join(
-            f"{key} sd {best.predicted_sd[key]:.3g} against ±{band[key]:.3g}" for key in band
-        )
-        return (
-            "the models reach every target at optimum 1, but are too unsure there to tell "
-            f"which parameter sets meet them ({widths}): more simulations of the domain, or "
-            "targets with the spread of their measurement, narrow it"
-        )
-    return (
-        "no parameter set of the free box is likely to meet every target: they lie outside "
-        "what the domain gives for this material's held values; the optimum is the nearest "
-        "the models reach"
-    )
-
-
 def validate_answer(
-    args: argparse.Namespace, material: Study, best: metamodel.Optimum
+    args: argparse.Namespace, material: Study, best: calibration.Optimum
 ) -> dict[str, dict]:
     """Simulate the answer ``args.validate`` times; each response's relative error against the
     target and against the metamodels' prediction (printed, and returned per target)."""

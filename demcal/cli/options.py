@@ -8,7 +8,7 @@ import argparse
 from collections.abc import Callable
 from typing import Any
 
-from demcal.workflow import LOCAL_PROFILE
+from demcal.snakemake_command import LOCAL_PROFILE
 
 #: The largest integer a SQL database stores (SQLite's and PostgreSQL's BIGINT): a simulation's
 #: number in the archive, a row limit.

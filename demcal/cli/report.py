@@ -12,8 +12,8 @@ from demcal.cli.study_argument import study_of
 from demcal.daemon.control import running_daemon
 from demcal.errors import DemcalError
 from demcal.reporting.terminal import write_report
+from demcal.snakemake_command import LOCAL_PROFILE, snakemake_command
 from demcal.study.model import Study
-from demcal.workflow import LOCAL_PROFILE, snakemake_command
 
 
 def report(args: argparse.Namespace) -> int:

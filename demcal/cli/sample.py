@@ -25,8 +25,8 @@ from demcal.domain.campaign import (
     write_points,
 )
 from demcal.errors import ConfigError
+from demcal.snakemake_command import LOCAL_PROFILE, check_profile, runs_locally
 from demcal.study.config import load_study_file
-from demcal.workflow import LOCAL_PROFILE, check_profile, runs_locally
 
 
 def arguments(sub: argparse.ArgumentParser) -> None:

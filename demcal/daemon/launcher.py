@@ -4,7 +4,7 @@ The calibration loop (:class:`demcal.daemon.loop.Calibration`) hands each
 evaluation to a launcher and polls what it gets back (``Running``) until
 it has finished; the evaluation's outcome is then its objective record on
 disk. :class:`SnakemakeLauncher` starts one child Snakemake per evaluation
-(command: :func:`demcal.workflow.child_command`) in its own session, with
+(command: :func:`demcal.snakemake_command.child_command`) in its own session, with
 ``launch.json`` holding its pid, and re-attaches to a child that outlived
 an earlier daemon (``/proc`` tells whether the pid is still that
 Snakemake). Tests give the loop a launcher that runs the jobs in-process.
@@ -22,7 +22,7 @@ from typing import Protocol
 
 from demcal.results.layout import EvaluationFiles
 from demcal.results.records import LaunchRecord
-from demcal.workflow import child_command
+from demcal.snakemake_command import child_command
 
 
 class Running(Protocol):

@@ -15,9 +15,9 @@ from demcal.daemon.launcher import SnakemakeLauncher
 from demcal.daemon.loop import Calibration
 from demcal.daemon.progress import ProgressDisplay
 from demcal.errors import ConfigError
+from demcal.snakemake_command import check_profile, child_cores
 from demcal.study.config import check_study_name, load_study_file
 from demcal.study.model import Study, freeze, load_frozen
-from demcal.workflow import check_profile, child_cores
 
 #: Lines of the calibration's daemon.log.
 DAEMON_LOG_FORMAT = "%(asctime)s %(levelname)s %(message)s"

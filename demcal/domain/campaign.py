@@ -47,8 +47,8 @@ from demcal.reporting.terminal import duration
 from demcal.results.archive_url import missing_file
 from demcal.results.layout import evaluation_id
 from demcal.results.records import CampaignRecord, PointRecord, ResponsesRecord, Status
+from demcal.snakemake_command import runs_locally, snakemake_command
 from demcal.study.model import Study
-from demcal.workflow import runs_locally, snakemake_command
 
 #: The designs a campaign may use (Richter & Will chose FSSF-f).
 CAMPAIGN_DESIGNS = ("fssf_f", "sobol", "halton", "latin_hypercube")

@@ -273,7 +273,7 @@ def archive(study: Study, evaluation: str) -> int:
     nodes. A failure is a warning in the job's log, never the evaluation's: the results
     files stay, and ``demcal archive import`` records them later.
     """
-    from demcal.archive.record import replicate_record
+    from demcal.archive.simulation import replicate_record
     from demcal.archive.store import Archive
     from demcal.results.archive_url import shown
 

@@ -158,7 +158,7 @@ class ResponseModels:
 class PredictsResponse(Protocol):
     """What a predictor needs of a response's model: mean and sd at points of the unit box,
     and the scatter of single simulations (an optimizer's :class:`ResponseModel`, or a global
-    metamodel seen from a material's box, :class:`demcal.domain.metamodel.MaterialResponse`)."""
+    metamodel seen from a material's box, :class:`demcal.domain.calibration.MaterialResponse`)."""
 
     def predict(self, x: np.ndarray) -> np.ndarray: ...
 

@@ -39,8 +39,8 @@ from demcal.reporting.terminal import time_unit
 from demcal.results.layout import ESTIMATE_COLUMNS, proposal_id
 from demcal.results.records import BestRecord, SimulationRecord, Status
 from demcal.results.storage import read_json
+from demcal.snakemake_command import dag_command
 from demcal.study.model import Study, load_frozen
-from demcal.workflow import dag_command
 
 FIGURES = (
     "objective_vs_evaluation",

@@ -11,8 +11,8 @@ from pathlib import Path
 from demcal.errors import SimulationFailed
 from demcal.optimizer.objective import Target, relative_miss
 from demcal.results.records import BestRecord, ObjectiveRecord, Status
+from demcal.snakemake_command import report_command
 from demcal.study.model import Study
-from demcal.workflow import report_command
 
 
 def time_unit(seconds: float) -> tuple[str, float]:

@@ -15,6 +15,8 @@ workflow's rules build their patterns from the same place::
         finished.json       written only when the calibration has ended, with its reason
         reused.json         the archive's simulations the study started from (reuse: archive)
         campaign.json, campaign.log  a sampling campaign's design and its Snakemake's output
+        metamodels/models.pkl  a sampled domain's global metamodels (demcal metamodel build)
+        metamodel/<kind>/   a material calibrated on a domain's metamodels of that kind
         early_termination.csv  estimates of running evaluations and their stopping limits
         live.html           the live view of a running calibration (demcal watch)
         daemon.log, daemon.lock, STOP_CALIBRATION, logs/, plots/, report.html
@@ -190,6 +192,15 @@ class StudyFiles:
     @property
     def solutions(self) -> Path:
         return self.dir / "solutions.csv"
+
+    @property
+    def metamodels(self) -> Path:
+        """A sampled domain's global metamodels (demcal metamodel build)."""
+        return self.dir / "metamodels" / "models.pkl"
+
+    def metamodel_calibration(self, kind: str) -> Path:
+        """The folder of a material's calibration on a domain's ``kind`` metamodels."""
+        return self.dir / "metamodel" / kind
 
     @property
     def solutions_summary(self) -> Path:

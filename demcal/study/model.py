@@ -228,7 +228,7 @@ class Study:
         """What an archived simulation of ``scene`` must share with this study to serve its
         models: the settings that are not variable, the value of every fixed parameter and
         fixed variable setting, and the models' inputs (the free parameters the scene reads).
-        The archive keeps variable settings as parameters (``demcal.archive.record``)."""
+        The archive keeps variable settings as parameters (``demcal.archive.simulation``)."""
         variable = {n for n, spec in self.scenes[scene].settings.items() if spec.variable}
         free = {p.name for p in self.free}
         settings = {n: v for n, v in self.settings[scene].items() if n not in variable}

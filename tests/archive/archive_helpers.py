@@ -8,7 +8,7 @@ from dataclasses import replace
 
 import pytest
 
-from demcal.archive.record import ArchivedSimulation, Quantity
+from demcal.archive.simulation import ArchivedSimulation, Quantity
 from demcal.archive.store import drop
 from demcal.results.records import Status
 

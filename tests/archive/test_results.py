@@ -11,9 +11,9 @@ import pytest
 from archive_helpers import record
 from conftest import analytic_example, run_in_process
 
-from demcal.archive import tables
+from demcal.archive import export
 from demcal.archive.importer import import_results
-from demcal.archive.record import from_results
+from demcal.archive.simulation import from_results
 from demcal.archive.store import Archive
 from demcal.cli import main
 from demcal.errors import ConfigError
@@ -157,20 +157,20 @@ def test_export_round_trip(tmp_path):
     ]
     with Archive(f"sqlite:///{tmp_path / 'a.sqlite'}") as archive:
         archive.add(written)
-        table = tables.frame(archive.records())
+        table = export.frame(archive.records())
     assert "parameter.particle_density [kg/m^3]" in table.columns
     assert "response.angle_of_repose [deg]" in table.columns
     assert "psd.d50 [m]" in table.columns and "cost.cpu [s]" in table.columns
     assert list(table["response.angle_of_repose.final"].iloc[:2]) == [True, False]
-    for suffix in tables.FORMATS:
+    for suffix in export.FORMATS:
         path = tmp_path / f"export{suffix}"
-        tables.write(table, path)
-        back = tables.read(path)
+        export.write_table(table, path)
+        back = export.read(path)
         assert list(back.columns) == list(table.columns)
         pd.testing.assert_frame_equal(back, table, check_dtype=False)
-    assert list(table.columns[: len(tables.FIXED_COLUMNS)]) == list(tables.FIXED_COLUMNS)
-    empty = tables.frame([])
-    tables.write(empty, tmp_path / "empty.csv")
+    assert list(table.columns[: len(export.FIXED_COLUMNS)]) == list(export.FIXED_COLUMNS)
+    empty = export.frame([])
+    export.write_table(empty, tmp_path / "empty.csv")
     assert (tmp_path / "empty.csv").read_text().startswith("id,key,study,evaluation,")
 
 

@@ -11,8 +11,8 @@ from alembic.migration import MigrationContext
 from archive_helpers import DATABASES, SETTINGS, SIMULATOR, new_archive, record, stored
 from sqlalchemy import insert, text
 
-from demcal.archive.record import ArchivedSimulation, Quantity
 from demcal.archive.schema import Base, ParameterRow, SimulationRow
+from demcal.archive.simulation import ArchivedSimulation, Quantity
 from demcal.archive.store import VERSION_TABLE, Archive, ArchiveError
 from demcal.results.archive_url import open_engine
 from demcal.results.records import Status

@@ -1,5 +1,5 @@
 """Snakemake job: the solution space and sensitivity figures of a calibration."""
 
-from demcal.analysis.solution_report import write_report_files
+from demcal.analysis.solution_report import write_solution_files
 
-write_report_files(snakemake)  # noqa: F821  (snakemake is injected by Snakemake)
+write_solution_files(snakemake)  # noqa: F821  (snakemake is injected by Snakemake)

@@ -8,7 +8,7 @@ The tables keep their columns; the rows change to what demcal records from this 
   (one that failed on its parameters, and recorded none, stays without);
 - the variable scene settings (``d50``, ``sigma_ln``) get parameter rows from the settings;
 - ``settings_hash`` then covers the other settings only, and ``key`` is spelled again over
-  the renamed parameters (``demcal.archive.record.ArchivedSimulation``), so a study folder
+  the renamed parameters (``demcal.archive.simulation.ArchivedSimulation``), so a study folder
   imported before and imported again is still stored once.
 
 Revision ID: 0002

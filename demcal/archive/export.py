@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from demcal.archive.record import ArchivedSimulation
+from demcal.archive.simulation import ArchivedSimulation
 from demcal.errors import ConfigError
 
 #: The file types ``write`` knows, by suffix.
@@ -119,7 +119,7 @@ def _group_order(column: str) -> tuple[int, str]:
     return ("psd", "parameter", "response").index(group), column
 
 
-def write(table: pd.DataFrame, path: Path) -> None:
+def write_table(table: pd.DataFrame, path: Path) -> None:
     """``table`` to ``path``: CSV or Parquet by its suffix."""
     path = Path(path)
     if path.suffix not in FORMATS:
