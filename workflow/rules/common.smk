@@ -6,7 +6,7 @@ import shutil
 from pathlib import Path
 
 from demcal.study.model import freeze
-from demcal.workflow import invocation_profile  # the --profile of this Snakemake
+from demcal.snakemake_command import invocation_profile  # the --profile of this Snakemake
 
 # Snakemake's options that draw the jobs instead of running them.
 GRAPH_OPTIONS = ("--dag", "--rulegraph", "--filegraph", "--d3dag")
