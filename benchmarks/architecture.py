@@ -5,7 +5,9 @@
 
 Counted on the package (``demcal/``), the workflow and its job scripts:
 - the places each status word of an evaluation is spelled as a string literal;
-- the places each result file's name is spelled as a string literal;
+- the places outside ``results/layout.py`` where a result file's name is spelled as a
+  string literal, as a name or in a path or glob pattern (docstrings and messages, which
+  hold spaces, are not counted);
 - the places a Snakemake command line is put together (a literal "snakemake"
   next to "-s" or "--snakefile");
 - the places outside ``optimizer/objective.py`` that compute the objective or the
@@ -27,6 +29,7 @@ import argparse
 import ast
 import collections
 import configparser
+import re
 from pathlib import Path
 
 STATUS_WORDS = ("ok", "failed", "terminated", "pending", "running")
@@ -50,6 +53,8 @@ RESULT_FILES = (
     "STOP",
     "archived",
 )
+#: A quoted string in the workflow's files that holds a file name (no whitespace in it).
+QUOTED = r"[\"'][^\"'\s]*{}[^\"'\s]*[\"']"
 #: The one module allowed to spell a result file's name.
 LAYOUT = "demcal/results/layout.py"
 
@@ -66,6 +71,31 @@ def literals(tree: ast.AST) -> list[str]:
         node.value
         for node in ast.walk(tree)
         if isinstance(node, ast.Constant) and isinstance(node.value, str)
+    ]
+
+
+def docstrings(tree: ast.AST) -> set[int]:
+    """The ids of the docstring nodes of the module, its classes and functions."""
+    found = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
+            body = node.body
+            if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant):
+                found.add(id(body[0].value))
+    return found
+
+
+def file_spellings(tree: ast.AST) -> list[str]:
+    """String literals that spell a file name as a name or a path (no whitespace: the name, or
+    a path or glob pattern that holds it); docstrings and messages are not counted."""
+    skipped = docstrings(tree)
+    return [
+        node.value
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Constant)
+        and isinstance(node.value, str)
+        and id(node) not in skipped
+        and not any(c.isspace() for c in node.value)
     ]
 
 
@@ -236,6 +266,7 @@ def main() -> None:
             if value in STATUS_WORDS:
                 status[value] += 1
                 status_modules[value].add(name)
+        for value in file_spellings(tree):
             for file in RESULT_FILES:
                 if file in value and name != LAYOUT:
                     files[file] += 1
@@ -263,7 +294,7 @@ def main() -> None:
     for file in RESULT_FILES:
         print(
             f"  {file:22s} {files[file]:3d} places, {len(file_modules[file]):2d} modules; "
-            f"workflow {workflow_text.count(file)}"
+            f"workflow {len(re.findall(QUOTED.format(re.escape(file)), workflow_text))}"
         )
     print(f"Snakemake command lines built by hand: {commands}")
     computing = {name: n for name, n in objective_places.items() if n}

@@ -54,7 +54,8 @@ from pathlib import Path
 import yaml
 
 from demcal.archive.store import Archive
-from demcal.study.config import load_study_file, read_study_yaml
+from demcal.study.config import load_study_file
+from demcal.study.study_file import read_study_yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 NOISE = ROOT / "benchmarks" / "results" / "noise_shear-box_shear_box.json"

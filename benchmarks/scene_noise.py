@@ -30,8 +30,9 @@ from pathlib import Path
 from demcal.jobs.evaluation import extract, simulate
 from demcal.results.records import PointRecord
 from demcal.results.storage import write_json
-from demcal.study.config import load_study, read_study_yaml
+from demcal.study.config import load_study
 from demcal.study.model import load_frozen, study_record
+from demcal.study.study_file import read_study_yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 EVALUATION = "noise"

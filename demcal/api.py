@@ -509,7 +509,7 @@ class Solutions:
         """Kish's effective sample size of the posterior's weights (few: it is rough)."""
         return self.analysis.solutions.posterior.effective_samples
 
-    def _answer_point(self) -> dict | None:
+    def _answer_point(self) -> dict[str, dict[str, float]] | None:
         """The answer's parameters, marked in the figures (None without an answer)."""
         best = BestRecord.read_if_any(self.study.files.best)
         return None if best is None else {"parameters": best.parameters}

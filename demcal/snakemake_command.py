@@ -32,6 +32,7 @@ import yaml
 
 from demcal.errors import DemcalError
 from demcal.resources import PROFILES_DIR, SNAKEFILE, WORKFLOW_DIR
+from demcal.results.layout import ARCHIVED_FLAG
 
 #: The profile of ``demcal run`` and of child Snakemakes when none is given.
 LOCAL_PROFILE = PROFILES_DIR / "local"
@@ -102,7 +103,7 @@ def child_command(
 ) -> list[str]:
     """The child Snakemake that builds one evaluation's ``target`` (its objective.json) and
     archives its simulations (the ``archived`` mark beside it)."""
-    archived = Path(target).with_name("archived")
+    archived = Path(target).with_name(ARCHIVED_FLAG)
     return snakemake_command(
         study_file, str(target), str(archived), profile=profile or LOCAL_PROFILE, cores=cores
     )

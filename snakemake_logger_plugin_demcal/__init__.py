@@ -37,7 +37,7 @@ def check_study_files(argv: list[str]) -> None:
     if not paths:
         return
     from demcal.errors import ConfigError
-    from demcal.study.config import read_study_yaml
+    from demcal.study.study_file import read_study_yaml
 
     for path in paths:
         try:

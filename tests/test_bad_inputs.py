@@ -20,7 +20,7 @@ from bad_commands import gathered_cases, run_command
 from bad_inputs import CASES, POINTS, ROUTES, BadInput, route_command, run_route, write_point
 
 from demcal.errors import ConfigError
-from demcal.study.config import read_study_yaml
+from demcal.study.study_file import read_study_yaml
 
 
 def test_the_corpus_is_large_and_its_messages_distinct():
@@ -109,7 +109,7 @@ def test_an_alias_bomb_is_refused_in_well_under_a_second_and_little_memory(tmp_p
 
 def test_the_bomb_would_expand_to_billions(tmp_path):
     """The bomb is real: its expanded size, counted, is 9**10 values."""
-    from demcal.study.config import StrictLoader, expanded_size
+    from demcal.study.study_file import StrictLoader, expanded_size
 
     bomb: BadInput = next(c for c in CASES if c.name == "alias_bomb")
     loader = StrictLoader(bomb.raw.decode())

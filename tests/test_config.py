@@ -10,8 +10,9 @@ from conftest import ANALYTIC_STUDY
 
 from demcal.errors import ConfigError
 from demcal.results.records import BestRecord
-from demcal.study.config import load_study, load_study_file, read_study_yaml
+from demcal.study.config import load_study, load_study_file
 from demcal.study.model import freeze
+from demcal.study.study_file import read_study_yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -65,8 +65,9 @@ def test_a_dry_run_lists_the_jobs_and_the_plan_and_starts_nothing(tmp_path):
 def test_a_dry_run_sees_what_a_run_would_do_to_an_existing_study(tmp_path):
     """Finished: the calibration is not listed; a larger budget lists it again; a change a run
     would refuse is refused in one line. The study's own files are never touched."""
-    from demcal.study.config import load_study, read_study_yaml
+    from demcal.study.config import load_study
     from demcal.study.model import freeze
+    from demcal.study.study_file import read_study_yaml
 
     shutil.copyfile(EXAMPLE, tmp_path / "analytic.yaml")
     with pytest.MonkeyPatch.context() as patch:

@@ -22,6 +22,7 @@ import statistics
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 
@@ -29,6 +30,7 @@ from demcal.engines.base import SimulationJob
 from demcal.errors import ConfigError, DemcalError
 from demcal.jobs.evaluation import run_engine, scene_responses
 from demcal.physics.timestep import check_fraction
+from demcal.results.layout import STOP_FILE
 from demcal.results.records import Status
 from demcal.results.storage import atomic_write_text
 from demcal.study.config import load_study_file
@@ -54,7 +56,7 @@ class Variant:
 
 def variant_settings(
     study: Study, scene: str, variant: Variant, field: str, point: dict[str, float]
-) -> dict:
+) -> dict[str, Any]:
     """The scene's settings at ``variant``'s size for the free values ``point``, checked
     (errors name ``field``)."""
     size_setting = study.scenes[scene].size_setting
@@ -93,7 +95,7 @@ def run_variant(
     seed_index: int,
     point: dict[str, float],
     workdir: str,
-) -> dict:
+) -> dict[str, Any]:
     """One simulation of ``variant``; returns its responses and cost (a failure
     keeps its reason)."""
     study = load(config)
@@ -107,7 +109,7 @@ def run_variant(
         responses=study.responses_needed(scene),
         timestep_fraction=variant.fraction,
         workdir=workdir,
-        stop_file=str(Path(workdir) / "STOP"),
+        stop_file=str(Path(workdir) / STOP_FILE),
     )
     result = run_engine(study, job)
     row = {

@@ -24,6 +24,8 @@ from __future__ import annotations
 
 import json
 from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -51,7 +53,15 @@ from demcal.optimizer.responses import (
     final_means,
     replicate_scatter,
 )
-from demcal.reporting.figures import PngTarget, ReportFigure, finish_figure, new_figure, save_png
+from demcal.reporting.figures import (
+    PngTarget,
+    ReportFigure,
+    ScriptJob,
+    finish_figure,
+    new_figure,
+    save_png,
+)
+from demcal.results.layout import BEST_FILE
 from demcal.results.storage import read_json
 from demcal.study.model import Study, load_frozen
 
@@ -78,14 +88,15 @@ class SolutionAnalysis:
     predictor: ResponsePredictor
     solutions: SolutionSet
     verdicts: list[Verdict]
-    sensitivity: list[dict]
+    sensitivity: list[dict[str, Any]]
     names: list[str]
     lower: np.ndarray
     upper: np.ndarray
 
     def in_real_units(self, points_unit: np.ndarray) -> np.ndarray:
         """Points of the unit box (one row each) in the parameters' units."""
-        return self.lower + points_unit * (self.upper - self.lower)
+        points: np.ndarray = self.lower + points_unit * (self.upper - self.lower)
+        return points
 
     def points(self) -> np.ndarray:
         """The accepted parameter sets in real units."""
@@ -197,7 +208,7 @@ def solutions_table(analysis: SolutionAnalysis) -> pd.DataFrame:
 
 def plot_corner(
     analysis: SolutionAnalysis,
-    best: dict | None,
+    best: dict[str, Any] | None,
     path: PngTarget | None = None,
     seed: int = 0,
 ) -> ReportFigure:
@@ -268,7 +279,7 @@ def plot_corner(
 
 def plot_objective_slices(
     analysis: SolutionAnalysis,
-    best: dict | None,
+    best: dict[str, Any] | None,
     path: PngTarget | None = None,
     grid: int = 60,
 ) -> ReportFigure:
@@ -287,6 +298,12 @@ def plot_objective_slices(
     fig = new_figure(4.6 * len(pairs), 4.0)
     axes = fig.subplots(1, len(pairs), squeeze=False)
     axis = np.linspace(0.0, 1.0, grid)
+
+    def scale(k: int, t: float | np.ndarray) -> float | np.ndarray:
+        """Unit-box coordinate ``t`` of parameter ``k`` in its units."""
+        scaled: float | np.ndarray = analysis.lower[k] + t * (analysis.upper[k] - analysis.lower[k])
+        return scaled
+
     for ax, (i, j) in zip(axes[0], pairs):
         if i == j:
             ax.set_axis_off()
@@ -296,7 +313,6 @@ def plot_objective_slices(
         points = np.tile(centre, (grid * grid, 1))
         points[:, i], points[:, j] = u.ravel(), v.ravel()
         objective = np.maximum(analysis.predictor.objective_mean(points), 1e-12).reshape(grid, grid)
-        scale = lambda k, t: analysis.lower[k] + t * (analysis.upper[k] - analysis.lower[k])  # noqa: E731
         filled = ax.contourf(
             scale(i, u), scale(j, v), np.log10(objective), levels=20, cmap="viridis_r"
         )
@@ -311,7 +327,7 @@ def plot_objective_slices(
     return finish_figure(fig, path, SOLUTION_DPI)
 
 
-def plot_sensitivity(rows: list[dict], path: PngTarget | None = None) -> ReportFigure:
+def plot_sensitivity(rows: list[dict[str, Any]], path: PngTarget | None = None) -> ReportFigure:
     """Total (light) and first-order (dark) Sobol index of each parameter, one
     panel per response."""
     table = pd.DataFrame(rows)
@@ -375,14 +391,14 @@ def write_solutions(
         },
     }
     files.solutions_summary.write_text(json.dumps(summary, indent=2, default=float))
-    best = read_json(files.best, "best.json") if files.best.exists() else None
+    best = read_json(files.best, BEST_FILE) if files.best.exists() else None
     plot_corner(analysis, best, files.plots / "solution_space.png", seed)
     plot_sensitivity(analysis.sensitivity, files.plots / "sensitivity.png")
     plot_objective_slices(analysis, best, files.plots / "objective_slices.png")
     return analysis
 
 
-def write_solution_files(smk) -> None:
+def write_solution_files(smk: ScriptJob) -> None:
     """Entry point of the workflow's solutions job: the figures, or figures saying
     why there are none."""
     import logging
@@ -398,4 +414,4 @@ def write_solution_files(smk) -> None:
         ax.axis("off")
         ax.text(0.5, 0.5, f"No solution space: {exc}", ha="center", va="center", wrap=True)
         for path in smk.output:
-            save_png(fig, path, SOLUTION_DPI)
+            save_png(fig, Path(path), SOLUTION_DPI)

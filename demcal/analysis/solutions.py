@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.stats import qmc
@@ -137,7 +138,7 @@ def weighted_quantile(values: np.ndarray, weights: np.ndarray, q: float) -> floa
     """The ``q`` quantile of ``values`` under normalised ``weights``."""
     order = np.argsort(values)
     cumulative = np.cumsum(weights[order])
-    return float(values[order][min(np.searchsorted(cumulative, q), len(values) - 1)])
+    return float(values[order][min(int(np.searchsorted(cumulative, q)), len(values) - 1)])
 
 
 def posterior_of(points: np.ndarray, log_weights: np.ndarray) -> Posterior:
@@ -393,7 +394,7 @@ def _why(name: str, total_index: dict[str, float] | None) -> str:
 
 def sensitivity_indices(
     predictor: ResponsePredictor, names: list[str], base_samples: int = 1024, seed: int = 0
-) -> list[dict]:
+) -> list[dict[str, Any]]:
     """First-order (S1) and total (ST) Sobol indices of each response's model over the box.
 
     Saltelli's sampling and estimators (SALib); the model's predicted mean
@@ -429,7 +430,7 @@ def sensitivity_indices(
     return rows
 
 
-def largest_total_index(rows: list[dict]) -> dict[str, float]:
+def largest_total_index(rows: list[dict[str, Any]]) -> dict[str, float]:
     """Per parameter, its largest total Sobol index over the responses."""
     largest: dict[str, float] = {}
     for row in rows:

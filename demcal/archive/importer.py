@@ -16,7 +16,7 @@ from pathlib import Path
 from demcal.archive.simulation import ArchivedSimulation, replicate_record
 from demcal.archive.store import Archive, number_flaw
 from demcal.errors import ConfigError, SimulationFailed
-from demcal.results.layout import ReplicateFiles, StudyFiles
+from demcal.results.layout import SIMULATION_FILE, STUDY_FILE, ReplicateFiles, StudyFiles
 from demcal.study.model import load_frozen
 
 #: Records stored per transaction by an import.
@@ -36,7 +36,7 @@ class ImportReport:
 
 def study_folders(results: Path) -> list[Path]:
     """The study folders under a results folder (those with a study.json)."""
-    return sorted(path.parent for path in Path(results).glob("*/study.json"))
+    return sorted(path.parent for path in Path(results).glob(f"*/{STUDY_FILE}"))
 
 
 def import_results(archive: Archive, folder: Path) -> ImportReport:
@@ -47,7 +47,7 @@ def import_results(archive: Archive, folder: Path) -> ImportReport:
     study = load_frozen(files.study)
     report = ImportReport(Path(folder), study.name)
     records: list[ArchivedSimulation] = []
-    for path in sorted(files.evals.glob("*/*/rep*/simulation.json")):
+    for path in sorted(files.evals.glob(f"*/*/rep*/{SIMULATION_FILE}")):
         try:
             record = replicate_record(study, ReplicateFiles(path.parent), "import")
         except SimulationFailed as exc:

@@ -14,6 +14,8 @@ needs a new migration there (tests/archive checks that they agree).
 
 from __future__ import annotations
 
+from typing import Any
+
 from sqlalchemy import (
     JSON,
     BigInteger,
@@ -28,6 +30,8 @@ from sqlalchemy import (
     Text,
 )
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
+
+from demcal.results.records import ENDED
 
 #: Names of constraints and indexes, the same in SQLite and PostgreSQL and in the migrations.
 NAMING = {
@@ -59,10 +63,10 @@ class SimulationRow(Base):
     seed: Mapped[int | None] = mapped_column(BigInteger)
     engine: Mapped[str] = mapped_column(String(100))
     engine_version: Mapped[str] = mapped_column(String(200))
-    settings: Mapped[dict] = mapped_column(JSON)
+    settings: Mapped[dict[str, Any]] = mapped_column(JSON)
     settings_hash: Mapped[str] = mapped_column(String(64))
     #: {setting: {"value", "unit"}} of the particle-size distribution among the settings
-    psd: Mapped[dict] = mapped_column(JSON)
+    psd: Mapped[dict[str, Any]] = mapped_column(JSON)
     timestep_fraction: Mapped[float] = mapped_column(Double)
     status: Mapped[str] = mapped_column(String(16))
     reason: Mapped[str] = mapped_column(Text)
@@ -70,7 +74,7 @@ class SimulationRow(Base):
     wall_s: Mapped[float | None] = mapped_column(Double)
     particle_steps: Mapped[float | None] = mapped_column(Double)
     #: every figure the engine reported (cpu_s, wall_s, steps, particle_steps, ...)
-    cost: Mapped[dict] = mapped_column(JSON)
+    cost: Mapped[dict[str, Any]] = mapped_column(JSON)
     started_at: Mapped[float | None] = mapped_column(Double)
     ended_at: Mapped[float | None] = mapped_column(Double)
     recorded_at: Mapped[float] = mapped_column(Double)
@@ -82,7 +86,7 @@ class SimulationRow(Base):
     simulator: Mapped[str] = mapped_column(String(64), server_default="")
 
     __table_args__ = (
-        CheckConstraint("status IN ('ok', 'failed', 'terminated')", name="status"),
+        CheckConstraint(f"status IN ({', '.join(map(repr, map(str, ENDED)))})", name="status"),
         Index(None, "scene", "engine", "simulator", "settings_hash"),
         Index(None, "study", "evaluation"),
     )

@@ -12,6 +12,7 @@ import hashlib
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from demcal.errors import SimulationFailed
 from demcal.physics.catalogue import CATALOG
@@ -61,7 +62,7 @@ class ArchivedSimulation:
     replicate: int
     engine: str
     engine_version: str
-    settings: dict
+    settings: dict[str, Any]
     timestep_fraction: float
     status: Status
     reason: str = ""
@@ -72,7 +73,7 @@ class ArchivedSimulation:
     psd: dict[str, Quantity] = field(default_factory=dict)
     responses: dict[str, Quantity] = field(default_factory=dict)
     final: dict[str, bool] = field(default_factory=dict)
-    cost: dict = field(default_factory=dict)
+    cost: dict[str, Any] = field(default_factory=dict)
     started_at: float | None = None
     ended_at: float | None = None
     demcal_version: str = ""
@@ -82,7 +83,7 @@ class ArchivedSimulation:
     recorded_at: float | None = None
 
     @property
-    def provenance(self) -> dict:
+    def provenance(self) -> dict[str, Any]:
         """What makes the simulation this one: study, evaluation, scene, replicate, attempt
         and seed, and what the engine ran (the same run again is the same simulation). The
         simulator is left out where unknown, so records stored before it was kept keep

@@ -290,7 +290,7 @@ class Archive:
         self,
         scene: str,
         engine: str,
-        settings: dict,
+        settings: dict[str, Any],
         fixed: Mapping[str, float],
         inputs: Collection[str] = (),
         *,
@@ -334,12 +334,12 @@ class Archive:
             return int(connection.execute(select(func.count(SimulationRow.id))).scalar_one())
 
     @_reported
-    def stats(self) -> list[dict]:
+    def stats(self) -> list[dict[str, Any]]:
         """Per study, scene, engine and status: the simulations stored and their cost (the
         engine's cpu_s and particle_steps; None where no simulation of the group has one).
         Damaged simulations count as [`records`][demcal.archive.store.Archive.records] reads
         them."""
-        groups: dict[tuple[str, ...], dict] = {}
+        groups: dict[tuple[str, ...], dict[str, Any]] = {}
         for record in self.records():
             group = (record.study, record.scene, record.engine, str(record.status))
             row = groups.setdefault(
@@ -387,7 +387,7 @@ class Archive:
             print(f"demcal: warning: {summary}", file=sys.stderr, flush=True)
         self.damaged.clear()
 
-    def _load(self, ids: Select) -> list[ArchivedSimulation]:
+    def _load(self, ids: Select[tuple[int]]) -> list[ArchivedSimulation]:
         """The records of the simulations whose ids ``ids`` selects, in its order; a damaged
         one is read as `_record` says and noted in `damaged`."""
         chosen = ids.subquery()
@@ -404,8 +404,8 @@ class Archive:
                     )
                 )
             }
-            parameters: dict[int, list[Row]] = {}
-            responses: dict[int, list[Row]] = {}
+            parameters: dict[int, list[Row[Any]]] = {}
+            responses: dict[int, list[Row[Any]]] = {}
             for table, found in ((ParameterRow, parameters), (ResponseRow, responses)):
                 for value in connection.execute(
                     select(table).where(table.simulation_id.in_(select(chosen.c.id)))
@@ -444,7 +444,7 @@ SAME_NAMED = (
 )
 
 
-def _row(record: ArchivedSimulation, now: float) -> dict:
+def _row(record: ArchivedSimulation, now: float) -> dict[str, Any]:
     """The simulations row of a record."""
     return {name: getattr(record, name) for name in SAME_NAMED} | {
         "key": record.key,
@@ -473,7 +473,7 @@ ROW_NUMBERS = (
 
 
 def _record(
-    row: RowMapping, parameters: Sequence[Row], responses: Sequence[Row]
+    row: RowMapping, parameters: Sequence[Row[Any]], responses: Sequence[Row[Any]]
 ) -> tuple[ArchivedSimulation | None, list[str]]:
     """The record of a stored simulation (its JSON columns as text) and the flaws of a damaged
     one. A response or psd value that is not a finite number, or a psd that is not JSON, is
@@ -522,7 +522,7 @@ def _record(
     ), flaws
 
 
-def _json_object(name: str, stored: object, flaws: list[str]) -> dict:
+def _json_object(name: str, stored: object, flaws: list[str]) -> dict[str, Any]:
     """The JSON object of the column ``name`` as stored (text); {} if it is none, with the
     flaw added to ``flaws``."""
     try:

@@ -50,8 +50,8 @@ def arguments(sub: argparse.ArgumentParser) -> None:
         where = action.add_mutually_exclusive_group()
         where.add_argument(
             "--url",
-            help=f"the archive's URL (default: that of the study --study names, else "
-            f"{RESULTS}/archive.sqlite)",
+            help="the archive's URL (default: that of the study --study names, else "
+            f"{default('archive')['url']})",
         )
         where.add_argument(
             "--archive-of",

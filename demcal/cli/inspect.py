@@ -9,7 +9,7 @@ from demcal.cli.run import print_best
 from demcal.cli.study_argument import study_of
 from demcal.daemon.control import running_daemon, saved_optimizer
 from demcal.errors import ConfigError, DemcalError
-from demcal.results.layout import RESULTS
+from demcal.results.layout import RESULTS, STUDY_FILE
 from demcal.results.records import BestRecord, FinishedRecord, Status
 from demcal.study.model import Study, load_frozen
 
@@ -65,13 +65,13 @@ def status(args: argparse.Namespace) -> int:
 
 def studies(args: argparse.Namespace) -> int:
     """Every study under the results folder with its state, counts and answer."""
-    found = sorted(path.parent for path in RESULTS.glob("*/study.json"))
+    found = sorted(path.parent for path in RESULTS.glob(f"*/{STUDY_FILE}"))
     if not found:
         print(f"demcal: no studies in {RESULTS}/ (a study appears there once it has run)")
         return 0
     for folder in found:
         try:
-            study = load_frozen(folder / "study.json")
+            study = load_frozen(folder / STUDY_FILE)
         except DemcalError as exc:
             print(f"{folder.name}: unreadable study.json ({exc})")
             continue

@@ -11,6 +11,7 @@ import sys
 import time
 from dataclasses import asdict
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -318,7 +319,7 @@ def extend_command(domain: Study, config: str) -> str:
 
 def validate_answer(
     args: argparse.Namespace, material: Study, best: calibration.Optimum
-) -> dict[str, dict]:
+) -> dict[str, dict[str, Any]]:
     """Simulate the answer ``args.validate`` times; each response's relative error against the
     target and against the metamodels' prediction (printed, and returned per target)."""
     from demcal.cli.cost import cost_line, per_scene
@@ -356,7 +357,7 @@ def validate_answer(
                     for response, value in record.responses.items():
                         values.setdefault(f"{scene}.{response}", []).append(value)
     print(f"validation: {state.line()}")
-    errors: dict[str, dict] = {}
+    errors: dict[str, dict[str, Any]] = {}
     for target in study.targets:
         simulated = values[target.key]
         if not simulated:

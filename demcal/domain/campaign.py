@@ -45,7 +45,7 @@ from demcal.optimizer.designs import (
 from demcal.optimizer.registry import DESIGNS
 from demcal.reporting.terminal import duration
 from demcal.results.archive_url import missing_file
-from demcal.results.layout import evaluation_id
+from demcal.results.layout import SIMULATION_FILE, evaluation_id
 from demcal.results.records import CampaignRecord, PointRecord, ResponsesRecord, Status
 from demcal.snakemake_command import runs_locally, snakemake_command
 from demcal.study.model import Study
@@ -200,7 +200,7 @@ def retry_failed(study: Study, name: str) -> None:
     ).write(files.params)
     for path, _ in failed:
         path.unlink()
-        path.with_name("simulation.json").unlink(missing_ok=True)
+        path.with_name(SIMULATION_FILE).unlink(missing_ok=True)
 
 
 @dataclass
@@ -208,8 +208,8 @@ class Tally:
     """How a campaign's simulations stand: finished ones by status, the commonest reason."""
 
     total: int
-    statuses: Counter
-    reasons: Counter
+    statuses: Counter[str]
+    reasons: Counter[str]
     #: the campaign was stopped because its first simulations all failed
     stopped: bool = False
 
@@ -232,8 +232,8 @@ class Tally:
 def tally(study: Study, names: list[str]) -> Tally:
     """The finished simulations of the evaluations ``names`` (their responses.json)."""
     paths = [path for name in names for path in response_paths(study, name)]
-    statuses: Counter = Counter()
-    reasons: Counter = Counter()
+    statuses: Counter[str] = Counter()
+    reasons: Counter[str] = Counter()
     for path in paths:
         try:
             record = ResponsesRecord.read(path)

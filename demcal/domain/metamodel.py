@@ -84,7 +84,9 @@ def domain_data(
     names alone. A damaged simulation is left out, or gives only its sound responses, as the
     archive reads it (:meth:`Archive.warn_damaged` names them)."""
     names = [p.name for p in study.free]
-    rows: dict[str, tuple[list, list, list]] = {t.key: ([], [], []) for t in study.targets}
+    rows: dict[str, tuple[list[list[float]], list[float], list[str]]] = {
+        t.key: ([], [], []) for t in study.targets
+    }
     records = compatible_simulations(
         study,
         archive,

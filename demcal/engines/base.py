@@ -27,6 +27,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from demcal.results.layout import PARTIAL_FILE
 from demcal.results.storage import PartialWriter
 
 
@@ -46,7 +47,7 @@ class SimulationJob:
 
     @property
     def partial_file(self) -> Path:
-        return Path(self.workdir) / "partial.csv"
+        return Path(self.workdir) / PARTIAL_FILE
 
 
 @dataclass

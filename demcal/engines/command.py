@@ -40,6 +40,7 @@ from demcal.engines.base import (
     stop_process_group,
 )
 from demcal.errors import ConfigError, SimulationFailed
+from demcal.results.layout import PARTIAL_FILE, RESPONSES_FILE, SIMULATION_FILE, STATE_FILE
 from demcal.results.records import Status
 from demcal.results.storage import GrowingCsv, file_sha256, log_tail, read_json
 
@@ -49,7 +50,7 @@ RESPONSES_FILE_BYTES, PARTIAL_FILE_BYTES = 2**20, 16 * 2**20
 LOG_FILE = "command.log"
 FIXED_PLACEHOLDERS = ("input", "workdir", "seed", "timestep_fraction", "scene")
 #: Files demcal itself keeps in a run directory; a simulator's file may not take their names.
-DEMCAL_RUN_FILES = ("simulation.json", "responses.json", "partial.csv", "state.npz", LOG_FILE)
+DEMCAL_RUN_FILES = (SIMULATION_FILE, RESPONSES_FILE, PARTIAL_FILE, STATE_FILE, LOG_FILE)
 #: Engine settings naming a file the engine deletes or reads inside the run directory.
 RUN_DIRECTORY_FILES = ("responses_file", "partial_file")
 

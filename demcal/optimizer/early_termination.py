@@ -31,6 +31,7 @@ import numpy as np
 from demcal.optimizer.objective import objective_values
 
 from .responses import ESTIMATE_RELATIVE_SD, replicate_scatter
+from .settings import EarlyTerminationSettings
 
 if TYPE_CHECKING:
     from demcal.optimizer.objective import ResponseObjective
@@ -39,8 +40,8 @@ if TYPE_CHECKING:
     from .responses import ResponsePredictor
 
 
-#: The early-termination rules (``EarlyTerminationSettings.rule``).
-RULES = ("weighed", "eq_3_4")
+#: The defaults of the rule's settings (Samuelsson 2023, Table 4.2), for a call without them.
+DEFAULTS = EarlyTerminationSettings()
 
 
 @dataclass(frozen=True)
@@ -107,12 +108,12 @@ def early_termination_decision(
     partial_estimate: float,
     progress: float,
     in_initial_design: bool = False,
-    enabled: bool = True,
-    thresholds: Sequence[float] = (10.0, 5.0, 2.5),
-    progress_boundaries: Sequence[float] = (0.5, 0.75),
+    enabled: bool = DEFAULTS.enabled,
+    thresholds: Sequence[float] = DEFAULTS.thresholds,
+    progress_boundaries: Sequence[float] = DEFAULTS.progress_boundaries,
     run: RunProgress | None = None,
-    rule: str = "weighed",
-    last_stretch: float = 0.9,
+    rule: str = DEFAULTS.rule,
+    last_stretch: float = DEFAULTS.last_stretch,
 ) -> EarlyTerminationDecision:
     """Decide whether to stop a running evaluation (eq. 3.4: stop if eta_et > c f*).
 

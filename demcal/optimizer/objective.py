@@ -24,7 +24,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from statistics import fmean, stdev
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -73,7 +73,9 @@ class Target:
         clipped: np.ndarray = np.clip(y, low, high)
         return clipped
 
-    def accepted(self, margin: float | np.ndarray = 0.0) -> tuple:
+    def accepted(
+        self, margin: float | np.ndarray = 0.0
+    ) -> tuple[float | np.ndarray, float | np.ndarray]:
         """The responses that meet the target within ``margin``: (low, high), ±inf if open."""
         if not self.is_band:
             return self.value - margin, self.value + margin
@@ -246,7 +248,7 @@ class ResponseObjective:
         (``estimated_objective``)."""
         return estimated_objective(list(self.targets), dict(estimates), cost, self.form)
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
         return {
             "form": self.form,
             **({"expected_loss": True} if self.expected_loss else {}),
@@ -264,7 +266,7 @@ class ResponseObjective:
         }
 
     @classmethod
-    def from_dict(cls, record: dict) -> ResponseObjective:
+    def from_dict(cls, record: dict[str, Any]) -> ResponseObjective:
         return cls(
             tuple(Target(**t) for t in record["targets"]),
             record["form"],

@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from demcal.optimizer.objective import ResponseObjective
-from demcal.results.records import Status
+from demcal.results.records import ENDED, Status
 
 from . import candidates as st
 from . import state
@@ -58,8 +58,6 @@ from .stopping import stop_reason
 from .strategies.base import History, WeightCycle
 from .surrogates.base import Surrogate
 
-STATUSES = (Status.OK, Status.FAILED, Status.TERMINATED)
-
 
 @dataclass(frozen=True)
 class Proposal:
@@ -76,8 +74,8 @@ def _outcome(
     id: int, value: float | None, status: str, replicates: list[float] | None
 ) -> dict[str, Any]:
     """The record fields of a told outcome (see `Optimizer.tell`)."""
-    if status not in STATUSES:
-        raise ValueError(f"status: {status!r} is not one of {', '.join(STATUSES)}")
+    if status not in ENDED:
+        raise ValueError(f"status: {status!r} is not one of {', '.join(ENDED)}")
     variance, told = None, None
     if status == Status.OK:
         if replicates:
@@ -106,7 +104,7 @@ class Optimizer:
         self,
         lower: list[float],
         upper: list[float],
-        settings: OptimizerSettings | dict | None = None,
+        settings: OptimizerSettings | dict[str, Any] | None = None,
         seed: int = 0,
         initial_points: list[list[float]] | None = None,
         workers: int = 1,
@@ -160,7 +158,7 @@ class Optimizer:
         self.best_observed: float | None = min(values) if values else None
         self.evaluations_without_improvement = 0
         #: what a strategy must remember between proposals (saved with the state)
-        self.strategy_state: dict = {}
+        self.strategy_state: dict[str, Any] = {}
         #: why the search for the best point stopped, once it has and the solution set is being
         #: mapped (``map_solutions``); None before
         self.search_ended: str | None = None
@@ -308,7 +306,7 @@ class Optimizer:
         status: str = Status.OK,
         replicates: list[float] | None = None,
         responses: dict[str, list[float]] | None = None,
-        partial: dict[str, dict] | None = None,
+        partial: dict[str, dict[str, Any]] | None = None,
     ) -> None:
         """Report the outcome of proposal ``id``.
 

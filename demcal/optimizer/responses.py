@@ -125,7 +125,7 @@ class ResponseModels:
     def __init__(self, kind: str, duplicate_tolerance: float, restarts: int, seed: int):
         self.kind, self.duplicate_tolerance = kind, duplicate_tolerance
         self.restarts, self.seed = restarts, seed
-        self._fitted: dict[str, tuple[tuple, ResponseModel]] = {}
+        self._fitted: dict[str, tuple[tuple[bytes, bytes, bytes, float], ResponseModel]] = {}
         #: per response: refits since the last full one, and the data size then
         self._since_full: dict[str, tuple[int, int]] = {}
 

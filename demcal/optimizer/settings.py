@@ -15,8 +15,10 @@ from typing import Any
 
 from demcal.errors import unknown_field
 
-from .early_termination import RULES
 from .registry import DESIGNS, RESPONSE_MODELS, STRATEGIES, SURROGATES
+
+#: The early-termination rules (``EarlyTerminationSettings.rule``).
+RULES = ("weighed", "eq_3_4")
 
 
 @dataclass(frozen=True)
@@ -222,7 +224,7 @@ def _early_termination_from(values: Any) -> EarlyTerminationSettings:
     return EarlyTerminationSettings(**converted)
 
 
-def _as_list(key: str, value: Any) -> list:
+def _as_list(key: str, value: Any) -> list[Any]:
     if not isinstance(value, (list, tuple)):
         raise ValueError(f"optimizer.{key}: {value!r} is not a list")
     return list(value)

@@ -2,8 +2,8 @@
 
 An archive is an SQLite file (``sqlite:///path/to/archive.sqlite``, a path relative to the
 folder demcal runs in, like ``results/``) or a PostgreSQL database
-(``postgresql://user:password@host:5432/name``, driven by psycopg 3). The default is
-:data:`DEFAULT_URL`, one file beside the studies of a project.
+(``postgresql://user:password@host:5432/name``, driven by psycopg 3). The default, one file
+beside the studies of a project, is the study schema's (``archive.url``).
 """
 
 from __future__ import annotations
@@ -12,13 +12,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from demcal.errors import ConfigError
-from demcal.results.layout import RESULTS
 
 if TYPE_CHECKING:
     from sqlalchemy import Engine
 
-#: The archive of a study that names none: one SQLite file for every study of the project.
-DEFAULT_URL = f"sqlite:///{RESULTS.as_posix()}/archive.sqlite"
 #: Seconds an SQLite writer waits for another writer's lock before giving up.
 SQLITE_BUSY_SECONDS = 60.0
 #: Seconds a PostgreSQL connection attempt may take (an unreachable server fails the write).

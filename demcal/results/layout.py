@@ -38,6 +38,23 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 RESULTS = Path("results")
+#: The names of the results files that other modules also need (the records name their file,
+#: the engines the files of a run directory, globs find studies and simulations): spelled here
+#: once.
+SIMULATION_FILE = "simulation.json"
+RESPONSES_FILE = "responses.json"
+PARTIAL_FILE = "partial.csv"
+STATE_FILE = "state.npz"
+PARAMS_FILE = "params.json"
+OBJECTIVE_FILE = "objective.json"
+RESCORED_FILE = "rescored.json"
+ARCHIVED_FLAG = "archived"
+LAUNCH_FILE = "launch.json"
+STOP_FILE = "STOP"
+STUDY_FILE = "study.json"
+BEST_FILE = "best.json"
+FINISHED_FILE = "finished.json"
+REUSED_FILE = "reused.json"
 #: The columns of a study's early_termination.csv (the daemon appends; the figures read).
 ESTIMATE_COLUMNS = ("elapsed_s", "evaluation", "running_s", "estimate", "limit", "stop", "judged")
 
@@ -50,15 +67,15 @@ class ReplicateFiles:
 
     @property
     def simulation(self) -> Path:
-        return self.dir / "simulation.json"
+        return self.dir / SIMULATION_FILE
 
     @property
     def responses(self) -> Path:
-        return self.dir / "responses.json"
+        return self.dir / RESPONSES_FILE
 
     @property
     def partial(self) -> Path:
-        return self.dir / "partial.csv"
+        return self.dir / PARTIAL_FILE
 
     @property
     def released(self) -> Path:
@@ -67,7 +84,7 @@ class ReplicateFiles:
 
     @property
     def state(self) -> Path:
-        return self.dir / "state.npz"
+        return self.dir / STATE_FILE
 
 
 @dataclass(frozen=True)
@@ -82,28 +99,28 @@ class EvaluationFiles:
 
     @property
     def params(self) -> Path:
-        return self.dir / "params.json"
+        return self.dir / PARAMS_FILE
 
     @property
     def objective(self) -> Path:
-        return self.dir / "objective.json"
+        return self.dir / OBJECTIVE_FILE
 
     @property
     def rescored(self) -> Path:
-        return self.dir / "rescored.json"
+        return self.dir / RESCORED_FILE
 
     @property
     def archived(self) -> Path:
         """Marks that the archive job has recorded the evaluation's simulations."""
-        return self.dir / "archived"
+        return self.dir / ARCHIVED_FLAG
 
     @property
     def launch(self) -> Path:
-        return self.dir / "launch.json"
+        return self.dir / LAUNCH_FILE
 
     @property
     def stop(self) -> Path:
-        return self.dir / "STOP"
+        return self.dir / STOP_FILE
 
     @property
     def logs(self) -> Path:
@@ -143,7 +160,7 @@ class StudyFiles:
 
     @property
     def study(self) -> Path:
-        return self.dir / "study.json"
+        return self.dir / STUDY_FILE
 
     @property
     def calibration(self) -> Path:
@@ -163,15 +180,15 @@ class StudyFiles:
 
     @property
     def best(self) -> Path:
-        return self.dir / "best.json"
+        return self.dir / BEST_FILE
 
     @property
     def finished(self) -> Path:
-        return self.dir / "finished.json"
+        return self.dir / FINISHED_FILE
 
     @property
     def reused(self) -> Path:
-        return self.dir / "reused.json"
+        return self.dir / REUSED_FILE
 
     @property
     def campaign(self) -> Path:

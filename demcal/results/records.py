@@ -39,7 +39,17 @@ from typing import Any, ClassVar, Self
 
 from demcal.errors import SimulationFailed
 from demcal.physics.catalogue import upgrade_parameters
-from demcal.results.layout import EvaluationFiles
+from demcal.results.layout import (
+    BEST_FILE,
+    FINISHED_FILE,
+    LAUNCH_FILE,
+    OBJECTIVE_FILE,
+    PARAMS_FILE,
+    RESPONSES_FILE,
+    REUSED_FILE,
+    SIMULATION_FILE,
+    EvaluationFiles,
+)
 from demcal.results.storage import read_json, write_json
 
 #: Format of the records this version writes (the ``"format"`` key of every file).
@@ -70,6 +80,11 @@ class Status(enum.StrEnum):
     PENDING = "pending"
 
 
+#: The statuses of a simulation or an evaluation that has ended (all but PENDING): what the
+#: optimizer is told and what the archive keeps.
+ENDED = (Status.OK, Status.FAILED, Status.TERMINATED)
+
+
 def status_of(value: Any, where: str) -> Status:
     """The Status spelled ``value``; anything else is a SimulationFailed naming ``where``."""
     try:
@@ -86,7 +101,7 @@ class Record:
     #: the file's usual name, for messages
     FILE: ClassVar[str] = ""
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
         """The record as the file holds it: its fields (None-valued optional ones left out)."""
         out: dict[str, Any] = {"format": FORMAT}
         for f in dataclasses.fields(self):
@@ -97,7 +112,7 @@ class Record:
         return out
 
     @classmethod
-    def from_dict(cls, data: dict, where: str = "") -> Self:
+    def from_dict(cls, data: dict[str, Any], where: str = "") -> Self:
         """The record of a file's dict; ``where`` names the file in errors."""
         where = where or cls.FILE
         if not isinstance(data, dict):
@@ -116,7 +131,7 @@ class Record:
             raise SimulationFailed(f"{where}: malformed ({type(exc).__name__}: {exc})") from None
 
     @classmethod
-    def _from_dict(cls, data: dict, where: str) -> Self:
+    def _from_dict(cls, data: dict[str, Any], where: str) -> Self:
         """The record of the fields it knows, each checked against its annotation."""
         hints = typing.get_type_hints(cls)
         values = {f.name: data[f.name] for f in dataclasses.fields(cls) if f.name in data}
@@ -199,9 +214,9 @@ class PointRecord(Record):
     termination may stop; ``demcal.jobs.evaluation.staged_inputs``).
     """
 
-    FILE: ClassVar[str] = "params.json"
+    FILE: ClassVar[str] = PARAMS_FILE
 
-    parameters: dict
+    parameters: dict[str, Any]
     attempt: int = 0
     previous_failures: list[str] = field(default_factory=list)
     in_initial_design: bool = False
@@ -209,7 +224,7 @@ class PointRecord(Record):
     staged: bool = False
 
     @classmethod
-    def _from_dict(cls, data: dict, where: str) -> Self:
+    def _from_dict(cls, data: dict[str, Any], where: str) -> Self:
         if not isinstance(data.get("parameters"), dict):
             raise SimulationFailed(f"{where} has no 'parameters' object")
         attempt = data.get("attempt", 0)
@@ -240,7 +255,7 @@ class PointRecord(Record):
 class LaunchRecord(Record):
     """``launch.json``: pid and start time (Unix s) of the evaluation's child Snakemake."""
 
-    FILE: ClassVar[str] = "launch.json"
+    FILE: ClassVar[str] = LAUNCH_FILE
 
     pid: int
     started_at: float
@@ -262,14 +277,14 @@ class SimulationRecord(Record):
     that never started is terminated with a reason beginning ``NOT_STARTED``.
     """
 
-    FILE: ClassVar[str] = "simulation.json"
+    FILE: ClassVar[str] = SIMULATION_FILE
 
     evaluation: str
     scene: str
     replicate: int
     engine: str
     engine_version: str
-    settings: dict
+    settings: dict[str, Any]
     timestep_fraction: float
     responses_needed: list[str]
     started_at: float
@@ -277,13 +292,13 @@ class SimulationRecord(Record):
     reason: str = ""
     seed: int | None = None
     attempt: int | None = None
-    parameters: dict = field(default_factory=dict)
-    measurements: dict = field(default_factory=dict)
-    cost: dict = field(default_factory=dict)
+    parameters: dict[str, float] = field(default_factory=dict)
+    measurements: dict[str, float] = field(default_factory=dict)
+    cost: dict[str, float] = field(default_factory=dict)
     ended_at: float | None = None
     state_file: str | None = _optional()
     #: what simulated it (``Study.simulator``); {} in files of demcal before it was recorded
-    simulator: dict = field(default_factory=dict)
+    simulator: dict[str, Any] = field(default_factory=dict)
 
     @property
     def ran(self) -> bool:
@@ -291,7 +306,7 @@ class SimulationRecord(Record):
         return not (self.status == Status.TERMINATED and self.reason.startswith(NOT_STARTED))
 
     @classmethod
-    def _from_dict(cls, data: dict, where: str) -> Self:
+    def _from_dict(cls, data: dict[str, Any], where: str) -> Self:
         record = super()._from_dict(data, where)
         return dataclasses.replace(
             record,
@@ -304,7 +319,7 @@ class SimulationRecord(Record):
 class ResponsesRecord(Record):
     """``responses.json``: the responses of one simulation, or why there are none."""
 
-    FILE: ClassVar[str] = "responses.json"
+    FILE: ClassVar[str] = RESPONSES_FILE
 
     status: Status
     reason: str = ""
@@ -313,10 +328,10 @@ class ResponsesRecord(Record):
     scene: str | None = None
     replicate: int | None = None
     seed: int | None = None
-    cost: dict | None = None
+    cost: dict[str, float] | None = None
 
     @classmethod
-    def _from_dict(cls, data: dict, where: str) -> Self:
+    def _from_dict(cls, data: dict[str, Any], where: str) -> Self:
         record = super()._from_dict(data, where)
         return dataclasses.replace(
             record, status=status_of(record.status, where), responses=record.responses or {}
@@ -337,13 +352,13 @@ class ObjectiveRecord(Record):
     ``cost`` holds ``cpu_s`` and ``simulation_wall_s``.
     """
 
-    FILE: ClassVar[str] = "objective.json"
+    FILE: ClassVar[str] = OBJECTIVE_FILE
 
     evaluation: str
     status: Status
     reason: str = ""
-    parameters: dict = field(default_factory=dict)
-    cost: dict = field(default_factory=dict)
+    parameters: dict[str, Any] = field(default_factory=dict)
+    cost: dict[str, float] = field(default_factory=dict)
     objective: float | None = _optional()
     timestep_cost: float | None = _optional()
     responses: dict[str, float] = field(default_factory=dict)
@@ -353,7 +368,7 @@ class ObjectiveRecord(Record):
     scored_with: str | None = _optional()
 
     @classmethod
-    def _from_dict(cls, data: dict, where: str) -> Self:
+    def _from_dict(cls, data: dict[str, Any], where: str) -> Self:
         record = super()._from_dict(data, where)
         record = dataclasses.replace(record, status=status_of(record.status, where))
         if record.ok and record.objective is None:
@@ -388,7 +403,7 @@ class BestRecord(Record):
     and ``evaluations`` counts the ``new`` evaluations and the ``reused`` points.
     """
 
-    FILE: ClassVar[str] = "best.json"
+    FILE: ClassVar[str] = BEST_FILE
 
     evaluation: str
     parameters: dict[str, float]
@@ -400,15 +415,15 @@ class BestRecord(Record):
     responses: dict[str, float] = field(default_factory=dict)
     targets: dict[str, float] = field(default_factory=dict)
     relative_errors: dict[str, float] = field(default_factory=dict)
-    predicted_responses: dict[str, dict] = field(default_factory=dict)
+    predicted_responses: dict[str, dict[str, float]] = field(default_factory=dict)
     target_spreads: dict[str, float | None] = field(default_factory=dict)
     on_bounds: dict[str, str] = field(default_factory=dict)
-    confirmation: dict | None = _optional()
+    confirmation: dict[str, Any] | None = _optional()
     reused: bool | None = _optional()
     evaluations: dict[str, int] | None = _optional()
     #: ``{"evaluation", "objective"}`` of the evaluated point whose own runs scored lowest,
     #: when it is not the answer (``demcal.optimizer.best.lowest_run``)
-    lowest_run: dict | None = _optional()
+    lowest_run: dict[str, Any] | None = _optional()
 
 
 @dataclass(frozen=True)
@@ -416,7 +431,7 @@ class FinishedRecord(Record):
     """``finished.json``: written only once the calibration has ended, with its reason and
     the count of evaluations per status."""
 
-    FILE: ClassVar[str] = "finished.json"
+    FILE: ClassVar[str] = FINISHED_FILE
 
     reason: str
     ended_at: float | None = None
@@ -440,10 +455,10 @@ class ReusedRecord(Record):
     ``archive`` is the archive's URL as shown (without a password).
     """
 
-    FILE: ClassVar[str] = "reused.json"
+    FILE: ClassVar[str] = REUSED_FILE
 
     archive: str
-    points: list[dict] = field(default_factory=list)
+    points: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def seeds(self) -> frozenset[int]:

@@ -20,6 +20,7 @@ from stat import S_ISREG
 from typing import IO, Any
 
 from demcal.errors import SimulationFailed
+from demcal.results.layout import PARTIAL_FILE
 
 PARTIAL_COLUMNS = ("wall_s", "progress", "stage", "response", "value", "final")
 
@@ -62,17 +63,17 @@ def _finite_or_none(value: Any) -> Any:
     return value
 
 
-def json_text(record: dict) -> str:
+def json_text(record: dict[str, Any]) -> str:
     """A record as demcal writes JSON: sorted keys, indented, non-finite floats as null."""
     return json.dumps(_finite_or_none(record), indent=2, sort_keys=True) + "\n"
 
 
-def write_json(path: Path, record: dict) -> None:
+def write_json(path: Path, record: dict[str, Any]) -> None:
     """Atomically write a JSON record (non-finite floats become null)."""
     atomic_write_text(path, json_text(record))
 
 
-def write_json_if_changed(path: Path, record: dict) -> bool:
+def write_json_if_changed(path: Path, record: dict[str, Any]) -> bool:
     """Write a JSON record unless ``path`` already holds it, so that its modification time
     (Snakemake's rerun trigger) moves only when it changes; True if written."""
     text = json_text(record)
@@ -96,7 +97,7 @@ def byte_size(count: int) -> str:
     return f"{count} bytes" if count < 2**20 else f"{count / 2**20:.3g} MB"
 
 
-def read_json(path: Path | str, what: str, limit: int | None = None) -> dict:
+def read_json(path: Path | str, what: str, limit: int | None = None) -> dict[str, Any]:
     """Read a JSON object; a missing, truncated or garbled file, or one of more than ``limit``
     bytes (read no further), raises SimulationFailed."""
     path = Path(path)
@@ -153,7 +154,7 @@ class PartialWriter:
                 writer.writerow((wall, f"{progress:.4f}", stage, response, value, is_final))
 
 
-def partial_row(row: dict) -> dict | None:
+def partial_row(row: dict[str | None, Any]) -> dict[str, Any] | None:
     """One row of a partial.csv (a dict by its header) with its numbers read; None if damaged."""
     try:
         return {
@@ -168,7 +169,7 @@ def partial_row(row: dict) -> dict | None:
         return None
 
 
-def read_partial(path: Path) -> list[dict]:
+def read_partial(path: Path) -> list[dict[str, Any]]:
     """Rows of a partial.csv as dicts; a torn last line (run still writing) is skipped."""
     try:
         with open(path, newline="") as handle:
@@ -199,7 +200,7 @@ class GrowingCsv:
     def forget(self) -> None:
         """Drop what was learnt from the rows read so far."""
 
-    def take(self, row: dict) -> None:
+    def take(self, row: dict[str | None, str | None]) -> None:
         """Learn from one row."""
 
     def _start(self, identity: tuple[int, int] | None) -> None:
@@ -278,13 +279,13 @@ class LatestReports(GrowingCsv):
     and its latest progress (0-1)."""
 
     def __init__(self, path: Path):
-        super().__init__(path, "partial.csv")
+        super().__init__(path, PARTIAL_FILE)
 
     def forget(self) -> None:
         self.latest: dict[str, tuple[float, bool]] = {}
         self.progress = 0.0
 
-    def take(self, row: dict) -> None:
+    def take(self, row: dict[str | None, str | None]) -> None:
         report = partial_row(row)
         if report is None:
             return

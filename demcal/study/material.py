@@ -24,14 +24,17 @@ import re
 import reprlib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from demcal.errors import ConfigError, SimulationFailed
 from demcal.physics.catalogue import CATALOG, upgrade_parameters
-from demcal.results.layout import StudyFiles
+from demcal.results.layout import STUDY_FILE, StudyFiles
 from demcal.results.records import BestRecord
 from demcal.results.storage import read_json
+from demcal.scenes import Scene
+from demcal.study.schema import default
 
 
 @dataclass(frozen=True)
@@ -59,7 +62,7 @@ class CalibratedMaterial:
     solutions_file: str = ""
     solutions_sha256: str = ""
 
-    def provenance(self) -> dict:
+    def provenance(self) -> dict[str, Any]:
         """What ``study.json`` keeps of it."""
         return {
             "study": self.study,
@@ -103,7 +106,7 @@ def load_material(reference: str) -> CalibratedMaterial:
     try:
         best = BestRecord.read(best_path)
         fingerprint = hashlib.sha256(best_path.read_bytes()).hexdigest()
-        calibration = read_json(study_path, "study.json")
+        calibration = read_json(study_path, STUDY_FILE)
         free = {p["name"]: bool(p.get("scene_setting")) for p in calibration["parameters"]}
         fixed = upgrade_parameters(calibration["fixed"])
         name, engine = str(calibration["study"]), str(calibration["engine"]["name"])
@@ -207,5 +210,83 @@ def load_robust_material(reference: str, count: int, seed: int) -> CalibratedMat
 
 def _free_material(folder: Path) -> set[str]:
     """The material parameters the calibration in ``folder`` left free."""
-    calibration = read_json(StudyFiles(folder).study, "study.json")
+    calibration = read_json(StudyFiles(folder).study, STUDY_FILE)
     return {p["name"] for p in calibration["parameters"] if not p.get("scene_setting")}
+
+
+def with_material(
+    config: dict[str, Any], scenes: dict[str, Scene]
+) -> tuple[dict[str, Any], dict[str, Any] | None, tuple[dict[str, float], ...], list[str]]:
+    """The study file with the calibrated material (``material:``) filled in wherever the
+    file neither fixes nor frees a value; the material's provenance; with ``robust``, the
+    materials drawn for the replicates (the values this study takes from the calibration);
+    and warnings for each calibrated value the file replaces and each parameter the
+    calibration did not have."""
+    if "material" not in config:
+        return config, None, (), []
+    material = load_calibrated_material(config)
+    free, warnings = config["parameters"], []
+    fixed = dict(config.get("fixed", {}))
+    source = f"the calibration {material.study!r}"
+    if material.engine != config["engine"]["name"]:
+        warnings.append(
+            f"material: {source} simulated with {material.engine}, this study with "
+            f"{config['engine']['name']}; their contact models differ, so its values may not "
+            f"carry over"
+        )
+    for name in sorted({p for s in scenes.values() for p in s.parameters} - set(free)):
+        if name not in material.parameters:
+            if name not in fixed:
+                warnings.append(
+                    f"material: {source} did not simulate with {name}; its default "
+                    f"{CATALOG[name].default:g} is used (give it under fixed)"
+                )
+        elif name in fixed:
+            if fixed[name] != material.parameters[name]:
+                warnings.append(
+                    f"fixed.{name} = {fixed[name]:g} replaces {material.parameters[name]:g} "
+                    f"of {source}"
+                )
+        else:
+            fixed[name] = material.parameters[name]
+    taken = set(fixed) - set(config.get("fixed", {}))
+    draws = tuple({k: v for k, v in draw.items() if k in taken} for draw in material.draws)
+    scene_config = {
+        name: {**entry, "settings": dict(entry.get("settings") or {})}
+        for name, entry in config.get("scenes", {}).items()
+    }
+    for setting, value in material.settings.items():
+        for name in (n for n, scene in scenes.items() if setting in scene.settings):
+            given = scene_config.setdefault(name, {"settings": {}})["settings"]
+            if setting in free:
+                continue
+            if setting not in given:
+                given[setting] = value
+            elif given[setting] != value:
+                warnings.append(
+                    f"scenes.{name}.settings.{setting} = {given[setting]:g} replaces "
+                    f"{value:g} of {source}"
+                )
+    return (
+        {**config, "fixed": fixed, "scenes": scene_config},
+        material.provenance(),
+        draws,
+        warnings,
+    )
+
+
+def load_calibrated_material(config: dict[str, Any]) -> CalibratedMaterial:
+    """The calibration ``material:`` names (a reference, or ``{calibration, robust}``)."""
+    spec = config["material"]
+    if isinstance(spec, str):
+        return load_material(spec)
+    if not spec.get("robust", False):
+        return load_material(spec["calibration"])
+    replicates = int(config.get("replicates", default("replicates")))
+    if replicates < 2:
+        raise ConfigError(
+            f"replicates: {replicates}; material.robust draws one material from the "
+            f"calibration's solution set per replicate, so it needs replicates >= 2"
+        )
+    seed = int(config.get("seed", default("seed")))
+    return load_robust_material(spec["calibration"], replicates, seed)

@@ -19,6 +19,7 @@ from collections.abc import Collection, Sequence
 from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -34,7 +35,7 @@ from demcal.physics.catalogue import (
     upgrade_parameters,
 )
 from demcal.physics.timestep import RAYLEIGH_PARAMETERS, rayleigh_cost, rayleigh_time_range
-from demcal.results.layout import StudyFiles
+from demcal.results.layout import STUDY_FILE, StudyFiles
 from demcal.results.storage import read_json, write_json_if_changed
 from demcal.scenes import SCENES, Scene
 from demcal.scenes.base import variable_settings
@@ -77,7 +78,7 @@ class Study:
     name: str
     engine: Engine
     scenes: dict[str, Scene]
-    settings: dict[str, dict]
+    settings: dict[str, dict[str, Any]]
     free: list[FreeParameter]
     fixed: dict[str, float]
     targets: list[Target]
@@ -93,14 +94,14 @@ class Study:
     objective_form: str = DEFAULT_FORM
     #: W_RL of the Rayleigh time-step cost term (Rackl & Hanley 2017, eq. 10); 0 = off.
     rayleigh_cost_weight: float = 0.0
-    calibration: dict = field(default_factory=dict)
+    calibration: dict[str, Any] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
     #: URL of the archive every simulation is recorded in (demcal.archive); None: none
     archive: str | None = None
     #: "archive": start from the archive's compatible simulations (docs/archive.md); None: off
     reuse: str | None = None
     #: where the material came from when a calibration gave it (``CalibratedMaterial``)
-    material: dict | None = None
+    material: dict[str, Any] | None = None
     #: robust material: replicate r simulates with draw r over the fixed values, and the
     #: objective is the expected loss over the draws (docs/studies.md); empty: one material
     material_draws: tuple[dict[str, float], ...] = ()
@@ -212,7 +213,7 @@ class Study:
             **{k: float(v) for k, v in free_values.items() if k in material},
         }
 
-    def settings_for(self, scene: str, free_values: dict[str, float]) -> dict:
+    def settings_for(self, scene: str, free_values: dict[str, float]) -> dict[str, Any]:
         """The settings ``scene`` runs a point with: its resolved settings overlaid with the
         point's values of the free settings it declares."""
         return {
@@ -224,7 +225,7 @@ class Study:
             },
         }
 
-    def archive_view(self, scene: str) -> tuple[dict, dict[str, float], list[str]]:
+    def archive_view(self, scene: str) -> tuple[dict[str, Any], dict[str, float], list[str]]:
         """What an archived simulation of ``scene`` must share with this study to serve its
         models: the settings that are not variable, the value of every fixed parameter and
         fixed variable setting, and the models' inputs (the free parameters the scene reads).
@@ -239,7 +240,7 @@ class Study:
         inputs = [p.name for p in self.free if not p.spec.scene_setting or p.name in variable]
         return settings, fixed, inputs
 
-    def simulator(self, scene: str) -> dict:
+    def simulator(self, scene: str) -> dict[str, Any]:
         """What simulated ``scene``, beyond the parameters, settings, seed and time step: the
         engine (name, version, the settings that change responses, the files a command reads)
         and the scene's script for it. Simulations are the same simulator's only if these
@@ -286,7 +287,7 @@ def demcal_version() -> str:
         return "unknown"
 
 
-def study_record(study: Study) -> dict:
+def study_record(study: Study) -> dict[str, Any]:
     """The resolved study as a JSON-able mapping (the content of ``study.json``)."""
     return {
         "demcal_version": demcal_version(),
@@ -329,7 +330,7 @@ def study_record(study: Study) -> dict:
     }
 
 
-def study_from_record(record: dict) -> Study:
+def study_from_record(record: dict[str, Any]) -> Study:
     """The ``Study`` of a record written by :func:`study_record` (trusted: not validated again)."""
     engine = dict(record["engine"])
     scenes = {scene["name"]: SCENES.load(scene["name"]) for scene in record["scenes"]}
@@ -382,7 +383,7 @@ def _default_archive() -> str:
 def load_frozen(path: Path | str) -> Study:
     """The study frozen in a ``study.json`` (what jobs and child processes work from)."""
     try:
-        return study_from_record(read_json(path, "study.json"))
+        return study_from_record(read_json(path, STUDY_FILE))
     except SimulationFailed as exc:
         raise ConfigError(f"{exc}; run the study file again to write it") from None
     except (KeyError, TypeError, ValueError) as exc:
@@ -392,7 +393,7 @@ def load_frozen(path: Path | str) -> Study:
         ) from None
 
 
-def incompatible_changes(old: dict, new: dict) -> list[str]:
+def incompatible_changes(old: dict[str, Any], new: dict[str, Any]) -> list[str]:
     """Fields in which ``new`` differs from ``old`` so that stored simulations no longer compare.
 
     Allowed: the budget and stopping rules (``RESUMABLE_OPTIMIZER_SETTINGS``),
@@ -461,7 +462,7 @@ def freeze(study: Study) -> Study:
     record = study_record(study)
     if path.exists():
         try:
-            old = read_json(path, "study.json")
+            old = read_json(path, STUDY_FILE)
         except SimulationFailed as exc:
             raise ConfigError(f"{exc}; move it away to start the study afresh") from None
         if "staging" not in old:  # begun before staging: its evaluations keep running at once
@@ -477,7 +478,7 @@ def freeze(study: Study) -> Study:
                 f"give the study a new name, or move {study.files.dir} away"
             )
     write_json_if_changed(path, record)  # unchanged: its time stays, nothing reruns
-    return study_from_record(read_json(path, "study.json"))
+    return study_from_record(read_json(path, STUDY_FILE))
 
 
 def _short(value: object, limit: int = 60) -> str:

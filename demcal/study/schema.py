@@ -21,7 +21,7 @@ def _field_path(error: jsonschema.ValidationError) -> str:
     return "".join(parts).lstrip(".") or "(top level)"
 
 
-def _schema_message(error: jsonschema.ValidationError, schema: dict) -> str:
+def _schema_message(error: jsonschema.ValidationError, schema: dict[str, Any]) -> str:
     """One clear sentence for a schema violation: field, value, what is allowed."""
     where, kind = _field_path(error), error.validator
     # jsonschema's stubs add an "unset" marker to these; a reported error has them all set
@@ -83,8 +83,10 @@ def _reads_as_number(text: str) -> bool:
 
 
 @functools.cache
-def load_schema() -> dict:
-    schema: dict = yaml.safe_load(SCHEMA_PATH.read_text())  # a mapping: the schema's top level
+def load_schema() -> dict[str, Any]:
+    schema: dict[str, Any] = yaml.safe_load(
+        SCHEMA_PATH.read_text()
+    )  # a mapping: the schema's top level
     return schema
 
 
@@ -99,7 +101,7 @@ def default(*path: str) -> Any:
     return node["default"]
 
 
-def validate_schema(config: dict) -> None:
+def validate_schema(config: dict[str, Any]) -> None:
     schema = load_schema()
     validator = jsonschema.Draft202012Validator(schema)
     error = jsonschema.exceptions.best_match(validator.iter_errors(config))

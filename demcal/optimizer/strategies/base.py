@@ -13,6 +13,7 @@ their choice of candidate; the maths is in :mod:`..candidates`.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -77,8 +78,8 @@ class History:
     initial_size: int
     reused: int = 0
     responses: ResponsePredictor | None = None
-    response_means: tuple[dict | None, ...] = ()
-    strategy_state: dict = field(default_factory=dict)
+    response_means: tuple[dict[str, float] | None, ...] = ()
+    strategy_state: dict[str, Any] = field(default_factory=dict)
 
     @property
     def dimension(self) -> int:

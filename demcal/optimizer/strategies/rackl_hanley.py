@@ -29,6 +29,8 @@ iteration and the run counts of each phase.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy.optimize import least_squares
@@ -136,17 +138,17 @@ class RacklHanley(Strategy):
         return self._next_iteration(history, state)
 
     @staticmethod
-    def _hand_out(state: dict) -> np.ndarray:
+    def _hand_out(state: dict[str, Any]) -> np.ndarray:
         state["dem_runs"] += 1
         return np.array(state["queue"].pop(0))
 
-    def _start_iteration(self, state: dict, trial: np.ndarray) -> np.ndarray:
+    def _start_iteration(self, state: dict[str, Any], trial: np.ndarray) -> np.ndarray:
         points = [trial, *stencil(trial)]
         state["iteration"] = [p.tolist() for p in points]
         state["queue"] = [p.tolist() for p in points]
         return self._hand_out(state)
 
-    def _next_iteration(self, history: History, state: dict) -> np.ndarray | None:
+    def _next_iteration(self, history: History, state: dict[str, Any]) -> np.ndarray | None:
         found = [_find(history, p) for p in state["iteration"]]
         indices = [i for i in found if i is not None]
         if len(indices) < len(found) or any(history.statuses[i] == Status.PENDING for i in indices):
@@ -212,7 +214,7 @@ class RacklHanley(Strategy):
         )
 
     @staticmethod
-    def _stop(state: dict, why: str) -> None:
+    def _stop(state: dict[str, Any], why: str) -> None:
         state["stop_reason"] = (
             f"Rackl & Hanley's Levenberg–Marquardt on the simulations ended ({why}) after "
             f"{state['iterations']} accepted iterations; runs: {state['sampling_runs']} sampling, "
