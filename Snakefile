@@ -1,6 +1,6 @@
 # demcal: calibration of DEM simulations as a Snakemake workflow.
-# The workflow lives in workflow/Snakefile (rules in workflow/rules/); this file
-# lets `snakemake` run it from the project folder.
+# The workflow lives in workflow/Snakefile (rules in workflow/rules/, their job
+# scripts in scripts/); this file lets `snakemake` run it from the project folder.
 #
 #   snakemake --profile profiles/local           # calibrate config/config.yaml
 #   snakemake --profile profiles/slurm           # the same, simulations as SLURM jobs

@@ -2,7 +2,7 @@
 
 The Snakefile, rules, job scripts, report captions, schema and profiles live
 at the top of the source tree (where Snakemake users expect them); a wheel
-carries them as ``demcal/project/{workflow,profiles}``, where
+carries them as ``demcal/project/{workflow,scripts,profiles}``, where
 ``demcal.resources`` finds them when there is no source tree.
 """
 
@@ -14,12 +14,12 @@ PROJECT_FILES = {
         [
             "Snakefile",
             "rules/*.smk",
-            "scripts/*.py",
             "report/*.rst",
             "report/*.css",
             "schemas/*.yaml",
         ],
     ),
+    "demcal.project.scripts": ("scripts", ["*.py"]),
     "demcal.project.profiles": ("profiles", ["*/config.yaml"]),
 }
 

@@ -60,9 +60,9 @@ LAYOUT = "demcal/results/layout.py"
 
 
 def python_sources(root: Path) -> list[Path]:
-    scripts = root / "workflow" / "scripts"  # top-level scripts/ before the second step
+    scripts = root / "scripts"  # workflow/scripts/ from the second step to the third
     if not scripts.is_dir():
-        scripts = root / "scripts"
+        scripts = root / "workflow" / "scripts"
     return sorted([*root.joinpath("demcal").rglob("*.py"), *scripts.glob("*.py")])
 
 

@@ -20,7 +20,7 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-from demcal.jobs.evaluation import extract, simulate
+from demcal.jobs.steps import extract, simulate
 from demcal.results.records import PointRecord
 from demcal.study.config import load_study_file
 

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import yaml
 
-from demcal.jobs.evaluation import extract, simulate
+from demcal.jobs.steps import extract, simulate
 from demcal.results.records import PointRecord
 from demcal.scenes.cylinder_lift import TINY_SETTINGS
 from demcal.study.config import load_study

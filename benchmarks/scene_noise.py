@@ -27,7 +27,7 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-from demcal.jobs.evaluation import extract, simulate
+from demcal.jobs.steps import extract, simulate
 from demcal.results.records import PointRecord
 from demcal.results.storage import write_json
 from demcal.study.config import load_study

@@ -1,9 +1,9 @@
 """Where demcal finds its workflow files: the Snakefile, rules, scripts, schema and profiles.
 
 In a source checkout (``pip install -e .``) they are the checkout's own
-``workflow/`` (with its rules and job scripts) and ``profiles/``; an installed wheel carries the
-same files inside the package (``demcal/project/``, see pyproject.toml). One
-root serves both, found once here.
+``workflow/`` (with its rules), ``scripts/`` (the job scripts) and ``profiles/``; an installed
+wheel carries the same files inside the package (``demcal/project/``, see setup.py). One root
+serves both, found once here.
 """
 
 from __future__ import annotations

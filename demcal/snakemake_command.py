@@ -128,8 +128,8 @@ def report_command(study_file: Path | str, report: Path | str) -> list[str]:
 
 
 def dag_command(study_file: Path | str, target: Path | str) -> list[str]:
-    """The DAG of the jobs that build ``target``, in Graphviz's dot language on stdout (an
-    objective.json the daemon wrote after ending its child may still be marked incomplete)."""
+    """The DAG of the jobs that build ``target``, in Graphviz's dot language on stdout (without
+    the lock and past incomplete marks: it only reads, beside a running calibration)."""
     return snakemake_command(
         study_file, "--nolock", "--ignore-incomplete", "--dag", "dot", str(target)
     )

@@ -32,7 +32,7 @@ from functools import cache
 from pathlib import Path
 
 import yaml
-from conftest import ANALYTIC_STUDY
+from helpers import ANALYTIC_STUDY
 
 #: Where a finished tiny calibration is kept once per process (``finished_study``).
 STUDY_FILE = "study.yaml"

@@ -5,7 +5,7 @@ README's ``snakemake --profile profiles/<local|slurm> --configfile=FILE``
 (tests/test_bad_inputs.py), and must end in one line naming the field or
 file, with no traceback, no simulation started and nothing written outside
 ``results/``. ``benchmarks/bad_inputs.py`` counts how each route handles the
-corpus (clean, traceback, silent, wrongly accepted). tests/test_config.py
+corpus (clean, traceback, silent, wrongly accepted). tests/study/test_config.py
 checks the config cases in-process against ``load_study`` as well.
 
 A case is a mutation of ``BASE`` (``where`` a path of keys, ``value`` the
@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import yaml
-from conftest import ANALYTIC_STUDY
+from helpers import ANALYTIC_STUDY
 
 ROOT = Path(__file__).resolve().parents[1]
 

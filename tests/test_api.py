@@ -12,9 +12,8 @@ import numpy as np
 import pandas as pd
 import pytest
 import yaml
-from conftest import ANALYTIC_STUDY
+from helpers import ANALYTIC_STUDY, calibrate, config
 from matplotlib.figure import Figure
-from test_calibration_loop import calibrate, config
 
 import demcal
 from demcal.errors import ConfigError, DemcalError

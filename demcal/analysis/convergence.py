@@ -28,7 +28,7 @@ import pandas as pd
 
 from demcal.engines.base import SimulationJob
 from demcal.errors import ConfigError, DemcalError
-from demcal.jobs.evaluation import run_engine, scene_responses
+from demcal.jobs.steps import run_engine, scene_responses
 from demcal.physics.timestep import check_fraction
 from demcal.results.layout import STOP_FILE
 from demcal.results.records import Status

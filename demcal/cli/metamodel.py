@@ -325,7 +325,7 @@ def validate_answer(
     from demcal.cli.cost import cost_line, per_scene
     from demcal.daemon.session import locked_study
     from demcal.domain.campaign import run, runs_at_once, simulations_per_point
-    from demcal.jobs.evaluation import response_paths
+    from demcal.jobs.steps import response_paths
     from demcal.results.records import PointRecord, ResponsesRecord, Status
 
     profile = Path(args.profile)

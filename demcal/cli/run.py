@@ -15,7 +15,7 @@ from demcal.cli.options import evaluation_arguments
 from demcal.cli.study_argument import study_yaml
 from demcal.daemon.session import DAEMON_LOG_FORMAT, calibrate, locked_study
 from demcal.errors import DemcalError
-from demcal.jobs.evaluation import reused_objectives
+from demcal.jobs.steps import reused_objectives
 from demcal.reporting.terminal import (
     ANSWER_VERSUS_LOWEST_RUN,
     CHOSEN_BY,

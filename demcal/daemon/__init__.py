@@ -2,8 +2,10 @@
 
 - ``loop``: the calibration loop (``Calibration``: propose, launch, collect,
   retry, early-termination watch, stopping rules);
-- ``children``: child-process supervision (start, alive, re-attach, profiles);
-- ``watch``: the early-termination decision, a pure function fed by the loop;
+- ``session``: a study read, frozen and locked, and its calibration run to the end;
+- ``launcher``: child Snakemakes (start, alive, re-attach);
+- ``termination``: what running simulations report, fed to the optimizer's rule;
+- ``progress``: the progress line;
 - ``tables``: what the loop exports (``evaluations.csv``, ``best.json``);
-- ``control``: ``demcal stop`` and ``demcal rerun-failed``.
+- ``control``: the lock, ``demcal stop``, ``add-point``, ``rerun-failed``.
 """

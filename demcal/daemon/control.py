@@ -9,12 +9,12 @@ import os
 import shutil
 import time
 from pathlib import Path
-from typing import TextIO
+from typing import Any, TextIO
 
 from demcal.daemon.launcher import alive
 from demcal.daemon.tables import write_evaluations_csv
 from demcal.errors import ConfigError, DemcalError, SimulationFailed
-from demcal.jobs.evaluation import ask_to_stop
+from demcal.jobs.steps import ask_to_stop
 from demcal.optimizer import Optimizer
 from demcal.results.layout import evaluation_id, proposal_id
 from demcal.results.records import ObjectiveRecord, PointRecord, Status
@@ -179,7 +179,7 @@ def lock_study(study: Study, watch_pid: int | None = None) -> TextIO:
     return lock
 
 
-def _lock_holder(path: Path) -> dict:
+def _lock_holder(path: Path) -> dict[str, Any]:
     """What the lock file says of its holder: pid and watched Snakemake ({} if unreadable)."""
     try:
         holder = json.loads(path.read_text() or "{}")

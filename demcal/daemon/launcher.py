@@ -12,8 +12,6 @@ Snakemake). Tests give the loop a launcher that runs the jobs in-process.
 
 from __future__ import annotations
 
-import os
-import signal
 import subprocess
 import time
 from dataclasses import dataclass
@@ -37,10 +35,6 @@ class Running(Protocol):
 
     def returncode(self) -> int | None: ...
 
-    def end(self) -> None:
-        """Ask it to end now (its result has been taken)."""
-        ...
-
 
 class Launcher(Protocol):
     """Runs evaluations for the calibration loop."""
@@ -60,9 +54,8 @@ class Child:
 
     evaluation: str
     pid: int
-    process: subprocess.Popen | None
+    process: subprocess.Popen[bytes] | None
     started: float
-    target: str = ""  # what it builds: a re-attached child is ended only while it still is
 
     def finished(self) -> bool:
         if self.process is not None:
@@ -71,21 +64,6 @@ class Child:
 
     def returncode(self) -> int | None:
         return None if self.process is None else self.process.returncode
-
-    def end(self) -> None:
-        """SIGKILL to the child's session (the Snakemake and any local job it runs).
-
-        Not SIGTERM: Snakemake takes that as "finish the running jobs first", and
-        so waits for the executor's next status check. Once the daemon ends a
-        child, its jobs have written their outputs and their own Snakemake has
-        cleared the incomplete marks; a later run redoes nothing of them.
-        """
-        if self.process is None and not is_snakemake_for(self.pid, self.target):
-            return  # a re-attached child gone since, its pid perhaps another's now
-        try:
-            os.killpg(self.pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
 
 
 def alive(pid: int) -> bool:
@@ -144,5 +122,5 @@ class SnakemakeLauncher:
             and alive(launch.pid)
             and is_snakemake_for(launch.pid, str(files.objective))
         ):
-            return Child(files.id, launch.pid, None, launch.started_at, str(files.objective))
+            return Child(files.id, launch.pid, None, launch.started_at)
         return None

@@ -14,11 +14,12 @@ again with the same id and values; pending evaluations are re-attached
 (child still alive), read back (objective written) or launched again. A
 completed evaluation is never redone.
 
-An evaluation is taken as soon as all its responses.json are written, while
-its child may still wait for its executor to see the jobs end (SLURM); the
-child then writes objective.json, or, if it has not ended within
-``ENDING_GRACE_S`` or ended without doing so, is ended and the daemon writes
-the same record.
+An evaluation is taken (told to the optimizer) as soon as all its
+responses.json are written, while its child may still wait for its executor
+to see the jobs end (SLURM). Its files are still written by the child's jobs
+only, objective.json and the archive rows by the objective and archive jobs:
+the daemon waits for the child to end, and launches it again, to run just
+those jobs, if it ended (was killed) before them.
 """
 
 from __future__ import annotations
@@ -34,26 +35,21 @@ from demcal.daemon.launcher import Child, Launcher, Running, SnakemakeLauncher, 
 from demcal.daemon.progress import Progress, answer_text
 from demcal.daemon.tables import write_best, write_evaluations_csv
 from demcal.daemon.termination import (
-    append_estimates,
-    early_termination_decisions,
+    EarlyTerminationWatch,
     forget_reports,
-    latest_estimates,
     partial_responses,
-    share_done,
 )
 from demcal.errors import DemcalError, SimulationFailed
-from demcal.jobs.evaluation import (
-    archive,
-    ask_to_stop,
+from demcal.jobs.steps import (
     objective_record,
     rescore,
     response_paths,
     reused_objectives,
 )
-from demcal.optimizer import Optimizer, Proposal, RunProgress, estimate_heading
+from demcal.optimizer import Optimizer, Proposal
 from demcal.optimizer.best import lowest_run
 from demcal.optimizer.evaluation import ReusedPoint
-from demcal.results.layout import EvaluationFiles, evaluation_id, proposal_id
+from demcal.results.layout import SIMULATION_FILE, evaluation_id, proposal_id
 from demcal.results.records import (
     FinishedRecord,
     ObjectiveRecord,
@@ -65,10 +61,6 @@ from demcal.results.storage import atomic_write_text, log_tail, read_json, write
 from demcal.study.model import RESUMABLE_OPTIMIZER_SETTINGS, Study
 
 log = logging.getLogger("demcal.daemon")
-
-#: Seconds a child Snakemake gets to end on its own once its evaluation has been taken, before
-#: the daemon ends it: its SLURM jobs wrote their last file, and end within a second or two.
-ENDING_GRACE_S = 10.0
 
 
 class Calibration:
@@ -95,16 +87,17 @@ class Calibration:
         self.watch_pid = watch_pid
         self.children: dict[str, Running] = {}
         #: evaluations taken from their responses.json whose child Snakemake has not ended
-        #: yet: the child, the outcome the optimizer was told and when (Unix s)
-        self.ending: dict[str, tuple[Running, ObjectiveRecord, float]] = {}
+        #: yet: the child and the outcome the optimizer was told
+        self.ending: dict[str, tuple[Running, ObjectiveRecord]] = {}
+        #: taken evaluations whose child this daemon launched again to run their last jobs
+        self.relaunched: set[str] = set()
         self.names = [p.name for p in study.free]
         self.optimizer = self._load_or_create_optimizer()
         self.started_at = self._load_start_time()
         self.stop_requested: set[str] = set()
-        #: (estimate, limit) last written to early_termination.csv, per evaluation
-        self.recorded_estimates: dict[str, tuple] = {}
-        #: (share done, estimate, estimates reporting) of each running evaluation as it changed
-        self.estimate_history: dict[str, list[tuple[float, float, int]]] = {}
+        self.watch = EarlyTerminationWatch(
+            study, self.optimizer, self.started_at, self.stop_requested
+        )
         self.rescore()
 
     # -- state ------------------------------------------------------------------
@@ -300,7 +293,7 @@ class Calibration:
 
     def _finish_writing(self, evaluation: str) -> None:
         """An evaluation taken from its responses before a daemon ended: its child Snakemake,
-        when still alive, writes its objective.json; else the daemon does."""
+        re-attached when still alive, else launched again, writes its objective.json."""
         files = self.files.evaluation(evaluation)
         if files.objective.exists():
             return
@@ -309,9 +302,9 @@ class Calibration:
             return
         running = self.launcher.reattach(files)
         if running is None:
-            self._write_what_the_child_did_not(evaluation, record)
+            self.run_last_jobs(evaluation, record)
         else:
-            self.ending[evaluation] = (running, record, time.time())
+            self.ending[evaluation] = (running, record)
 
     # -- collecting ----------------------------------------------------------------
     def collect(self) -> None:
@@ -323,58 +316,62 @@ class Calibration:
                 record = self._objective_written(evaluation, child)
             elif (early := self.taken_early(evaluation)) is not None:
                 record = early
-                self.ending[evaluation] = (child, early, time.time())
+                self.ending[evaluation] = (child, early)
             else:
                 continue
             del self.children[evaluation]
-            self.estimate_history.pop(evaluation, None)
+            self.watch.forget(evaluation)
             self.finish(evaluation, record)
-        self.end_taken()
+        self.collect_ending()
 
-    def end_taken(self) -> None:
-        """End the children of taken evaluations: each is given ``ENDING_GRACE_S`` to end on
-        its own (writing objective.json), then ended, and the daemon writes the record.
+    def collect_ending(self) -> None:
+        """Forget the children of taken evaluations that have ended; one that ended before its
+        objective and archive jobs wrote their files (killed) is launched again to run them.
 
         Through SLURM a child learns that its jobs have ended only at the
-        executor's next status check, up to 3 minutes away. Its jobs' outputs
-        are all there by then and the Snakemake inside each job has cleared
-        their incomplete marks, so ending it loses nothing and a later run
-        redoes none of them (checked by hand on the one-node SLURM: a dry run
-        afterwards plans only the objective job).
+        executor's next status check, up to 3 minutes away; it is left to end
+        on its own, as its jobs write the evaluation's last files.
         """
-        now, ended = time.time(), False
-        for evaluation, (child, taken, taken_at) in list(self.ending.items()):
-            files = self.files.evaluation(evaluation)
+        ended = False
+        for evaluation, (child, taken) in list(self.ending.items()):
             if not child.finished():
-                if now - taken_at > ENDING_GRACE_S and not objective_job_started(files, child):
-                    child.end()
                 continue
             del self.ending[evaluation]
-            self._write_what_the_child_did_not(evaluation, taken)
             ended = True
+            if not self.jobs_done(evaluation):
+                self.run_last_jobs(evaluation, taken)
         if ended:
             self.write_tables()
 
-    def _write_what_the_child_did_not(
-        self, evaluation: str, record: ObjectiveRecord | None = None
-    ) -> None:
-        """After a child has ended (on its own, or ended by the daemon): the evaluation's
-        objective.json (``record``, when given and the child did not write it) and its
-        simulations in the archive (:func:`demcal.jobs.evaluation.archive`), the child's last
-        jobs, where it did not run them."""
+    def jobs_done(self, evaluation: str) -> bool:
+        """Whether an evaluation's last jobs have run: its objective.json and archive mark."""
         files = self.files.evaluation(evaluation)
-        if record is not None and not files.objective.exists():
-            record.write(files.objective)
-        if not files.archived.exists():
-            archive(self.study, evaluation)
+        return files.objective.exists() and files.archived.exists()
+
+    def run_last_jobs(self, evaluation: str, taken: ObjectiveRecord) -> None:
+        """Launch the child of a taken evaluation again, once per daemon, to run what its last
+        one did not (objective, archive); its simulations are done and are not redone. A child
+        launched again that ends without them too ends the daemon, the calibration unfinished."""
+        files = self.files.evaluation(evaluation)
+        if evaluation in self.relaunched:
+            raise DemcalError(
+                f"the child Snakemake of {evaluation} ended twice without writing its "
+                f"objective.json and archive (see {files.snakemake_log}); the same command "
+                "resumes the calibration"
+            )
+        self.relaunched.add(evaluation)
+        self.ending[evaluation] = (self.launcher.launch(files), taken)
+        log.info("%s: child launched again to write objective.json and the archive", evaluation)
 
     def _objective_written(self, evaluation: str, child: Running) -> ObjectiveRecord:
         """The outcome of an evaluation whose child has ended: its objective.json; else, when
-        every response is there (a child ended before its objective job), the outcome from
-        them, written; else a failure that says why there is none."""
+        every response is there (a child ended before its last jobs, launched again to run
+        them: :meth:`run_last_jobs`), the outcome taken from them; else a failure that says
+        why there is none."""
         files = self.files.evaluation(evaluation)
-        taken = None if files.objective.exists() else self.taken_early(evaluation)
-        self._write_what_the_child_did_not(evaluation, taken)
+        if not self.jobs_done(evaluation) and (taken := self.taken_early(evaluation)) is not None:
+            self.run_last_jobs(evaluation, taken)
+            return taken
         try:
             return ObjectiveRecord.read(files.objective)
         except SimulationFailed as exc:
@@ -401,7 +398,7 @@ class Calibration:
         try:
             attempt = PointRecord.read(self.files.evaluation(evaluation).params).attempt
             if any(  # a job of an earlier attempt, still running, wrote into the new folders
-                SimulationRecord.read(path.with_name("simulation.json")).attempt
+                SimulationRecord.read(path.with_name(SIMULATION_FILE)).attempt
                 not in (attempt, None)
                 for path in paths
             ):
@@ -477,75 +474,6 @@ class Calibration:
         log.info("%s failed (%s); retry %d of %d", evaluation, reason, point.attempt, self.retries)
         self.launch(evaluation)
 
-    # -- early termination ---------------------------------------------------------
-    def watch_running(self) -> None:
-        """Stop running evaluations whose partial objective is hopeless (thesis sec. 2.6);
-        record each new estimate with its limit in early_termination.csv."""
-        if self.optimizer.best_observed is None:
-            return
-        watched = {
-            evaluation: self._estimate(evaluation)
-            for evaluation in self.children
-            if evaluation not in self.stop_requested
-        }
-        decide = lambda evaluation, estimate: self.optimizer.early_termination(  # noqa: E731
-            proposal_id(evaluation), estimate, self._run_progress(evaluation, estimate)
-        )
-        decisions = early_termination_decisions(watched, decide)
-        now, rows = time.time(), []
-        for evaluation, decision in decisions.items():
-            if self.recorded_estimates.get(evaluation) != (watched[evaluation], decision.limit):
-                self.recorded_estimates[evaluation] = (watched[evaluation], decision.limit)
-                rows.append(
-                    (
-                        f"{now - self.started_at:.1f}",
-                        evaluation,
-                        f"{now - self.children[evaluation].started:.1f}",
-                        f"{watched[evaluation]:.7g}",
-                        "" if decision.limit is None else f"{decision.limit:.7g}",
-                        int(decision.stop),
-                        "" if decision.judged is None else f"{decision.judged:.7g}",
-                    )
-                )
-            if decision.stop:
-                ask_to_stop(
-                    self.files.evaluation(evaluation),
-                    f"stopped early by early termination: {decision.reason}",
-                )
-                self.stop_requested.add(evaluation)
-                log.info("%s: early stop: %s", evaluation, decision.reason)
-        append_estimates(self.files.early_termination, rows)
-
-    def _run_progress(self, evaluation: str, estimate: float) -> RunProgress:
-        """Where a running evaluation stands: its share done and its estimate's heading. The
-        trend starts anew whenever another simulation starts reporting (the estimate, a mean
-        over the reporting ones, jumps then)."""
-        files, scenes = self.files.evaluation(evaluation), list(self.study.scenes)
-        done = share_done(files, scenes, self.study.replicates)
-        estimates = partial_responses(files, scenes, self.study.replicates)
-        reporting = sum(len(estimate["values"]) for estimate in estimates.values())
-        history = self.estimate_history.setdefault(evaluation, [])
-        if history and history[-1][2] != reporting:
-            history.clear()
-        if not history or history[-1][:2] != (done, estimate):
-            history.append((done, estimate, reporting))
-        heading = estimate_heading([(d, e) for d, e, _ in history])
-        provisional = [key for key, estimate in estimates.items() if not estimate["final"]]
-        return RunProgress(done, heading, tuple(sorted(estimates)), tuple(sorted(provisional)))
-
-    def _estimate(self, evaluation: str) -> float | None:
-        """Objective estimate of a running evaluation from its replicates' early estimates."""
-        files = self.files.evaluation(evaluation)
-        cost = 0.0
-        if self.study.rayleigh_cost_weight:
-            try:
-                cost = self.study.timestep_cost(PointRecord.read(files.params).parameters)
-            except DemcalError:
-                return None  # the evaluation will record why
-        return self.study.objective.estimate(
-            latest_estimates(files, list(self.study.scenes), self.study.replicates), cost
-        )
-
     # -- outputs ---------------------------------------------------------------------
     def write_tables(self, stop_reason: str | None = None) -> None:
         write_evaluations_csv(self.study)
@@ -620,7 +548,7 @@ class Calibration:
         while True:
             self.check_parent()
             self.collect()
-            self.watch_running()
+            self.watch.check(self.children)
             if self.files.stop_calibration.exists():
                 reason = reason or "stopped on request (demcal stop)"
             reason = reason or self.optimizer.stop_reason(self.elapsed())
@@ -648,8 +576,8 @@ class Calibration:
         return reason
 
     def wait_for_ending(self) -> None:
-        """Wait until the children of taken evaluations have ended (:meth:`end_taken`), so
-        that the calibration ends with every record on disk."""
+        """Wait until the children of taken evaluations have ended (:meth:`collect_ending`),
+        so that the calibration ends with every record on disk."""
         while self.ending:
             self.check_parent()
             self.collect()
@@ -671,13 +599,3 @@ class Calibration:
                 f"the daemon ends too; {len(self.children)} running evaluations go on and are "
                 f"collected when the same command runs again"
             )
-
-
-def objective_job_started(files: EvaluationFiles, child: Running) -> bool:
-    """Whether the child has started its objective job (its log is newer than the child):
-    that job takes a second or two, and a child ended during it would leave objective.json
-    marked incomplete for Snakemake."""
-    try:
-        return files.job_log("objective").stat().st_mtime >= child.started
-    except OSError:
-        return False

@@ -11,7 +11,7 @@ import shutil
 import sys
 import time
 from dataclasses import dataclass
-from typing import TextIO
+from typing import NoReturn, TextIO
 
 from tqdm import tqdm
 
@@ -81,7 +81,7 @@ class ProgressDisplay:
     ):
         self.stream, self.log, self.every_s = stream, log, every_s
         self.interactive = stream.isatty()
-        self.bar: tqdm | None = None
+        self.bar: tqdm[NoReturn] | None = None
         self.last: Progress | None = None
         self.last_plain = -float("inf")
 

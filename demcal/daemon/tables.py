@@ -9,7 +9,7 @@ from datetime import UTC, datetime
 from typing import TYPE_CHECKING
 
 from demcal.errors import SimulationFailed
-from demcal.jobs.evaluation import reused_objectives
+from demcal.jobs.steps import reused_objectives
 from demcal.optimizer import Optimizer
 from demcal.results.layout import evaluation_id
 from demcal.results.records import BestRecord, LaunchRecord, ObjectiveRecord, PointRecord, Status

@@ -35,7 +35,7 @@ from demcal.archive.store import Archive
 from demcal.daemon.launcher import is_snakemake_for
 from demcal.engines.base import GRACE_SECONDS
 from demcal.errors import ConfigError, SimulationFailed
-from demcal.jobs.evaluation import response_paths
+from demcal.jobs.steps import response_paths
 from demcal.optimizer.designs import (
     EXTENSIBLE,
     cover_measure,

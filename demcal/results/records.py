@@ -211,7 +211,7 @@ class PointRecord(Record):
     ``parameters`` is kept as written (a hand-written file may hold text);
     the simulate job checks it against the study. ``staged``: its first
     simulations run before the others (a staged study's evaluation that early
-    termination may stop; ``demcal.jobs.evaluation.staged_inputs``).
+    termination may stop; ``demcal.jobs.steps.staged_inputs``).
     """
 
     FILE: ClassVar[str] = PARAMS_FILE
@@ -262,7 +262,7 @@ class LaunchRecord(Record):
 
 
 #: How the reason of a simulation that never started begins (its evaluation was stopped, or a
-#: simulation it waited for did not end ok: ``demcal.jobs.evaluation.not_started``).
+#: simulation it waited for did not end ok: ``demcal.jobs.steps.not_started``).
 NOT_STARTED = "not started: "
 
 

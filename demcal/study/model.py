@@ -83,7 +83,7 @@ class Study:
     fixed: dict[str, float]
     targets: list[Target]
     replicates: int
-    #: Which simulations of an evaluation wait for others (``jobs.evaluation.staged_inputs``):
+    #: Which simulations of an evaluation wait for others (``jobs.steps.staged_inputs``):
     #: None, all at once; else replicate 0 of every scene first, each after the scene before
     #: it in this order (empty: together), and the other replicates after them.
     staging: tuple[str, ...] | None

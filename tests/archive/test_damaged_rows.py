@@ -9,7 +9,7 @@ from dataclasses import replace
 
 import pytest
 from archive_helpers import DATABASES, new_archive, record, stored
-from conftest import analytic_example, run_in_process
+from helpers import analytic_example, run_in_process
 from sqlalchemy import text
 
 from demcal.archive.importer import import_results

@@ -9,7 +9,7 @@ import re
 import pandas as pd
 import pytest
 from archive_helpers import record
-from conftest import analytic_example, run_in_process
+from helpers import analytic_example, run_in_process
 
 from demcal.archive import export
 from demcal.archive.importer import import_results
@@ -17,7 +17,7 @@ from demcal.archive.simulation import from_results
 from demcal.archive.store import Archive
 from demcal.cli import main
 from demcal.errors import ConfigError
-from demcal.jobs.evaluation import archive, extract, simulate
+from demcal.jobs.steps import archive, extract, simulate
 from demcal.results.archive_url import check_url
 from demcal.results.layout import StudyFiles
 from demcal.results.records import PointRecord, ResponsesRecord, SimulationRecord, Status

@@ -7,7 +7,7 @@
 
 from pathlib import Path
 
-from demcal.jobs.evaluation import release_marker, response_paths, staged_inputs
+from demcal.jobs.steps import release_marker, response_paths, staged_inputs
 
 EVAL = FILES.evaluation("{evaluation}")
 REPLICATE = EVAL.replicate("{scene}", "{replicate}")
@@ -36,7 +36,7 @@ rule centre_point:
     params:
         study_file=STUDY_FILE,
     script:
-        "../scripts/centre_point.py"
+        "../../scripts/centre_point.py"
 
 
 rule objective:
@@ -49,7 +49,7 @@ rule objective:
     params:
         study_file=STUDY_FILE,
     script:
-        "../scripts/objective.py"
+        "../../scripts/objective.py"
 
 
 # The simulations of an evaluation go into the study's archive from this machine (an SQLite
@@ -64,7 +64,7 @@ rule archive:
     params:
         study_file=STUDY_FILE,
     script:
-        "../scripts/archive.py"
+        "../../scripts/archive.py"
 
 
 # A finished simulation is extracted before the next one starts: with many
@@ -85,7 +85,7 @@ rule extract:
     params:
         study_file=STUDY_FILE,
     script:
-        "../scripts/extract.py"
+        "../../scripts/extract.py"
 
 
 # In a staged study a simulation waits for the first ones (study.staging): this job
@@ -122,4 +122,4 @@ rule simulate:
     params:
         study_file=STUDY_FILE,
     script:
-        "../scripts/simulate.py"
+        "../../scripts/simulate.py"

@@ -48,7 +48,7 @@ rule plots:
     params:
         study_file=STUDY_FILE,
     script:
-        "../scripts/plots.py"
+        "../../scripts/plots.py"
 
 
 # Only for studies whose scenes keep a time series (Scene.history; the transfer chute's
@@ -68,7 +68,7 @@ rule answer_history:
     params:
         study_file=STUDY_FILE,
     script:
-        "../scripts/answer_history.py"
+        "../../scripts/answer_history.py"
 
 
 rule solutions:
@@ -96,7 +96,7 @@ rule solutions:
     params:
         study_file=STUDY_FILE,
     script:
-        "../scripts/solutions.py"
+        "../../scripts/solutions.py"
 
 
 rule evaluation_dag:
@@ -114,4 +114,4 @@ rule evaluation_dag:
     params:
         study_file=STUDY_FILE,
     script:
-        "../scripts/evaluation_dag.py"
+        "../../scripts/evaluation_dag.py"

@@ -1,0 +1,5 @@
+"""Snakemake job: the objective stage of one evaluation (demcal/jobs/steps.py)."""
+
+from demcal.jobs.steps import run_snakemake_job
+
+run_snakemake_job(snakemake, "objective")  # noqa: F821  (snakemake is injected by Snakemake)

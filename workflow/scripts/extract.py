@@ -1,5 +1,0 @@
-"""Snakemake job: the extract stage of one evaluation (demcal/jobs/evaluation.py)."""
-
-from demcal.jobs.evaluation import run_snakemake_job
-
-run_snakemake_job(snakemake, "extract")  # noqa: F821  (snakemake is injected by Snakemake)
