@@ -231,7 +231,8 @@ def gradient_boosting_r2(domain, holdout: str, exclude: list[str]) -> dict[str, 
     training and held-out simulations as the global models: whether it would help."""
     from sklearn.ensemble import GradientBoostingRegressor
 
-    from demcal.domain.metamodel import domain_data, unit_box
+    from demcal.domain.metamodel import domain_data
+    from demcal.optimizer.bounds import to_unit_box
 
     with Archive(domain.archive) as archive:
         train = domain_data(domain, archive, exclude=(holdout, *exclude))
@@ -239,9 +240,9 @@ def gradient_boosting_r2(domain, holdout: str, exclude: list[str]) -> dict[str, 
     scores = {}
     for key, rows in train.responses.items():
         model = GradientBoostingRegressor(random_state=1)
-        model.fit(unit_box(rows.x, train.lower, train.upper), rows.y)
+        model.fit(to_unit_box(rows.x, train.lower, train.upper), rows.y)
         held = test.responses[key]
-        predicted = model.predict(unit_box(held.x, train.lower, train.upper))
+        predicted = model.predict(to_unit_box(held.x, train.lower, train.upper))
         total = float(((held.y - held.y.mean()) ** 2).sum())
         scores[key] = 1.0 - float(((held.y - predicted) ** 2).sum()) / total
     return scores

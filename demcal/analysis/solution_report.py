@@ -41,6 +41,7 @@ from demcal.analysis.solutions import (
 )
 from demcal.daemon.control import saved_optimizer
 from demcal.errors import ConfigError, DemcalError
+from demcal.optimizer.bounds import from_unit_box, to_unit_box
 from demcal.optimizer.membership import (
     BAND_SD,
     LIKELY,
@@ -95,8 +96,7 @@ class SolutionAnalysis:
 
     def in_real_units(self, points_unit: np.ndarray) -> np.ndarray:
         """Points of the unit box (one row each) in the parameters' units."""
-        points: np.ndarray = self.lower + points_unit * (self.upper - self.lower)
-        return points
+        return from_unit_box(points_unit, self.lower, self.upper)
 
     def points(self) -> np.ndarray:
         """The accepted parameter sets in real units."""
@@ -185,7 +185,7 @@ def check_point(analysis: SolutionAnalysis, values: dict[str, float]) -> PointCh
                 f"--point {name}={values[name]:g}: outside its bounds [{lower:g}, {upper:g}]"
             )
     x = np.array([values[name] for name in analysis.names])
-    unit = ((x - analysis.lower) / (analysis.upper - analysis.lower))[None, :]
+    unit = to_unit_box(x, analysis.lower, analysis.upper)[None, :]
     means, stds = analysis.predictor.predict(unit)
     s = analysis.solutions
     targets = analysis.predictor.objective.targets

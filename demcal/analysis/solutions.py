@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 from scipy.stats import qmc
 
+from demcal.optimizer.bounds import from_unit_box
 from demcal.optimizer.membership import (
     BAND_SD,
     LIKELY,
@@ -289,7 +290,8 @@ def _span(points: np.ndarray, i: int, lower: float, upper: float) -> tuple[float
     if not len(points):
         return math.nan, math.nan
     low_u, high_u = float(points[:, i].min()), float(points[:, i].max())
-    return lower + low_u * (upper - lower), lower + high_u * (upper - lower)
+    low, high = from_unit_box([low_u, high_u], lower, upper)
+    return float(low), float(high)
 
 
 def identifiability(

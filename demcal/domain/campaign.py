@@ -36,6 +36,7 @@ from demcal.daemon.launcher import is_snakemake_for
 from demcal.engines.base import GRACE_SECONDS
 from demcal.errors import ConfigError, SimulationFailed
 from demcal.jobs.steps import response_paths
+from demcal.optimizer.bounds import from_unit_box
 from demcal.optimizer.designs import (
     EXTENSIBLE,
     cover_measure,
@@ -68,18 +69,31 @@ ENDED = b"ended"
 #: a small process of its own, so that it outlives its demcal, even a killed one. When its
 #: stdin closes without ENDED, it ends the session as Ctrl-C in a terminal would: SIGTERM to
 #: Snakemake and its jobs (Snakemake alone would let its jobs finish first), then SIGKILL
-#: after the grace time.
+#: after the grace time to those still running. A process that has ended but is not reaped
+#: yet (a zombie: an orphan waits for init, which may take seconds) counts as ended.
 GUARD = f"""
 import os, signal, sys, time
 session, grace = int(sys.argv[1]), float(sys.argv[2])
+
+def running():
+    for entry in os.listdir("/proc"):
+        try:
+            with open(f"/proc/{{entry}}/stat") as stat:
+                state, _, group = stat.read().rsplit(")", 1)[1].split()[:3]
+        except (OSError, ValueError):
+            continue
+        if int(group) == session and state != "Z":
+            return True
+    return False
+
 if sys.stdin.buffer.read() != {ENDED!r}:
     try:
         os.killpg(session, signal.SIGTERM)
         deadline = time.monotonic() + grace
-        while time.monotonic() < deadline:
+        while running() and time.monotonic() < deadline:
             time.sleep(0.1)
-            os.killpg(session, 0)
-        os.killpg(session, signal.SIGKILL)
+        if running():
+            os.killpg(session, signal.SIGKILL)
     except ProcessLookupError:
         pass
 """
@@ -89,7 +103,7 @@ def unit_to_box(study: Study, unit: np.ndarray) -> list[dict[str, float]]:
     """Points of the unit box as free-parameter values inside the study's bounds."""
     lower = np.array([p.lower for p in study.free])
     upper = np.array([p.upper for p in study.free])
-    values = lower + np.asarray(unit) * (upper - lower)
+    values = from_unit_box(unit, lower, upper)
     return [{p.name: float(v) for p, v in zip(study.free, row)} for row in values]
 
 

@@ -32,6 +32,7 @@ from demcal.archive.reuse import compatible_simulations
 from demcal.archive.simulation import digest
 from demcal.archive.store import Archive
 from demcal.errors import ConfigError
+from demcal.optimizer.bounds import to_unit_box
 from demcal.study.model import Study
 
 if TYPE_CHECKING:
@@ -110,12 +111,6 @@ def domain_data(
         },
         digest(sorted(record.key for record in records)),
     )
-
-
-def unit_box(x: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
-    """SI inputs (rows) in the unit box of the domain [lower, upper], where the models live."""
-    unit: np.ndarray = (np.atleast_2d(x) - lower) / (upper - lower)
-    return unit
 
 
 class Model(Protocol):
@@ -250,7 +245,7 @@ class Metamodels:
 
     def unit(self, x: np.ndarray) -> np.ndarray:
         """SI inputs (rows) in the domain's unit box, where the models live."""
-        return unit_box(x, self.lower, self.upper)
+        return to_unit_box(np.atleast_2d(x), self.lower, self.upper)
 
     def predict(self, key: str, kind: str, x: np.ndarray) -> np.ndarray:
         """The model's prediction at SI inputs ``x`` (rows)."""
@@ -272,7 +267,7 @@ def build(
                 f"{key}: {len(rows.y)} simulations in the archive for {len(data.names)} inputs; "
                 f"a global model needs many more: run demcal sample first"
             )
-        unit = unit_box(rows.x, data.lower, data.upper)
+        unit = to_unit_box(np.atleast_2d(rows.x), data.lower, data.upper)
         models[key] = {}
         for kind in kinds:
             models[key][kind] = FITTERS[kind](unit, rows.y, data.names, seed, key)

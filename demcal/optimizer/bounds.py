@@ -10,6 +10,21 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 
+def to_unit_box(x: ArrayLike, lower: ArrayLike, upper: ArrayLike) -> np.ndarray:
+    """Points in real units (rows, or one point) in the unit box of [lower, upper]:
+    (x - lower) / (upper - lower), with no check that they lie inside."""
+    low, high = np.asarray(lower, float), np.asarray(upper, float)
+    unit: np.ndarray = (np.asarray(x, float) - low) / (high - low)
+    return unit
+
+
+def from_unit_box(u: ArrayLike, lower: ArrayLike, upper: ArrayLike) -> np.ndarray:
+    """Points of the unit box (rows, or one point) in real units: lower + u (upper - lower)."""
+    low, high = np.asarray(lower, float), np.asarray(upper, float)
+    points: np.ndarray = low + np.asarray(u, float) * (high - low)
+    return points
+
+
 @dataclass(frozen=True)
 class Bounds:
     """Lower and upper bound of each parameter, in the parameter's own (SI) units."""
@@ -47,14 +62,11 @@ class Bounds:
             raise ValueError(
                 f"point {x.tolist()} is outside the bounds {list(self.lower)} .. {list(self.upper)}"
             )
-        unit: np.ndarray = (x - low) / (high - low)
-        return unit
+        return to_unit_box(x, low, high)
 
     def from_unit(self, u: ArrayLike) -> np.ndarray:
         """Map unit-box points (rows) back to real units."""
-        low, high = np.array(self.lower), np.array(self.upper)
-        points: np.ndarray = low + np.atleast_2d(np.asarray(u, float)) * (high - low)
-        return points
+        return from_unit_box(np.atleast_2d(np.asarray(u, float)), self.lower, self.upper)
 
 
 #: Share of a parameter's range within which a point counts as lying on that bound.

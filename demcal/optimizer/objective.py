@@ -28,10 +28,14 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-OBJECTIVE_FORMS = ("relative", "precision")
+#: The forms of the objective: squared relative errors (Samuelsson 2023, eq. 3.3), or squared
+#: errors in units of the targets' spreads (``precision``). The study file also takes ``auto``
+#: (precision where every target has a spread; the schema's enum).
+RELATIVE, PRECISION = "relative", "precision"
+OBJECTIVE_FORMS = (RELATIVE, PRECISION)
 #: The form a study gets when it names none and its targets have no spreads
 #: (``Study.objective_form``).
-DEFAULT_FORM = "relative"
+DEFAULT_FORM = RELATIVE
 
 #: A response as a number, or as an array of them (model predictions, posterior samples).
 Values = TypeVar("Values", float, np.ndarray)
@@ -163,14 +167,14 @@ def target_error(
     y = np.asarray(simulated, float)
     if target.is_band:
         reference = target.nearest(y)
-        if form == "precision":
+        if form == PRECISION:
             assert target.spread is not None, "the study's config requires spreads for this form"
             scale = np.full(y.shape, target.spread)
         else:  # relative to the bound passed; absolute where that bound is 0
             scale = np.where(reference == 0.0, 1.0, np.abs(reference))
         gap: np.ndarray = (y - reference) / scale
         return gap
-    if form == "precision":
+    if form == PRECISION:
         assert target.spread is not None, "the study's config requires spreads for this form"
         return (y - target.value) / target.spread
     return relative_error(y, target.value)
@@ -206,6 +210,10 @@ class ResponseObjective:
     #: score an evaluation by the mean of its replicates' objectives, the expected loss
     #: (bias² + variance) over materials drawn per replicate, not by its mean responses
     expected_loss: bool = False
+
+    def __post_init__(self) -> None:
+        if self.form not in OBJECTIVE_FORMS:
+            raise ValueError(f"objective form {self.form!r} is not one of {OBJECTIVE_FORMS}")
 
     def __call__(self, responses: Mapping[str, float | np.ndarray]) -> float | np.ndarray:
         return objective_values(self.targets, responses, self.form)

@@ -35,6 +35,8 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from demcal.errors import SimulationFailed
+from demcal.optimizer.bounds import to_unit_box
+from demcal.optimizer.objective import PRECISION
 from demcal.reporting.terminal import time_unit
 from demcal.results.layout import ESTIMATE_COLUMNS, proposal_id
 from demcal.results.records import BestRecord, SimulationRecord, Status
@@ -80,7 +82,7 @@ def load_table(study: Study) -> pd.DataFrame:
 
 def objective_label(study: Study) -> str:
     """The objective's axis label in words, for the study's form."""
-    if study.objective_form == "precision":
+    if study.objective_form == PRECISION:
         return "mismatch with the targets\n(sum of squared errors in target spreads)"
     return "mismatch with the targets\n(sum of squared relative errors)"
 
@@ -271,7 +273,8 @@ def plot_parallel_coordinates(
     fig = new_figure(max(6.0, 1.6 * len(study.free)), 4.2)
     ax = fig.subplots()
     ok = table[table["status"] == Status.OK].sort_values("objective", ascending=False)
-    scaled = np.column_stack([(ok[p.name] - p.lower) / (p.upper - p.lower) for p in study.free])
+    lower, upper = [p.lower for p in study.free], [p.upper for p in study.free]
+    scaled = to_unit_box(np.column_stack([ok[p.name] for p in study.free]), lower, upper)
     positions = np.arange(len(study.free))
     if len(ok):
         # poor in dark purple, the best last, in yellow
@@ -281,7 +284,7 @@ def plot_parallel_coordinates(
     if best is not None:
         ax.plot(
             positions,
-            [(best.parameters[p.name] - p.lower) / (p.upper - p.lower) for p in study.free],
+            to_unit_box([best.parameters[p.name] for p in study.free], lower, upper),
             color="red",
             lw=2.5,
             label="best point",

@@ -18,7 +18,7 @@ from demcal.engines import make_engine
 from demcal.engines.base import Engine
 from demcal.errors import ConfigError
 from demcal.optimizer import OptimizerSettings
-from demcal.optimizer.objective import DEFAULT_FORM
+from demcal.optimizer.objective import DEFAULT_FORM, PRECISION
 from demcal.optimizer.registry import STRATEGIES
 from demcal.physics.catalogue import CATALOG, SPLIT_PARAMETERS
 from demcal.physics.timestep import RAYLEIGH_PARAMETERS, check_fraction
@@ -272,8 +272,8 @@ def load_study(config: dict[str, Any], check_engine: bool = True) -> Study:
     form = config.get("objective", default("objective"))
     unspread = [i for i, t in enumerate(targets) if not t.spread]
     if form == "auto":  # weigh each error by its measurement spread when every spread is known
-        form = DEFAULT_FORM if unspread else "precision"
-    if form == "precision" and unspread:
+        form = DEFAULT_FORM if unspread else PRECISION
+    if form == PRECISION and unspread:
         raise ConfigError(
             f"targets[{unspread[0]}].spread: the precision-weighted objective "
             f"measures each error in units of its target's spread; give every "
