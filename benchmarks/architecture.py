@@ -52,6 +52,9 @@ RESULT_FILES = (
     "rescored.json",
     "STOP",
     "archived",
+    "campaign.json",
+    "calibration.json",
+    "solutions.csv",
 )
 #: A quoted string in the workflow's files that holds a file name (no whitespace in it).
 QUOTED = r"[\"'][^\"'\s]*{}[^\"'\s]*[\"']"

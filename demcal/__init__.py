@@ -10,12 +10,14 @@ study = demcal.load("study.yaml")  # a study file, validated
 results = study.run()  # calibrated as `demcal run` does
 ```
 
-See [demcal.api][demcal.api]. The packages by concern: ``study`` (the study, its
-parameters, targets and objective), ``results`` (files and records under
-``results/<study>/``), ``jobs`` (the jobs of one evaluation), ``physics``,
-``engines`` and ``scenes`` (simulators and lab tests), ``optimizer``
-(surrogate-based ask/tell), ``daemon`` (the calibration loop),
-``reporting``, ``analysis`` and ``cli`` (the ``demcal`` command).
+See [demcal.api][demcal.api]. The packages by concern, from the ground up (the order
+``.importlinter`` checks): ``physics`` (granular helpers, the parameter catalogue),
+``results`` (files and records under ``results/<study>/``), ``engines`` and ``scenes``
+(simulators and lab tests), ``optimizer`` (surrogate-based ask/tell and the objective),
+``study`` (the study file and model), ``archive`` (every simulation, kept once), ``jobs``
+(the jobs of one evaluation), ``daemon`` (the calibration loop), ``reporting``,
+``analysis``, ``domain`` (sampled domains and their global metamodels), and ``cli`` (the
+``demcal`` command) beside ``api``.
 """
 
 from __future__ import annotations

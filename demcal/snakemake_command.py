@@ -26,7 +26,7 @@ import subprocess
 import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import yaml
 
@@ -191,3 +191,13 @@ def invocation_profile(argv: Sequence[str], environ: Mapping[str, str]) -> Path:
 def report_requested(argv: Sequence[str]) -> bool:
     """Whether a Snakemake command line asks for the report."""
     return any(arg == "--report" or arg.startswith("--report=") for arg in argv)
+
+
+class ScriptJob(Protocol):
+    """What Snakemake hands a workflow script as ``snakemake`` (the parts used here)."""
+
+    input: Sequence[str]
+    output: Sequence[str]
+    log: Sequence[str]
+    params: Any  # the rule's params by name (study_file)
+    wildcards: Any  # the job's wildcards by name (evaluation, scene, replicate)

@@ -539,9 +539,6 @@ FILES = [
 
 #: Every study-file case of the corpus.
 CASES = FIELDS + NON_FINITE + ESCAPING + FILES
-COMMAND_CASES = {
-    c.name for c in CASES if isinstance(c.value, dict) and c.value.get("name") == "command"
-}
 
 
 @dataclass(frozen=True)

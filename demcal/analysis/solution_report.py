@@ -54,16 +54,10 @@ from demcal.optimizer.responses import (
     final_means,
     replicate_scatter,
 )
-from demcal.reporting.figures import (
-    PngTarget,
-    ReportFigure,
-    ScriptJob,
-    finish_figure,
-    new_figure,
-    save_png,
-)
+from demcal.reporting.figures import PngTarget, ReportFigure, finish_figure, new_figure, save_png
 from demcal.results.layout import BEST_FILE
 from demcal.results.storage import read_json
+from demcal.snakemake_command import ScriptJob
 from demcal.study.model import Study, load_frozen
 
 #: Most points drawn in the corner plot (a thinned, seeded subset of the set).
@@ -299,10 +293,9 @@ def plot_objective_slices(
     axes = fig.subplots(1, len(pairs), squeeze=False)
     axis = np.linspace(0.0, 1.0, grid)
 
-    def scale(k: int, t: float | np.ndarray) -> float | np.ndarray:
+    def scale(k: int, t: float | np.ndarray) -> np.ndarray:
         """Unit-box coordinate ``t`` of parameter ``k`` in its units."""
-        scaled: float | np.ndarray = analysis.lower[k] + t * (analysis.upper[k] - analysis.lower[k])
-        return scaled
+        return from_unit_box(t, analysis.lower[k], analysis.upper[k])
 
     for ax, (i, j) in zip(axes[0], pairs):
         if i == j:

@@ -21,7 +21,7 @@ import pandas as pd
 from demcal.archive.simulation import ArchivedSimulation
 from demcal.errors import ConfigError
 
-#: The file types ``write`` knows, by suffix.
+#: The file types ``write_table`` knows, by suffix.
 FORMATS = (".csv", ".parquet")
 #: Columns of text, which CSV leaves empty where the text is (and pandas reads NaN back).
 TEXT = (
@@ -134,7 +134,7 @@ def write_table(table: pd.DataFrame, path: Path) -> None:
 
 
 def read(path: Path) -> pd.DataFrame:
-    """A table ``write`` wrote."""
+    """A table ``write_table`` wrote."""
     path = Path(path)
     if path.suffix != ".csv":
         return pd.read_parquet(path)

@@ -78,8 +78,7 @@ class SimulationRow(Base):
     started_at: Mapped[float | None] = mapped_column(Double)
     ended_at: Mapped[float | None] = mapped_column(Double)
     recorded_at: Mapped[float] = mapped_column(Double)
-    #: "job" (written by the evaluation's archive job, or by the daemon in its stead) or
-    #: "import" (demcal archive import)
+    #: "job" (written by the evaluation's archive job) or "import" (demcal archive import)
     source: Mapped[str] = mapped_column(String(16))
     demcal_version: Mapped[str] = mapped_column(String(50))
     #: sha256 of what simulated it (``Study.simulator``); "" where unknown (never reused)

@@ -126,7 +126,7 @@ def metamodel_command(args: argparse.Namespace) -> int:
             f"the archive {study.archive}"
         )
     print(validation_table(results))
-    page = study.files.dir / "metamodels" / "validation.html"
+    page = study.files.metamodel_validation
     page.write_text(validation_page(study, models, results))
     print(f"\nresidual histograms and the worst points: {page}")
     return 0
@@ -274,13 +274,9 @@ def calibrate_command(args: argparse.Namespace) -> int:
         print(f"  {calibration.no_solution_reason(result, material)}")
     for verdict in result.analysis.verdicts:
         print(f"  {verdict.sentence}")
-    folder = material.files.metamodel_calibration(args.model)
-    folder.mkdir(parents=True, exist_ok=True)
-    table, figure, path = (
-        folder / "solutions.csv",
-        folder / "solution_space.png",
-        folder / "calibration.json",
-    )
+    files = material.files.metamodel_calibration(args.model)
+    files.dir.mkdir(parents=True, exist_ok=True)
+    table, figure, path = files.solutions, files.solution_space, files.summary
     solutions_table(result.analysis).to_csv(table, index=False, float_format="%.6g")
     plot_corner(result.analysis, {"parameters": best.values}, figure)
     summary = {

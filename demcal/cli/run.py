@@ -132,7 +132,7 @@ def print_best(study: Study) -> None:
 def _commonest_failure(files: StudyFiles) -> str:
     """ ", most often: REASON (n of N)" from evaluations.csv; "" when it has none."""
     try:
-        with open(files.evaluations_csv, newline="") as handle:
+        with open(files.evaluations_csv, newline="", encoding="utf-8") as handle:
             reasons = [row["reason"] for row in csv.DictReader(handle) if row.get("reason")]
     except (OSError, ValueError, KeyError, csv.Error):
         return ""

@@ -49,9 +49,10 @@ from demcal.jobs.steps import (
 from demcal.optimizer import Optimizer, Proposal
 from demcal.optimizer.best import lowest_run
 from demcal.optimizer.evaluation import ReusedPoint
-from demcal.results.layout import SIMULATION_FILE, evaluation_id, proposal_id
+from demcal.results.layout import CALIBRATION_FILE, SIMULATION_FILE, evaluation_id, proposal_id
 from demcal.results.records import (
     FinishedRecord,
+    LaunchRecord,
     ObjectiveRecord,
     PointRecord,
     SimulationRecord,
@@ -153,7 +154,7 @@ class Calibration:
     def _load_start_time(self) -> float:
         """Start of the calibration (calibration.json), written on the first run."""
         if self.files.calibration.exists():
-            return float(read_json(self.files.calibration, "calibration.json")["started_at"])
+            return float(read_json(self.files.calibration, CALIBRATION_FILE)["started_at"])
         now = time.time()
         write_json(self.files.calibration, {"started_at": now, "study": self.study.name})
         return now
@@ -354,13 +355,25 @@ class Calibration:
         launched again that ends without them too ends the daemon, the calibration unfinished."""
         files = self.files.evaluation(evaluation)
         if evaluation in self.relaunched:
+            missing = [
+                what
+                for path, what in (
+                    (files.objective, files.objective.name),
+                    (files.archived, "archive"),
+                )
+                if not path.exists()
+            ]
             raise DemcalError(
                 f"the child Snakemake of {evaluation} ended twice without writing its "
-                f"objective.json and archive (see {files.snakemake_log}); the same command "
+                f"{' and '.join(missing)} (see {files.snakemake_log}); the same command "
                 "resumes the calibration"
             )
         self.relaunched.add(evaluation)
-        self.ending[evaluation] = (self.launcher.launch(files), taken)
+        first = LaunchRecord.read_if_any(files.launch)
+        child = self.launcher.launch(files)
+        if first is not None:  # the evaluation started with its first child (evaluations.csv)
+            LaunchRecord(child.pid, first.started_at).write(files.launch)
+        self.ending[evaluation] = (child, taken)
         log.info("%s: child launched again to write objective.json and the archive", evaluation)
 
     def _objective_written(self, evaluation: str, child: Running) -> ObjectiveRecord:

@@ -118,11 +118,6 @@ def early_termination_decisions(
     }
 
 
-#: Columns of early_termination.csv: one row each time a running evaluation's estimate changes.
-#: ``limit``: what the estimate was held to (empty: none applied); ``judged``: the estimate
-#: compared with it (the estimate, or where its falling trend heads).
-
-
 def append_estimates(path: Path, rows: Sequence[tuple[object, ...]]) -> None:
     """Append rows (``ESTIMATE_COLUMNS``) to the study's early-termination trace; a trace begun
     by an earlier demcal keeps its own columns."""

@@ -24,7 +24,7 @@ import pickle
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -34,9 +34,6 @@ from demcal.archive.store import Archive
 from demcal.errors import ConfigError
 from demcal.optimizer.bounds import to_unit_box
 from demcal.study.model import Study
-
-if TYPE_CHECKING:
-    pass
 
 MODEL_KINDS = ("kriging", "symbolic")
 #: Richter & Will's genetic-programming settings (sec. 2.4): population and parsimony.
@@ -325,12 +322,29 @@ def save(study: Study, models: Metamodels) -> Path:
     return path
 
 
+#: Where the classes of models built before demcal's third architecture step (3b35631) live now.
+MOVED_CLASSES = {
+    ("demcal.metamodel", "Metamodels"): (__name__, "Metamodels"),
+    ("demcal.metamodel", "KrigingModel"): (__name__, "KrigingMetamodel"),
+    ("demcal.metamodel", "SymbolicModel"): (__name__, "SymbolicMetamodel"),
+}
+
+
+class _Unpickler(pickle.Unpickler):
+    """Reads saved models, those of an earlier layout of the code too (`MOVED_CLASSES`)."""
+
+    def find_class(self, module: str, name: str) -> Any:
+        module, name = MOVED_CLASSES.get((module, name), (module, name))
+        return super().find_class(module, name)
+
+
 def load(study: Study) -> Metamodels:
     path = study.files.metamodels
     if not path.is_file():
         raise ConfigError(f"{path}: no metamodels yet; run demcal metamodel build first")
     try:
-        models = pickle.loads(path.read_bytes())
+        with open(path, "rb") as handle:
+            models = _Unpickler(handle).load()
     except (pickle.UnpicklingError, AttributeError, EOFError, ImportError) as exc:
         raise ConfigError(f"{path}: unreadable ({exc}); run demcal metamodel build again") from None
     if not isinstance(models, Metamodels):

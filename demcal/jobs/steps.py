@@ -22,10 +22,10 @@ import platform
 import time
 import traceback
 from collections import defaultdict
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 
@@ -44,19 +44,10 @@ from demcal.results.records import (
 )
 from demcal.results.storage import atomic_write_text
 from demcal.scenes.base import Scene
+from demcal.snakemake_command import ScriptJob
 from demcal.study.model import Study, load_frozen
 
 log = logging.getLogger("demcal")
-
-
-class ScriptJob(Protocol):
-    """What Snakemake hands a workflow script as ``snakemake`` (the parts used here)."""
-
-    input: Sequence[str]
-    output: Sequence[str]
-    log: Sequence[str]
-    params: Any  # the rule's params by name (study_file)
-    wildcards: Any  # the job's wildcards by name (evaluation, scene, replicate)
 
 
 def response_paths(study: Study, evaluation: str) -> list[Path]:

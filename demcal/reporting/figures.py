@@ -24,9 +24,8 @@ import html
 import io
 import shutil
 import subprocess
-from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, BinaryIO, Protocol
+from typing import BinaryIO
 
 import matplotlib
 import numpy as np
@@ -38,10 +37,10 @@ from demcal.errors import SimulationFailed
 from demcal.optimizer.bounds import to_unit_box
 from demcal.optimizer.objective import PRECISION
 from demcal.reporting.terminal import time_unit
-from demcal.results.layout import ESTIMATE_COLUMNS, proposal_id
+from demcal.results.layout import CALIBRATION_FILE, ESTIMATE_COLUMNS, proposal_id
 from demcal.results.records import BestRecord, SimulationRecord, Status
 from demcal.results.storage import read_json
-from demcal.snakemake_command import dag_command
+from demcal.snakemake_command import ScriptJob, dag_command
 from demcal.study.model import Study, load_frozen
 
 FIGURES = (
@@ -70,7 +69,7 @@ def load_table(study: Study) -> pd.DataFrame:
         table = table[table["origin"] != "archive"].reset_index(drop=True)
     table["number"] = table["evaluation"].map(proposal_id)  # as in the files: e0007 is 7
     start = pd.Timestamp(
-        read_json(study.files.calibration, "calibration.json")["started_at"], unit="s", tz="UTC"
+        read_json(study.files.calibration, CALIBRATION_FILE)["started_at"], unit="s", tz="UTC"
     )
     table["ended_at"] = pd.to_datetime(table["ended_at"], utc=True, errors="coerce")
     table["cpu_s"] = pd.to_numeric(table["cpu_s"], errors="coerce").fillna(0.0)
@@ -85,14 +84,6 @@ def objective_label(study: Study) -> str:
     if study.objective_form == PRECISION:
         return "mismatch with the targets\n(sum of squared errors in target spreads)"
     return "mismatch with the targets\n(sum of squared relative errors)"
-
-
-class ScriptJob(Protocol):
-    """What Snakemake hands a workflow script as ``snakemake`` (the parts used here)."""
-
-    output: Sequence[str]
-    log: Sequence[str]
-    params: Any  # the rule's params by name (study_file)
 
 
 #: Where a figure may be written: a file's path or a binary file open for writing.

@@ -41,9 +41,10 @@ CHOSEN_BY = {
 }
 
 
-def with_sd(value: float | None, sd: float | None) -> str:
-    """A value to 4 digits with its standard deviation, or a dash when there is none."""
-    if value is None:
+def with_sd(value: float | str | None, sd: float | None) -> str:
+    """A value to 4 digits with its standard deviation, or a dash when there is none (None,
+    or an empty field)."""
+    if value is None or value == "":
         return "–"
     return f"{value:.4g}" + (f" ±{sd:.2g}" if sd else "")
 

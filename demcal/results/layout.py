@@ -55,7 +55,13 @@ STUDY_FILE = "study.json"
 BEST_FILE = "best.json"
 FINISHED_FILE = "finished.json"
 REUSED_FILE = "reused.json"
-#: The columns of a study's early_termination.csv (the daemon appends; the figures read).
+CAMPAIGN_FILE = "campaign.json"
+CALIBRATION_FILE = "calibration.json"
+SOLUTIONS_FILE = "solutions.csv"
+#: The columns of a study's early_termination.csv (the daemon appends; the figures read): one
+#: row each time a running evaluation's estimate changes. ``limit``: what the estimate was held
+#: to (empty: none applied); ``judged``: the estimate compared with it (the estimate, or where its
+#: falling trend heads).
 ESTIMATE_COLUMNS = ("elapsed_s", "evaluation", "running_s", "estimate", "limit", "stop", "judged")
 
 
@@ -145,6 +151,25 @@ class EvaluationFiles:
 
 
 @dataclass(frozen=True)
+class MetamodelCalibrationFiles:
+    """A material calibrated on a domain's metamodels of one kind: ``metamodel/<kind>/``."""
+
+    dir: Path
+
+    @property
+    def solutions(self) -> Path:
+        return self.dir / SOLUTIONS_FILE
+
+    @property
+    def solution_space(self) -> Path:
+        return self.dir / "solution_space.png"
+
+    @property
+    def summary(self) -> Path:
+        return self.dir / CALIBRATION_FILE
+
+
+@dataclass(frozen=True)
 class StudyFiles:
     """The results folder of one study: ``results/<study>/``."""
 
@@ -164,7 +189,7 @@ class StudyFiles:
 
     @property
     def calibration(self) -> Path:
-        return self.dir / "calibration.json"
+        return self.dir / CALIBRATION_FILE
 
     @property
     def optimizer(self) -> Path:
@@ -192,7 +217,7 @@ class StudyFiles:
 
     @property
     def campaign(self) -> Path:
-        return self.dir / "campaign.json"
+        return self.dir / CAMPAIGN_FILE
 
     @property
     def campaign_log(self) -> Path:
@@ -208,16 +233,21 @@ class StudyFiles:
 
     @property
     def solutions(self) -> Path:
-        return self.dir / "solutions.csv"
+        return self.dir / SOLUTIONS_FILE
 
     @property
     def metamodels(self) -> Path:
         """A sampled domain's global metamodels (demcal metamodel build)."""
         return self.dir / "metamodels" / "models.pkl"
 
-    def metamodel_calibration(self, kind: str) -> Path:
-        """The folder of a material's calibration on a domain's ``kind`` metamodels."""
-        return self.dir / "metamodel" / kind
+    @property
+    def metamodel_validation(self) -> Path:
+        """The held-out validation of a domain's metamodels (demcal metamodel validate)."""
+        return self.dir / "metamodels" / "validation.html"
+
+    def metamodel_calibration(self, kind: str) -> MetamodelCalibrationFiles:
+        """A material's calibration on a domain's ``kind`` metamodels."""
+        return MetamodelCalibrationFiles(self.dir / "metamodel" / kind)
 
     @property
     def solutions_summary(self) -> Path:

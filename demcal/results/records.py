@@ -41,6 +41,7 @@ from demcal.errors import SimulationFailed
 from demcal.physics.catalogue import upgrade_parameters
 from demcal.results.layout import (
     BEST_FILE,
+    CAMPAIGN_FILE,
     FINISHED_FILE,
     LAUNCH_FILE,
     OBJECTIVE_FILE,
@@ -197,7 +198,7 @@ class CampaignRecord(Record):
     order (evaluation ``e0000`` is the first); an extension appends to them.
     """
 
-    FILE: ClassVar[str] = "campaign.json"
+    FILE: ClassVar[str] = CAMPAIGN_FILE
 
     design: str
     seed: int

@@ -2,16 +2,18 @@
 
 from __future__ import annotations
 
+import ast
+import hashlib
 import math
 import pkgutil
 import sys
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from demcal.errors import ConfigError
 from demcal.physics.catalogue import CATALOG, ParameterSpec
-from demcal.results.storage import file_sha256
 
 if TYPE_CHECKING:
     import numpy as np
@@ -26,6 +28,61 @@ MAX_BULK_DENSITY = CATALOG["particle_density"].upper
 def saturating(value: float, scale: float) -> float:
     """1 - exp(-value / scale): 0 at 0, rising to 1; a building block of the analytic models."""
     return 1.0 - math.exp(-value / scale)
+
+
+#: Modules whose names only serve type annotations: importing from them changes no outcome.
+TYPING_MODULES = ("__future__", "typing", "collections.abc", "numpy.typing")
+
+
+class _CodeOnly(ast.NodeTransformer):
+    """A syntax tree without what cannot change a result: docstrings, type annotations (an
+    annotated name stays declared), ``if TYPE_CHECKING:`` blocks and imports of typing names."""
+
+    def visit_Module(self, node: ast.Module) -> ast.AST:
+        return self._without_docstring(node)
+
+    def visit_ClassDef(self, node: ast.ClassDef) -> ast.AST:
+        return self._without_docstring(node)
+
+    def visit_FunctionDef(self, node: ast.FunctionDef) -> ast.AST:
+        node.returns = None
+        return self._without_docstring(node)
+
+    def visit_AsyncFunctionDef(self, node: ast.AsyncFunctionDef) -> ast.AST:
+        node.returns = None
+        return self._without_docstring(node)
+
+    def visit_arg(self, node: ast.arg) -> ast.AST:
+        node.annotation = None
+        return node
+
+    def visit_AnnAssign(self, node: ast.AnnAssign) -> ast.AST:
+        node.annotation = ast.Constant(None)
+        return self.generic_visit(node)
+
+    def visit_ImportFrom(self, node: ast.ImportFrom) -> ast.AST | None:
+        return None if node.module in TYPING_MODULES else node
+
+    def visit_If(self, node: ast.If) -> ast.AST | None:
+        return (
+            None if ast.unparse(node.test).endswith("TYPE_CHECKING") else self.generic_visit(node)
+        )
+
+    def _without_docstring(
+        self, node: ast.Module | ast.ClassDef | ast.FunctionDef | ast.AsyncFunctionDef
+    ) -> ast.AST:
+        body = node.body
+        if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant):
+            node.body = body[1:] or [ast.Pass()]
+        return self.generic_visit(node)
+
+
+def code_digest(path: Path) -> str:
+    """sha256 of a Python file's code: its syntax tree without docstrings, comments, type
+    annotations and layout (`_CodeOnly`), so that only an edit that can change what the code
+    does changes it."""
+    tree = _CodeOnly().visit(ast.parse(path.read_text(), str(path)))
+    return hashlib.sha256(ast.dump(tree).encode()).hexdigest()
 
 
 @dataclass(frozen=True)
@@ -209,15 +266,16 @@ class Scene:
         return None if path is None else pkgutil.resolve_name(path)
 
     def script_digests(self, engine: str) -> list[str]:
-        """sha256 of each source file of what runs and measures this scene on ``engine`` (its
-        driver and extractors), sorted: an edited scene script is another simulator."""
+        """The code digest (`code_digest`) of each source file of what runs and measures this
+        scene on ``engine`` (its driver and extractors), sorted: a scene script whose code is
+        edited is another simulator; one whose types, docstrings or comments are is not."""
         modules = {
             getattr(function, "__module__", None)
             for function in (self.driver(engine), *self.extractors.values())
             if function is not None
         }
         files = {getattr(sys.modules.get(name or ""), "__file__", None) for name in modules}
-        return sorted(file_sha256(path) for path in files if path)
+        return sorted(code_digest(Path(path)) for path in files if path)
 
     def resolve_settings(self, given: dict[str, Any] | None, field_prefix: str) -> dict[str, Any]:
         """Defaults overlaid with the given settings, each checked against its spec."""

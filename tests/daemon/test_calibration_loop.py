@@ -29,6 +29,7 @@ from demcal.errors import ConfigError, DemcalError
 from demcal.results.layout import EvaluationFiles, evaluation_id
 from demcal.results.records import (
     FinishedRecord,
+    LaunchRecord,
     ObjectiveRecord,
     PointRecord,
     ResponsesRecord,
@@ -106,7 +107,8 @@ class SlowToEndLauncher(InProcessLauncher):
             sorted(c.evaluation for c in self.children if c.polls > 0 and c.evaluation != files.id)
         )
         run_simulations(self.study, files)
-        child = UnawareChild(files, time.time(), self.study, self.polls)
+        child = UnawareChild(files, time.time(), self.study, self.polls, pid=len(self.launched))
+        LaunchRecord(child.pid, child.started).write(files.launch)  # as the Snakemake launcher
         child.writes = files.id not in self.killed or self.launched.count(files.id) > self.kills
         self.children.append(child)
         return child
@@ -150,6 +152,10 @@ def test_a_child_killed_before_its_last_jobs_is_launched_again_to_run_them(tmp_p
     calibration = Calibration(study, runner, workers=2)
     assert calibration.run(show_progress=lambda progress: None).startswith("evaluation budget")
     assert sorted(runner.launched) == sorted([f"e{i:04d}" for i in range(8)] + ["e0001", "e0004"])
+    for evaluation in ("e0001", "e0004"):  # launch.json: the new child, the first one's start
+        first, again = [c for c in runner.children if c.evaluation == evaluation]
+        launch = LaunchRecord.read(calibration.files.evaluation(evaluation).launch)
+        assert (launch.pid, launch.started_at) == (again.pid, first.started)
     told = {evaluation_id(r.id): r.value for r in calibration.optimizer.records}
     for files in calibration.files.evaluations():
         assert ObjectiveRecord.read(files.objective).objective == told[files.id]

@@ -322,3 +322,28 @@ def test_the_answer_is_validated_by_simulation(domain, tmp_path):
     for line in [line for line in out.splitlines() if "% against the target" in line]:
         error = float(line.split("runs), ")[1].split(" %")[0])
         assert abs(error) < 1.0, line
+
+
+def test_models_saved_before_the_package_moved_still_load(tmp_path, monkeypatch):
+    """Models pickled when they lived in demcal/metamodel.py (KrigingModel) load as today's."""
+    monkeypatch.chdir(tmp_path)
+    study = freeze(load_study(copy.deepcopy(ANALYTIC_STUDY)))
+    models = metamodel.Metamodels(
+        ["sliding_friction_pp"],
+        np.array([0.1]),
+        np.array([0.9]),
+        {"cylinder_lift.angle_of_repose": {"kriging": metamodel.KrigingMetamodel(None)}},
+        {"cylinder_lift.angle_of_repose": 12},
+        "fingerprint",
+        format=metamodel.FORMAT,
+    )
+    saved = pickle.dumps(models, protocol=0)  # text opcodes: the class paths can be renamed
+    for new, old in ((b"Metamodels", b"Metamodels"), (b"KrigingMetamodel", b"KrigingModel")):
+        saved = saved.replace(b"demcal.domain.metamodel\n" + new, b"demcal.metamodel\n" + old)
+    assert b"demcal.domain" not in saved
+    study.files.metamodels.parent.mkdir(parents=True)
+    study.files.metamodels.write_bytes(saved)
+    loaded = metamodel.load(study)
+    assert isinstance(loaded, metamodel.Metamodels) and loaded.training_size == models.training_size
+    kriging = loaded.models["cylinder_lift.angle_of_repose"]["kriging"]
+    assert isinstance(kriging, metamodel.KrigingMetamodel)
