@@ -168,7 +168,11 @@ def lift_case(name: str) -> Case:
     def noisy(x, seed: int, k: int) -> dict[str, list[float]]:
         stream = np.random.SeedSequence([NOISE_ROOT, int(truth[0] * 1e4), seed, k])
         values = noisy_responses(
-            analytic_model, parameters(x), {}, LIFT_NOISE_REL, int(stream.generate_state(1)[0])
+            analytic_model,
+            parameters(x),
+            {},
+            {"noise": LIFT_NOISE_REL},
+            int(stream.generate_state(1)[0]),
         )
         return {f"cylinder_lift.{r}": [values[r]] for r in LIFT_SPREAD_REL}
 

@@ -33,6 +33,7 @@ from demcal.physics.timestep import check_fraction
 from demcal.results.layout import STOP_FILE
 from demcal.results.records import Status
 from demcal.results.storage import atomic_write_text
+from demcal.scenes.base import fewer_particles
 from demcal.study.config import load_study_file
 from demcal.study.model import Study, load_frozen
 from demcal.study.schema import default
@@ -62,7 +63,7 @@ def variant_settings(
     size_setting = study.scenes[scene].size_setting
     settings = study.settings_for(scene, point)
     if size_setting == "particle_count":
-        settings["d50"] *= (settings["particle_count"] / variant.size) ** (1.0 / 3.0)
+        settings.update(fewer_particles(settings, variant.size))
     settings[size_setting] = variant.size
     return study.scenes[scene].resolve_settings(settings, field)
 

@@ -2,7 +2,8 @@
 CSV or Parquet (pandas; Parquet through pyarrow).
 
 Columns: the provenance (``study``, ``evaluation``, ``scene``, ``replicate``, ``attempt``,
-``seed``, ``engine``, ``engine_version``, ``settings`` as JSON, ``timestep_fraction [-]``),
+``seed``, ``engine``, ``engine_version``, ``settings`` as JSON, ``timestep_fraction [-]``,
+``fidelity``, the level it ran at),
 ``status`` and ``reason``, the cost (``cost.cpu [s]``, ``cost.wall [s]``,
 ``cost.particle_steps [-]``), then ``psd.<setting> [unit]``, ``parameter.<name> [unit]``
 (``free_parameters`` lists the free ones) and ``response.<name> [unit]`` with
@@ -32,6 +33,7 @@ TEXT = (
     "engine",
     "engine_version",
     "settings",
+    "fidelity",
     "status",
     "reason",
     "free_parameters",
@@ -54,6 +56,7 @@ FIXED_COLUMNS = (
     "engine_version",
     "settings",
     "timestep_fraction [-]",
+    "fidelity",
     "status",
     "reason",
     "free_parameters",
@@ -85,6 +88,7 @@ def frame(records: Iterable[ArchivedSimulation]) -> pd.DataFrame:
             "engine_version": r.engine_version,
             "settings": json.dumps(r.settings, sort_keys=True),
             "timestep_fraction [-]": r.timestep_fraction,
+            "fidelity": r.fidelity,
             "status": str(r.status),
             "reason": r.reason,
             "free_parameters": " ".join(sorted(r.free)),

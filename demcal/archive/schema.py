@@ -83,6 +83,10 @@ class SimulationRow(Base):
     demcal_version: Mapped[str] = mapped_column(String(50))
     #: sha256 of what simulated it (``Study.simulator``); "" where unknown (never reused)
     simulator: Mapped[str] = mapped_column(String(64), server_default="")
+    #: the study's fidelity level it ran at ("fine": the study's own settings)
+    fidelity: Mapped[str] = mapped_column(String(64), server_default="fine")
+    #: sha256 of the fine level it belongs to (``Study.fine_level_view``); "" where unknown
+    fine_level: Mapped[str] = mapped_column(String(64), server_default="")
 
     __table_args__ = (
         CheckConstraint(f"status IN ({', '.join(map(repr, map(str, ENDED)))})", name="status"),

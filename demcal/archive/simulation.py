@@ -17,7 +17,7 @@ from typing import Any
 from demcal.errors import SimulationFailed
 from demcal.physics.catalogue import CATALOG
 from demcal.results.layout import ReplicateFiles
-from demcal.results.records import ResponsesRecord, SimulationRecord, Status
+from demcal.results.records import FINE, ResponsesRecord, SimulationRecord, Status
 from demcal.results.storage import LatestReports
 from demcal.study.model import Study, demcal_version
 
@@ -48,7 +48,9 @@ class ArchivedSimulation:
     setting it ran with (d50, sigma_ln: those a study may make free), in SI units; ``free``
     the names among them that the study varied; ``simulator`` the digest of what simulated it
     (``Study.simulator``: engine, version, engine settings, the scene's script; "" for a run
-    of a demcal that did not record it, which no study reuses); ``responses`` the final values
+    of a demcal that did not record it, which no study reuses); ``fidelity`` the study's level
+    it ran at and ``fine_level`` the digest of that study's fine level of the scene
+    (``Study.fine_level_view``; "" where unknown); ``responses`` the final values
     of a run
     that ended ``ok``, or the last estimates of a ``terminated`` one (``final`` says which
     of those could no longer change); a ``failed`` run has none. ``cost`` is the engine's
@@ -79,6 +81,8 @@ class ArchivedSimulation:
     demcal_version: str = ""
     source: str = "job"
     simulator: str = ""
+    fidelity: str = FINE
+    fine_level: str = ""
     id: int | None = None
     recorded_at: float | None = None
 
@@ -209,4 +213,15 @@ def from_results(
         demcal_version=demcal_version(),
         source=source,
         simulator=digest(simulation.simulator) if simulation.simulator else "",
+        fidelity=simulation.fidelity or FINE,
+        fine_level=_fine_level(study, simulation.scene),
     )
+
+
+def _fine_level(study: Study, scene: str) -> str:
+    """The digest of the study's fine level of ``scene``; "" when it cannot be told (a scene
+    the study no longer has, a simulator's file gone)."""
+    try:
+        return digest(study.fine_level_view(scene))
+    except (KeyError, OSError):
+        return ""

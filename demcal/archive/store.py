@@ -441,6 +441,8 @@ SAME_NAMED = (
     "source",
     "demcal_version",
     "simulator",
+    "fidelity",
+    "fine_level",
 )
 
 

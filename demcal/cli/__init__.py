@@ -13,7 +13,8 @@
     demcal solutions [STUDY] [--tolerance 2] [--explore N] [--point NAME=VALUE ...]
     demcal convergence [STUDY] [--scene S] [--fractions F ...] [--sizes N ...] [--workers N]
     demcal psd fit SIEVE.csv
-    demcal sample [STUDY] --points N [--design fssf_f] [--name STUDY] [--profile profiles/local]
+    demcal sample [STUDY] --points N [--design fssf_f] [--fidelity LEVEL] [--name STUDY]
+    demcal fidelity check [STUDY] [--points 8] [--replicates 2] [--levels LEVEL ...]
     demcal metamodel build|validate|show [STUDY] [--model kriging symbolic] [--holdout STUDY]
     demcal calibrate-metamodel [MATERIAL] --domain STUDY [--model kriging] [--validate N]
     demcal archive list|show|export|import|stats [--url URL | --archive-of STUDY] [--study NAME]
@@ -27,9 +28,10 @@ This module holds the parser and ``main``; the commands live in ``run.py`` (run,
 point), ``check.py`` (check), ``report.py`` (report), ``inspect.py`` (status, studies, watch),
 ``manage.py`` (stop, add-point, rerun-failed), ``analysis.py`` (solutions, convergence),
 ``psd.py`` (fits to sieve data), ``archive.py`` (the archive of simulations), ``sample.py``
-(sampling campaigns) and ``metamodel.py`` (global metamodels of a domain); ``options.py``
-checks the numbers that options take, ``study_argument.py`` finds the study a command names
-and ``cost.py`` says what a command will simulate.
+(sampling campaigns), ``fidelity.py`` (do cheaper levels pay?) and ``metamodel.py`` (global
+metamodels of a domain); ``options.py`` checks the numbers that options take,
+``study_argument.py`` finds the study a command names and ``cost.py`` says what a command
+will simulate.
 """
 
 from __future__ import annotations
@@ -126,6 +128,12 @@ COMMANDS: tuple[Command, ...] = (
         "sample:arguments",
     ),
     Command(
+        "fidelity",
+        "fidelity check: do the study's cheaper levels pay? Sobol points at every level",
+        "fidelity:fidelity_command",
+        "fidelity:arguments",
+    ),
+    Command(
         "metamodel",
         "global metamodels of a sampled domain: build, validate (held-out R²), show",
         "metamodel:metamodel_command",
@@ -147,7 +155,7 @@ COMMANDS: tuple[Command, ...] = (
 
 #: Commands that take no study file first (they work on every study, on the archive or on other
 #: input, or take an action before it).
-WITHOUT_CONFIG = ("studies", "archive", "psd", "metamodel")
+WITHOUT_CONFIG = ("studies", "archive", "psd", "metamodel", "fidelity")
 #: Commands whose study must be its YAML file, not the name of a study that has run.
 YAML_ONLY = ("check", "run", "sample")
 

@@ -25,8 +25,10 @@ from demcal.domain.campaign import (
     write_points,
 )
 from demcal.errors import ConfigError
+from demcal.results.records import FINE
 from demcal.snakemake_command import LOCAL_PROFILE, check_profile, runs_locally
 from demcal.study.config import load_study_file
+from demcal.study.model import Study
 
 
 def arguments(sub: argparse.ArgumentParser) -> None:
@@ -42,6 +44,13 @@ def arguments(sub: argparse.ArgumentParser) -> None:
         default="fssf_f",
         choices=CAMPAIGN_DESIGNS,
         help="space-filling design (default fssf_f, Richter & Will's choice)",
+    )
+    sub.add_argument(
+        "--fidelity",
+        default=FINE,
+        metavar="LEVEL",
+        help="the fidelity level the points run at (default fine: the study's own settings; "
+        "another is one of the study's fidelities)",
     )
     sub.add_argument(
         "--name",
@@ -80,13 +89,19 @@ def sample(args: argparse.Namespace) -> int:
             f"run on this machine's cores, not as cluster jobs",
             file=sys.stderr,
         )
+    if args.fidelity not in given.levels:
+        raise ConfigError(
+            f"--fidelity {args.fidelity}: not a level of the study ({', '.join(given.levels)}); "
+            f"a cheaper one is declared under fidelities: (docs/fidelity.md)"
+        )
     with locked_study(config, name=args.name) as study:
-        campaign = plan(study, args.points, args.design)
+        campaign = plan(study, args.points, args.design, [args.fidelity])
         distance, cover = design_quality(campaign)
         # said before the points are written: a campaign of thousands takes a while to write
         print(
             f"demcal sample: {study.name}, {campaign.design} design of "
-            f"{len(campaign.unit_points)} points in {len(study.free)} parameters "
+            f"{len(campaign.unit_points)} points at {', '.join(campaign.fidelities)} in "
+            f"{len(study.free)} parameters "
             f"({', '.join(p.name for p in study.free)}); minimum inter-site distance "
             f"{distance:.3g}, cover measure {cover:.3g} (unit box)",
             f"demcal sample: {forecast(study, campaign, settings)}",
@@ -94,42 +109,49 @@ def sample(args: argparse.Namespace) -> int:
             flush=True,
         )
         names = write_points(study, campaign)
-        bar = tqdm(
-            total=len(names) * simulations_per_point(study),
-            unit="sim",
-            file=sys.stderr,
-            mininterval=1.0 if sys.stderr.isatty() else 30.0,
-        )
+        return simulate(study, names, profile, args.bundle, "sample")
 
-        def show(state: Tally) -> None:
-            counts = ", ".join(f"{n} {s}" for s, n in sorted(state.statuses.items()))
-            bar.set_postfix_str(counts, refresh=False)
-            bar.update(state.finished - bar.n)
 
-        try:
-            state = run(study, names, profile, show, args.bundle)
-        except KeyboardInterrupt:
-            bar.close()
-            print(
-                "demcal sample: interrupted; run the same command again to resume",
-                file=sys.stderr,
-            )
-            return 130
+def simulate(study: Study, names: list[str], profile: Path, bundle: int, command: str) -> int:
+    """Run a campaign's evaluations ``names`` under one Snakemake (``campaign.run``) with a
+    progress bar, and say how it ended; the exit status (0: every simulation finished)."""
+    bar = tqdm(
+        total=len(names) * simulations_per_point(study),
+        unit="sim",
+        file=sys.stderr,
+        mininterval=1.0 if sys.stderr.isatty() else 30.0,
+    )
+
+    def show(state: Tally) -> None:
+        counts = ", ".join(f"{n} {s}" for s, n in sorted(state.statuses.items()))
+        bar.set_postfix_str(counts, refresh=False)
+        bar.update(state.finished - bar.n)
+
+    try:
+        state = run(study, names, profile, show, bundle)
+    except KeyboardInterrupt:
         bar.close()
-        print(f"demcal sample: {state.line()}; each is in the archive {study.archive}")
-        if state.stopped:
-            reason = state.reasons.most_common(1)[0][0] if state.reasons else "unknown"
-            print(
-                f"demcal sample: stopped: the first {FAIL_FAST} simulations all failed "
-                f"(commonest: {reason}); see {study.files.campaign_log} and the evaluations' logs",
-                file=sys.stderr,
-            )
-            return 1
-        if state.finished < state.total:
-            print(
-                f"demcal sample: {state.total - state.finished} simulations did not finish; run "
-                f"the same command again to resume (see {study.files.campaign_log})",
-                file=sys.stderr,
-            )
-            return 1
+        print(
+            f"demcal {command}: interrupted; run the same command again to resume",
+            file=sys.stderr,
+        )
+        return 130
+    bar.close()
+    archived = f"each is in the archive {study.archive}" if study.archive else "none archived"
+    print(f"demcal {command}: {state.line()}; {archived}")
+    if state.stopped:
+        reason = state.reasons.most_common(1)[0][0] if state.reasons else "unknown"
+        print(
+            f"demcal {command}: stopped: the first {FAIL_FAST} simulations all failed "
+            f"(commonest: {reason}); see {study.files.campaign_log} and the evaluations' logs",
+            file=sys.stderr,
+        )
+        return 1
+    if state.finished < state.total:
+        print(
+            f"demcal {command}: {state.total - state.finished} simulations did not finish; run "
+            f"the same command again to resume (see {study.files.campaign_log})",
+            file=sys.stderr,
+        )
+        return 1
     return 0

@@ -48,14 +48,18 @@ def locked_study(
     watch_pid: int | None = None,
     log: TextIO | None = None,
     name: str | None = None,
+    replicates: int | None = None,
 ) -> Iterator[Study]:
     """The study of ``config`` as its jobs will read it, with the study's daemon lock held
     inside the block. A YAML is validated, its warnings said, and frozen under the lock; with
     ``frozen`` (the workflow's calibrate rule), ``config`` is the study.json it froze. ``name``
-    renames the study of a YAML (``demcal sample --name``)."""
+    renames the study of a YAML (``demcal sample --name``), ``replicates`` sets its seeds per
+    point (``demcal fidelity check``)."""
     study = load_frozen(config) if frozen else load_study_file(config)
     if name is not None:
         study.name = check_study_name(name, "--name")
+    if replicates is not None:
+        study.replicates = replicates
     with contextlib.closing(lock_study(study, watch_pid)):
         if not frozen:
             for warning in study.warnings:

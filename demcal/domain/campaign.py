@@ -17,13 +17,14 @@ simulations. Its Snakemake ends with the demcal that started it, even a killed o
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import os
 import subprocess
 import sys
 import time
 import zlib
 from collections import Counter
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from statistics import median
@@ -47,7 +48,7 @@ from demcal.optimizer.registry import DESIGNS
 from demcal.reporting.terminal import duration
 from demcal.results.archive_url import missing_file
 from demcal.results.layout import SIMULATION_FILE, evaluation_id
-from demcal.results.records import CampaignRecord, PointRecord, ResponsesRecord, Status
+from demcal.results.records import FINE, CampaignRecord, PointRecord, ResponsesRecord, Status
 from demcal.snakemake_command import runs_locally, snakemake_command
 from demcal.study.model import Study
 
@@ -107,9 +108,10 @@ def unit_to_box(study: Study, unit: np.ndarray) -> list[dict[str, float]]:
     return [{p.name: float(v) for p, v in zip(study.free, row)} for row in values]
 
 
-def simulations_per_point(study: Study) -> int:
-    """The simulations of one design point: a replicate set of every scene."""
-    return study.replicates * len(study.scenes)
+def simulations_per_point(study: Study, levels: int = 1) -> int:
+    """The simulations of one design point: a replicate set of every scene at each of
+    ``levels`` fidelity levels."""
+    return study.replicates * len(study.scenes) * levels
 
 
 def check_request(size: int, design: str, bundle: int = 1, per_point: int = 1) -> None:
@@ -134,12 +136,20 @@ def design_seed(study: Study) -> int:
     return int(np.random.SeedSequence(key).generate_state(1)[0])
 
 
-def plan(study: Study, size: int, design: str) -> CampaignRecord:
-    """The campaign of ``size`` points: the one on disk, extended if ``size`` is larger, or a
-    new design. A ConfigError says why a campaign cannot become what was asked, and refuses a
-    study folder that holds evaluations of something else (a calibration)."""
-    check_request(size, design, per_point=simulations_per_point(study))
+def plan(
+    study: Study, size: int, design: str, fidelities: Sequence[str] = (FINE,)
+) -> CampaignRecord:
+    """The campaign of ``size`` points, each run at every level of ``fidelities``: the one on
+    disk, extended if ``size`` is larger, or a new design. A ConfigError says why a campaign
+    cannot become what was asked, and refuses a study folder that holds evaluations of
+    something else (a calibration)."""
+    check_request(size, design, per_point=simulations_per_point(study, len(fidelities)))
     dimension, existing = len(study.free), CampaignRecord.read_if_any(study.files.campaign)
+    if existing is not None and existing.fidelities != list(fidelities):
+        raise ConfigError(
+            f"the campaign in {study.files.dir} runs at {', '.join(existing.fidelities)}, not "
+            f"{', '.join(fidelities)}; run it at its levels, or give the study another name"
+        )
     if existing is None and study.files.evals.is_dir() and any(study.files.evals.iterdir()):
         raise ConfigError(
             f"{study.files.dir} holds evaluations that are not a campaign's (a calibration?); "
@@ -152,7 +162,7 @@ def plan(study: Study, size: int, design: str) -> CampaignRecord:
             unit = extend_design(design, np.empty((0, dimension)), size, dimension, rng)
         else:
             unit = DESIGNS[design].load()(size, dimension, rng)
-        return CampaignRecord(design, seed, np.asarray(unit).tolist())
+        return CampaignRecord(design, seed, np.asarray(unit).tolist(), list(fidelities))
     if existing.design != design:
         raise ConfigError(
             f"--design {design}: the campaign in {study.files.dir} is a {existing.design} design; "
@@ -167,7 +177,9 @@ def plan(study: Study, size: int, design: str) -> CampaignRecord:
             f"stay space-filling; start another study with --design fssf_f, sobol or halton"
         )
     more = extend_design(design, taken, size, dimension, np.random.default_rng(existing.seed))
-    return CampaignRecord(design, existing.seed, np.vstack([taken, more]).tolist())
+    return CampaignRecord(
+        design, existing.seed, np.vstack([taken, more]).tolist(), existing.fidelities
+    )
 
 
 def write_points(study: Study, campaign: CampaignRecord) -> list[str]:
@@ -177,18 +189,29 @@ def write_points(study: Study, campaign: CampaignRecord) -> list[str]:
     points is still taken for a campaign when it is run again."""
     campaign.write(study.files.campaign)
     names = point_names(campaign)
-    for name, point in zip(names, unit_to_box(study, np.asarray(campaign.unit_points))):
+    runs = [
+        (point, level)
+        for point in unit_to_box(study, np.asarray(campaign.unit_points))
+        for level in campaign.fidelities
+    ]
+    for name, (point, level) in zip(names, runs):
         files = study.files.evaluation(name)
         if not files.params.exists():
-            PointRecord(point, proposed_by=f"campaign ({campaign.design})").write(files.params)
+            PointRecord(
+                point,
+                proposed_by=f"campaign ({campaign.design})",
+                fidelity=None if level == FINE else level,
+            ).write(files.params)
         else:
             retry_failed(study, name)
     return names
 
 
 def point_names(campaign: CampaignRecord) -> list[str]:
-    """The evaluation of each point of the design, in its order: e0000, e0001, ..."""
-    return [evaluation_id(index) for index in range(len(campaign.unit_points))]
+    """The evaluation of each point of the design at each of its levels, in order: e0000,
+    e0001, ... (point k at level j is evaluation ``k * len(fidelities) + j``)."""
+    runs = len(campaign.unit_points) * len(campaign.fidelities)
+    return [evaluation_id(index) for index in range(runs)]
 
 
 def retry_failed(study: Study, name: str) -> None:
@@ -206,11 +229,10 @@ def retry_failed(study: Study, name: str) -> None:
         return
     files = study.files.evaluation(name)
     point = PointRecord.read(files.params)
-    PointRecord(
-        point.parameters,
+    dataclasses.replace(
+        point,
         attempt=point.attempt + 1,
         previous_failures=[*point.previous_failures, *(reason for _, reason in failed)],
-        proposed_by=point.proposed_by,
     ).write(files.params)
     for path, _ in failed:
         path.unlink()

@@ -12,11 +12,21 @@ Engine settings:
   ``chunks`` equal chunks (default 10);
 - ``failures``: list of ``{"when": {parameter: [low, high], ...},
   "mode": "always" | "once", "reason": text}``: a run whose parameters lie in
-  every given interval fails, always or only on an evaluation's first attempt.
+  every given interval fails, always or only on an evaluation's first attempt;
+- ``cpu``: CPU seconds a run reports as its cost (default: its ``duration``).
+
+A cheaper fidelity level of a study changes the engine's settings
+(``fidelities.<level>.engine``), and these distort the closed-form model as a coarse
+simulation's known bias would (`distorted`): ``scale`` and ``bias`` (a number, or per
+response; default 1 and 0) make a response ``scale * exact + bias``, the multi-fidelity
+model's assumption (Kennedy & O'Hagan 2000); ``ripple`` (relative amplitude, per response)
+adds a term that oscillates across the parameter box, which the fine level does not have,
+so that a level can be poorly correlated with the fine one on purpose.
 """
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -25,6 +35,7 @@ import numpy as np
 
 from demcal.engines.base import DeclaredScene, Engine, RunMonitor, RunResult, SimulationJob
 from demcal.errors import ConfigError
+from demcal.physics.catalogue import CATALOG
 from demcal.results.records import Status
 
 #: The analytic engine's driver, a scene's closed-form model: (parameters, settings) ->
@@ -42,15 +53,52 @@ def _injected_failure(
     return None
 
 
+#: Oscillations of the ``ripple`` term across each parameter's catalogue range.
+RIPPLE_PERIODS = 3.0
+
+
+def _per_response(value: float | dict[str, float], response: str, unset: float) -> float:
+    """A setting given as one number for every response or per response (``unset`` where a
+    mapping leaves the response out)."""
+    return value.get(response, unset) if isinstance(value, dict) else value
+
+
+def ripple_phase(parameters: dict[str, float]) -> float:
+    """The phase [rad] of the ``ripple`` term: RIPPLE_PERIODS turns across the catalogue range
+    of every parameter with a finite one, summed, so it varies with each free parameter."""
+    phase = 0.0
+    for name, value in parameters.items():
+        spec = CATALOG.get(name)
+        if spec is not None and math.isfinite(spec.upper - spec.lower) and spec.upper > spec.lower:
+            phase += (value - spec.lower) / (spec.upper - spec.lower)
+    return 2.0 * math.pi * RIPPLE_PERIODS * phase
+
+
+def distorted(
+    exact: dict[str, float], parameters: dict[str, float], settings: dict[str, Any]
+) -> dict[str, float]:
+    """The closed-form responses as a level with the engine ``settings`` gives them:
+    ``scale * exact + bias + ripple * |exact| * sin(ripple_phase)`` per response."""
+    phase = ripple_phase(parameters)
+    return {
+        name: _per_response(settings.get("scale", 1.0), name, 1.0) * value
+        + _per_response(settings.get("bias", 0.0), name, 0.0)
+        + _per_response(settings.get("ripple", 0.0), name, 0.0) * abs(value) * math.sin(phase)
+        for name, value in exact.items()
+    }
+
+
 def noisy_responses(
     model: AnalyticModel,
     parameters: dict[str, float],
     settings: dict[str, Any],
-    noise: float | dict[str, float],
+    engine_settings: dict[str, Any],
     seed: int,
 ) -> dict[str, float]:
-    """The closed-form model's responses, each times (1 + N(0, noise^2)), seeded."""
-    exact = model(parameters, settings)
+    """The closed-form model's responses at the engine's level (`distorted`), each times
+    (1 + N(0, noise^2)), seeded."""
+    exact = distorted(model(parameters, settings), parameters, engine_settings)
+    noise = engine_settings.get("noise", 0.01)
     rng = np.random.default_rng(seed)
     out = {}
     for name in sorted(exact):
@@ -83,18 +131,18 @@ class AnalyticEngine(Engine):
             return RunResult(
                 Status.FAILED, f"analytic engine has no driver for scene {job.scene!r}"
             )
-        start_wall, start_cpu = time.monotonic(), time.process_time()
+        start_wall = time.monotonic()
         chunks = int(self.settings.get("chunks", 10))
         duration = float(self.settings.get("duration", 0.0))
         failure = _injected_failure(self.settings.get("failures", []), job.parameters)
-        responses = noisy_responses(
-            driver, job.parameters, job.settings, self.settings.get("noise", 0.01), job.seed
-        )
+        responses = noisy_responses(driver, job.parameters, job.settings, self.settings, job.seed)
+        cpu = self.settings.get("cpu")
 
         def cost(steps: int) -> dict[str, float]:
+            share = steps / chunks
             return {
                 "wall_s": time.monotonic() - start_wall,
-                "cpu_s": time.process_time() - start_cpu,
+                "cpu_s": share * (duration if cpu is None else float(cpu)),
                 "steps": steps,
             }
 

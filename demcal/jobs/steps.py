@@ -29,11 +29,12 @@ from typing import Any
 
 import numpy as np
 
-from demcal.engines.base import RunMonitor, RunResult, SimulationJob
+from demcal.engines.base import Engine, RunMonitor, RunResult, SimulationJob
 from demcal.errors import ConfigError, DemcalError, SimulationFailed, bounded_reason
 from demcal.optimizer.objective import relative_miss, replicate_mean, replicate_spread
 from demcal.results.layout import EvaluationFiles, ReplicateFiles
 from demcal.results.records import (
+    FINE,
     NOT_STARTED,
     ObjectiveRecord,
     PointRecord,
@@ -132,11 +133,14 @@ def stop_reason(files: EvaluationFiles) -> str:
     return bounded_reason(given) if given else STOPPED_BY_HAND
 
 
-def simulator_of(study: Study, scene: str) -> tuple[dict[str, Any], RunResult | None]:
-    """What simulates ``scene`` (`Study.simulator`), read before the run; when a file it names
-    cannot be read, {} and the failed result that records why (the run does not start)."""
+def simulator_of(
+    study: Study, scene: str, fidelity: str = FINE
+) -> tuple[dict[str, Any], RunResult | None]:
+    """What simulates ``scene`` at level ``fidelity`` (`Study.simulator`), read before the
+    run; when a file it names cannot be read, {} and the failed result that records why (the
+    run does not start)."""
     try:
-        return study.simulator(scene), None
+        return study.simulator(scene, fidelity), None
     except OSError as exc:
         return {}, RunResult(Status.FAILED, f"cannot read the simulator's files: {exc}")
 
@@ -149,17 +153,20 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> Simul
     workdir.mkdir(parents=True, exist_ok=True)
     replicate_files.state.unlink(missing_ok=True)
     started_at = time.time()
-    simulator, unreadable = simulator_of(study, scene)
+    level = study.level()
     try:
         point = PointRecord.read(files.params)
+        level = study.level(point.level)
         attempt = point.attempt
         parameters = study.parameters_for(point.parameters, replicate)
-        settings = study.settings_for(scene, point.parameters)
+        settings = study.settings_for(scene, point.parameters, level.name)
         avoid = reused_seeds(study)
     except (ConfigError, SimulationFailed) as exc:
         result = RunResult(Status.FAILED, f"bad parameters: {exc}")
-        parameters, settings, seed, attempt = {}, study.settings[scene], None, None
+        parameters, settings, seed, attempt = {}, level.settings[scene], None, None
+        simulator, _ = simulator_of(study, scene, level.name)
     else:
+        simulator, unreadable = simulator_of(study, scene, level.name)
         seed = study.simulation_seed(evaluation, scene, replicate, point.attempt, avoid)
         job = SimulationJob(
             scene=scene,
@@ -167,13 +174,15 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> Simul
             settings=settings,
             seed=seed,
             responses=study.responses_needed(scene),
-            timestep_fraction=study.timestep_fraction,
+            timestep_fraction=level.timestep_fraction,
             workdir=str(workdir.resolve()),
             stop_file=str(files.stop.resolve()),
             attempt=point.attempt,
         )
         result = (
-            not_started(study, evaluation, scene, replicate) or unreadable or run_engine(study, job)
+            not_started(study, evaluation, scene, replicate)
+            or unreadable
+            or run_engine(study, job, level.engine)
         )
     state_file = None
     if result.status == Status.OK and result.arrays:
@@ -184,11 +193,11 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> Simul
         evaluation=evaluation,
         scene=scene,
         replicate=replicate,
-        engine=study.engine.name,
-        engine_version=study.engine.version(),
+        engine=level.engine.name,
+        engine_version=level.engine.version(),
         simulator=simulator,
         settings=settings,
-        timestep_fraction=study.timestep_fraction,
+        timestep_fraction=level.timestep_fraction,
         responses_needed=study.responses_needed(scene),
         started_at=started_at,
         state_file=state_file,
@@ -200,6 +209,7 @@ def simulate(study: Study, evaluation: str, scene: str, replicate: int) -> Simul
         measurements=result.measurements,
         cost=result.cost,
         ended_at=time.time(),
+        fidelity=None if level.name == FINE else level.name,
     )
     record.write(replicate_files.simulation)
     log.info(
@@ -215,15 +225,17 @@ def reused_seeds(study: Study) -> frozenset[int]:
     return ReusedRecord.read(study.files.reused).seeds
 
 
-def run_engine(study: Study, job: SimulationJob) -> RunResult:
-    """The engine's run; any error it raises becomes a failed result with the reason."""
+def run_engine(study: Study, job: SimulationJob, engine: Engine | None = None) -> RunResult:
+    """The run of ``engine`` (the study's, unless a fidelity level has its own); any error it
+    raises becomes a failed result with the reason."""
+    engine = study.engine if engine is None else engine
     try:
-        driver = study.scenes[job.scene].driver(study.engine.name)
-        return study.engine.run(job, RunMonitor(job), driver)
+        driver = study.scenes[job.scene].driver(engine.name)
+        return engine.run(job, RunMonitor(job), driver)
     except SimulationFailed as exc:
         return RunResult(Status.FAILED, str(exc))
     except Exception as exc:  # an engine bug must not lose the evaluation
-        log.error("engine %s raised:\n%s", study.engine.name, traceback.format_exc())
+        log.error("engine %s raised:\n%s", engine.name, traceback.format_exc())
         return RunResult(Status.FAILED, f"engine error: {type(exc).__name__}: {exc}")
 
 

@@ -224,6 +224,16 @@ class StudyFiles:
         return self.dir / "campaign.log"
 
     @property
+    def fidelity_table(self) -> Path:
+        """A fidelity check's comparison of each level with the fine one (demcal fidelity)."""
+        return self.dir / "fidelity.csv"
+
+    @property
+    def fidelity_figure(self) -> Path:
+        """A fidelity check's figure of fine against each cheaper level."""
+        return self.dir / "fidelity.png"
+
+    @property
     def early_termination(self) -> Path:
         return self.dir / "early_termination.csv"
 

@@ -81,6 +81,11 @@ class Status(enum.StrEnum):
     PENDING = "pending"
 
 
+#: The fidelity level of a study's own settings (``fidelities:`` adds cheaper ones): the level
+#: of a record that names none.
+FINE = "fine"
+
+
 #: The statuses of a simulation or an evaluation that has ended (all but PENDING): what the
 #: optimizer is told and what the archive keeps.
 ENDED = (Status.OK, Status.FAILED, Status.TERMINATED)
@@ -203,6 +208,9 @@ class CampaignRecord(Record):
     design: str
     seed: int
     unit_points: list[list[float]]
+    #: the fidelity levels each point runs at, in order: point k at level j is evaluation
+    #: ``k * len(fidelities) + j``
+    fidelities: list[str] = field(default_factory=lambda: [FINE])
 
 
 @dataclass(frozen=True)
@@ -212,7 +220,8 @@ class PointRecord(Record):
     ``parameters`` is kept as written (a hand-written file may hold text);
     the simulate job checks it against the study. ``staged``: its first
     simulations run before the others (a staged study's evaluation that early
-    termination may stop; ``demcal.jobs.steps.staged_inputs``).
+    termination may stop; ``demcal.jobs.steps.staged_inputs``). ``fidelity``: the level it
+    runs at (``Study.level``); None, the study's own settings (:data:`FINE`).
     """
 
     FILE: ClassVar[str] = PARAMS_FILE
@@ -223,6 +232,12 @@ class PointRecord(Record):
     in_initial_design: bool = False
     proposed_by: str | None = _optional()
     staged: bool = False
+    fidelity: str | None = _optional()
+
+    @property
+    def level(self) -> str:
+        """The fidelity level the point runs at (:data:`FINE` unless it names another)."""
+        return self.fidelity or FINE
 
     @classmethod
     def _from_dict(cls, data: dict[str, Any], where: str) -> Self:
@@ -237,6 +252,9 @@ class PointRecord(Record):
         proposed_by = data.get("proposed_by")
         if proposed_by is not None and not isinstance(proposed_by, str):
             raise SimulationFailed(f"{where}: proposed_by {proposed_by!r} is not text")
+        fidelity = data.get("fidelity")
+        if fidelity is not None and not isinstance(fidelity, str):
+            raise SimulationFailed(f"{where}: fidelity {fidelity!r} is not a level's name")
         return cls(
             data["parameters"],
             attempt,
@@ -244,6 +262,7 @@ class PointRecord(Record):
             bool(data.get("in_initial_design", False)),
             proposed_by,
             data.get("staged") is True,
+            fidelity,
         )
 
     def retried(self, reason: str | None) -> PointRecord:
@@ -300,6 +319,8 @@ class SimulationRecord(Record):
     state_file: str | None = _optional()
     #: what simulated it (``Study.simulator``); {} in files of demcal before it was recorded
     simulator: dict[str, Any] = field(default_factory=dict)
+    #: the fidelity level it ran at; None: the study's own settings (:data:`FINE`)
+    fidelity: str | None = _optional()
 
     @property
     def ran(self) -> bool:

@@ -209,6 +209,26 @@ def settling_settings(max_settle_time: float, meaning: str) -> dict[str, Setting
     }
 
 
+#: The default coarse level of a scene with a particle count: this many times fewer particles.
+COARSE_PARTICLE_FACTOR = 4
+
+
+def fewer_particles(settings: dict[str, Any], count: float) -> dict[str, Any]:
+    """The settings that make a scene's fill ``count`` particles of the same amount of
+    material: the particle count, and d50 scaled by (N0 / N)^(1/3), so that the geometry and
+    the volume stay and only the resolution changes."""
+    return {
+        "particle_count": round(count),
+        "d50": settings["d50"] * (settings["particle_count"] / round(count)) ** (1.0 / 3.0),
+    }
+
+
+def coarse_by_particle_count(settings: dict[str, Any]) -> dict[str, Any]:
+    """The default coarse level of a scene with a ``particle_count``: COARSE_PARTICLE_FACTOR
+    times fewer, larger particles of the same amount of material (`fewer_particles`)."""
+    return fewer_particles(settings, settings["particle_count"] / COARSE_PARTICLE_FACTOR)
+
+
 @dataclass(frozen=True)
 class ResponseSpec:
     """A bulk response a scene can produce, in ``unit``, physically between
@@ -246,6 +266,9 @@ class Scene:
     #: The setting that sets the simulated amount of material (particle count or a scale
     #: factor), varied by the convergence study.
     size_setting: str = "particle_count"
+    #: The scene's default coarse level (``fidelities: {coarse: default}``): (fine settings)
+    #: -> the settings it changes; None: the scene has none (give the level's settings).
+    coarse: Callable[[dict[str, Any]], dict[str, Any]] | None = None
     #: Responses over simulated time from a run's saved state, for the report's figure of
     #: the answer: (state, settings) -> {response: (times [s], values)}; None: the scene has
     #: no time series worth showing.

@@ -23,10 +23,12 @@ from demcal.optimizer.registry import STRATEGIES
 from demcal.physics.catalogue import CATALOG, SPLIT_PARAMETERS
 from demcal.physics.timestep import RAYLEIGH_PARAMETERS, check_fraction
 from demcal.results.archive_url import check_url
+from demcal.results.records import FINE
 from demcal.scenes import SCENES, Scene
 from demcal.scenes.base import variable_settings
+from demcal.study.fidelity import fidelity_levels, given_settings
 from demcal.study.material import with_material
-from demcal.study.model import FreeParameter, Study
+from demcal.study.model import FidelityLevel, FreeParameter, Study
 from demcal.study.schema import default, load_schema, validate_schema
 from demcal.study.study_file import read_study_yaml
 from demcal.study.targets import targets_of
@@ -136,27 +138,30 @@ def _without_estimates(
 
 
 def _settings(
-    config: dict[str, Any], scenes: dict[str, Scene], free: list[FreeParameter]
+    given: dict[str, dict[str, Any]],
+    scenes: dict[str, Scene],
+    free: list[FreeParameter],
+    prefix: str = "scenes",
 ) -> dict[str, dict[str, Any]]:
-    """Each scene's resolved settings. A free setting is not given among them (its default
+    """Each scene's resolved settings from those ``given`` per scene (fields named
+    ``<prefix>.<scene>.settings``). A free setting is not given among them (its default
     stands in); the scene's cross-setting checks hold at every corner of the free settings'
     bounds, so no point the optimizer may propose is refused later."""
     resolved = {}
     for name, scene in scenes.items():
-        where = f"scenes.{name}.settings"
-        given = config.get("scenes", {}).get(name, {}).get("settings") or {}
+        where = f"{prefix}.{name}.settings"
         varied = [p for p in free if p.spec.scene_setting and p.name in scene.settings]
         for p in varied:
-            if p.name in given:
+            if p.name in given[name]:
                 raise ConfigError(
                     f"{where}.{p.name}: {p.name} is free (parameters.{p.name}); "
                     f"remove it here or from parameters"
                 )
-        resolved[name] = scene.resolve_settings(given, where)
+        resolved[name] = scene.resolve_settings(given[name], where)
         for corner in itertools.product(*[(p.lower, p.upper) for p in varied]):
             values = {p.name: value for p, value in zip(varied, corner)}
             try:
-                scene.resolve_settings({**given, **values}, where)
+                scene.resolve_settings({**given[name], **values}, where)
             except ConfigError as exc:
                 at = ", ".join(f"{n} = {v:g}" for n, v in values.items())
                 raise ConfigError(f"{exc} (at {at}, a corner of the free bounds)") from None
@@ -259,7 +264,7 @@ def load_study(config: dict[str, Any], check_engine: bool = True) -> Study:
     targets, conversions = targets_of(config, scenes)
     config, material, material_draws, material_warnings = with_material(config, scenes)
     free, fixed = _parameters(config, scenes)
-    settings = _settings(config, scenes, free)
+    settings = _settings(given_settings(config, scenes), scenes, free)
     fraction = float(config.get("timestep_fraction", default("timestep_fraction")))
     warning = check_fraction(fraction, default("timestep_fraction"))
     cost_weight = float(config.get("rayleigh_cost_weight", default("rayleigh_cost_weight")))
@@ -308,6 +313,16 @@ def load_study(config: dict[str, Any], check_engine: bool = True) -> Study:
     if check_engine:
         engine.check(list(scenes.values()))
     optimizer, skipped = _without_estimates(optimizer, engine)
+    levels, level_warnings = fidelity_levels(
+        config,
+        scenes,
+        free,
+        FidelityLevel(FINE, settings, fraction, engine),
+        lambda given, prefix: _settings(given, scenes, free, prefix),
+    )
+    if check_engine:
+        for level in levels.values():
+            level.engine.check(list(scenes.values()))
     return Study(
         name=config["study"],
         engine=engine,
@@ -334,11 +349,13 @@ def load_study(config: dict[str, Any], check_engine: bool = True) -> Study:
             *material_warnings,
             *skipped,
             *_timestep_notes(free, engine),
+            *level_warnings,
         ],
         archive=archive,
         reuse=_reuse(config, archive, engine),
         material=material,
         material_draws=material_draws,
+        fidelities=levels,
     )
 
 

@@ -36,6 +36,7 @@ from demcal.physics.catalogue import (
 )
 from demcal.physics.timestep import RAYLEIGH_PARAMETERS, rayleigh_cost, rayleigh_time_range
 from demcal.results.layout import STUDY_FILE, StudyFiles
+from demcal.results.records import FINE
 from demcal.results.storage import read_json, write_json_if_changed
 from demcal.scenes import SCENES, Scene
 from demcal.scenes.base import variable_settings
@@ -69,6 +70,18 @@ class FreeParameter:
     @property
     def name(self) -> str:
         return self.spec.name
+
+
+@dataclass(frozen=True)
+class FidelityLevel:
+    """A fidelity level: the settings of every scene and the time-step fraction a simulation
+    runs with, and the engine that runs it. The study's own are the fine level (:data:`FINE`);
+    ``fidelities:`` adds cheaper ones (coarser particles, a smaller test, a looser step)."""
+
+    name: str
+    settings: dict[str, dict[str, Any]]
+    timestep_fraction: float
+    engine: Engine
 
 
 @dataclass
@@ -105,6 +118,26 @@ class Study:
     #: robust material: replicate r simulates with draw r over the fixed values, and the
     #: objective is the expected loss over the draws (docs/studies.md); empty: one material
     material_draws: tuple[dict[str, float], ...] = ()
+    #: the cheaper fidelity levels by name (``fidelities:``; docs/fidelity.md); the study's
+    #: own settings are the fine level
+    fidelities: dict[str, FidelityLevel] = field(default_factory=dict)
+
+    def level(self, name: str = FINE) -> FidelityLevel:
+        """The fidelity level ``name``: the study's own settings for :data:`FINE`; a
+        ConfigError for a name the study does not have."""
+        if name == FINE:
+            return FidelityLevel(FINE, self.settings, self.timestep_fraction, self.engine)
+        if name not in self.fidelities:
+            raise ConfigError(
+                f"fidelity {name!r}: the study has no such level "
+                f"({', '.join([FINE, *self.fidelities])})"
+            )
+        return self.fidelities[name]
+
+    @property
+    def levels(self) -> list[str]:
+        """The names of the study's fidelity levels, fine first."""
+        return [FINE, *self.fidelities]
 
     @property
     def objective(self) -> ResponseObjective:
@@ -213,41 +246,57 @@ class Study:
             **{k: float(v) for k, v in free_values.items() if k in material},
         }
 
-    def settings_for(self, scene: str, free_values: dict[str, float]) -> dict[str, Any]:
-        """The settings ``scene`` runs a point with: its resolved settings overlaid with the
-        point's values of the free settings it declares."""
+    def settings_for(
+        self, scene: str, free_values: dict[str, float], fidelity: str = FINE
+    ) -> dict[str, Any]:
+        """The settings ``scene`` runs a point with at level ``fidelity``: its resolved settings
+        overlaid with the point's values of the free settings it declares."""
+        settings = self.level(fidelity).settings[scene]
         return {
-            **self.settings[scene],
+            **settings,
             **{
                 p.name: float(free_values[p.name])
                 for p in self.free
-                if p.spec.scene_setting and p.name in self.settings[scene]
+                if p.spec.scene_setting and p.name in settings
             },
         }
 
-    def archive_view(self, scene: str) -> tuple[dict[str, Any], dict[str, float], list[str]]:
+    def archive_view(
+        self, scene: str, fidelity: str = FINE
+    ) -> tuple[dict[str, Any], dict[str, float], list[str]]:
         """What an archived simulation of ``scene`` must share with this study to serve its
         models: the settings that are not variable, the value of every fixed parameter and
         fixed variable setting, and the models' inputs (the free parameters the scene reads).
         The archive keeps variable settings as parameters (``demcal.archive.simulation``)."""
         variable = {n for n, spec in self.scenes[scene].settings.items() if spec.variable}
         free = {p.name for p in self.free}
-        settings = {n: v for n, v in self.settings[scene].items() if n not in variable}
-        fixed = {
-            **self.fixed,
-            **{n: self.settings[scene][n] for n in sorted(variable - free)},
-        }
+        resolved = self.level(fidelity).settings[scene]
+        settings = {n: v for n, v in resolved.items() if n not in variable}
+        fixed = {**self.fixed, **{n: resolved[n] for n in sorted(variable - free)}}
         inputs = [p.name for p in self.free if not p.spec.scene_setting or p.name in variable]
         return settings, fixed, inputs
 
-    def simulator(self, scene: str) -> dict[str, Any]:
-        """What simulated ``scene``, beyond the parameters, settings, seed and time step: the
-        engine (name, version, the settings that change responses, the files a command reads)
-        and the scene's script for it. Simulations are the same simulator's only if these
-        agree (``reuse: archive`` and the global metamodels take no other)."""
+    def simulator(self, scene: str, fidelity: str = FINE) -> dict[str, Any]:
+        """What simulated ``scene`` at level ``fidelity``, beyond the parameters, settings,
+        seed and time step: the engine (name, version, the settings that change responses,
+        the files a command reads) and the scene's script for it. Simulations are the same
+        simulator's only if these agree (``reuse: archive`` and the global metamodels take no
+        other)."""
+        engine = self.level(fidelity).engine
         return {
-            **self.engine.outcome(),
-            "scene_script": self.scenes[scene].script_digests(self.engine.name),
+            **engine.outcome(),
+            "scene_script": self.scenes[scene].script_digests(engine.name),
+        }
+
+    def fine_level_view(self, scene: str) -> dict[str, Any]:
+        """What identifies the fine level of ``scene`` in the archive, the level a coarse
+        simulation belongs to: its settings (those not kept as parameters), time-step
+        fraction and simulator."""
+        settings, _, _ = self.archive_view(scene)
+        return {
+            "settings": settings,
+            "timestep_fraction": self.timestep_fraction,
+            "simulator": self.simulator(scene),
         }
 
     def simulation_seed(
@@ -327,17 +376,30 @@ def study_record(study: Study) -> dict[str, Any]:
         **({"material": study.material} if study.material else {}),
         # compared on resume, unlike the material's provenance
         **({"drawn_materials": list(study.material_draws)} if study.material_draws else {}),
+        **(
+            {
+                "fidelities": {
+                    name: {
+                        "scenes": level.settings,
+                        "timestep_fraction": level.timestep_fraction,
+                        "engine": {"name": level.engine.name, **level.engine.settings},
+                    }
+                    for name, level in study.fidelities.items()
+                }
+            }
+            if study.fidelities
+            else {}
+        ),
     }
 
 
 def study_from_record(record: dict[str, Any]) -> Study:
     """The ``Study`` of a record written by :func:`study_record` (trusted: not validated again)."""
-    engine = dict(record["engine"])
     scenes = {scene["name"]: SCENES.load(scene["name"]) for scene in record["scenes"]}
     specs = {**CATALOG, **variable_settings(scenes.values())}
     return Study(
         name=record["study"],
-        engine=make_engine(engine.pop("name"), engine),
+        engine=_engine_of(record["engine"]),
         scenes=scenes,
         settings={scene["name"]: scene["settings"] for scene in record["scenes"]},
         free=[
@@ -371,7 +433,22 @@ def study_from_record(record: dict[str, Any]) -> Study:
         reuse=record.get("reuse"),
         material_draws=tuple(record.get("drawn_materials", ())),
         material=record.get("material"),
+        fidelities={
+            name: FidelityLevel(
+                name,
+                level["scenes"],
+                level["timestep_fraction"],
+                _engine_of(level["engine"]),
+            )
+            for name, level in record.get("fidelities", {}).items()
+        },
     )
+
+
+def _engine_of(record: dict[str, Any]) -> Engine:
+    """The engine of a study record's ``{"name": ..., **settings}``."""
+    settings = dict(record)
+    return make_engine(settings.pop("name"), settings)
 
 
 def _default_archive() -> str:
@@ -396,7 +473,8 @@ def load_frozen(path: Path | str) -> Study:
 def incompatible_changes(old: dict[str, Any], new: dict[str, Any]) -> list[str]:
     """Fields in which ``new`` differs from ``old`` so that stored simulations no longer compare.
 
-    Allowed: the budget and stopping rules (``RESUMABLE_OPTIMIZER_SETTINGS``),
+    Allowed: the budget and stopping rules (``RESUMABLE_OPTIMIZER_SETTINGS``), a fidelity
+    level added,
     the daemon's ``calibration`` settings, warnings, the demcal version, the
     objective's form, the archive, where the material came from (its values are compared as
     fixed parameters and settings), and target values, weights and spreads when the same
@@ -408,6 +486,8 @@ def incompatible_changes(old: dict[str, Any], new: dict[str, Any]) -> list[str]:
         if not path.startswith(
             ("demcal_version", "warnings", "calibration", "objective", "archive", "material")
         )
+        # a level added: no stored simulation ran at it
+        and not (path.startswith("fidelities") and _at(old, path) is None)
         and not any(
             path == f"optimizer.{name}" or path.startswith(f"optimizer.{name}.")
             for name in RESUMABLE_OPTIMIZER_SETTINGS

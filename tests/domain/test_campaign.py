@@ -147,7 +147,7 @@ def test_demcal_sample_runs_the_design_into_the_archive_and_stops_when_all_fail(
     config = {**copy.deepcopy(ANALYTIC_STUDY), "study": "campaign", "replicates": 1}
     (tmp_path / "campaign.yaml").write_text(yaml.safe_dump(config))
     out = finish(demcal(tmp_path, "sample", "campaign.yaml", "--points", "4"))
-    assert "fssf_f design of 4 points in 2 parameters" in out
+    assert "fssf_f design of 4 points at fine in 2 parameters" in out
     assert "4 of 4 simulations finished (4 ok)" in out
     assert len(finish(demcal(tmp_path, "archive", "list", "--study", "campaign")).splitlines()) == 4
     failing = {

@@ -42,6 +42,7 @@ from demcal.scenes.base import (
     ResponseSpec,
     Scene,
     SettingSpec,
+    coarse_by_particle_count,
     psd_settings,
     settling_settings,
 )
@@ -218,6 +219,7 @@ SCENE = Scene(
     extractors={"angle_of_repose": _angle_of_repose},
     drivers={"lammps": f"{__name__}.lammps:run"},
     check_settings=check_geometry,
+    coarse=coarse_by_particle_count,
 )
 
 #: A tiny calibration device, seconds per LAMMPS run (300 spheres of 2 mm on a short floor

@@ -32,6 +32,7 @@ from demcal.scenes.base import (
     ResponseSpec,
     Scene,
     SettingSpec,
+    coarse_by_particle_count,
     psd_settings,
     settling_settings,
 )
@@ -130,6 +131,7 @@ SCENE = Scene(
     extractors={"bulk_density": _bulk_density, "angle_of_repose": _angle_of_repose},
     drivers={"lammps": f"{__name__}.lammps:run", "liggghts": f"{__name__}.liggghts:case"},
     check_settings=check_geometry,
+    coarse=coarse_by_particle_count,
 )
 
 #: A tiny cylinder lift, seconds per LAMMPS or LIGGGHTS run (200 spheres of 3 mm lifted at

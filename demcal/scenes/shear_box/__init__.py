@@ -61,6 +61,8 @@ MIN_SLOPE_COLUMNS = 5
 #: Most spheres a box may need: the count grows with the PSD's width, as
 #: (d_max / d50)^3 (about 5000 at the defaults).
 MAX_PARTICLES = 100_000
+#: The smallest box allowed, in largest particle diameters.
+BOX_SIZE_DMAX_MIN = 4.0
 
 
 def box_dimensions(settings: dict[str, Any]) -> tuple[float, float, float]:
@@ -137,6 +139,17 @@ def check_settings(settings: dict[str, Any], field_prefix: str) -> None:
         )
 
 
+#: The default coarse level's box, as a share of the fine box side (0.6^3: about a fifth of the
+#: particles).
+COARSE_BOX_SHARE = 0.6
+
+
+def coarse_box(settings: dict[str, Any]) -> dict[str, Any]:
+    """The default coarse level: a box COARSE_BOX_SHARE of the side in largest particles
+    (Richter & Will's scale factor), at least the smallest box allowed."""
+    return {"box_size_dmax": max(BOX_SIZE_DMAX_MIN, COARSE_BOX_SHARE * settings["box_size_dmax"])}
+
+
 SCENE = Scene(
     name="shear_box",
     description="shear box test (Richter & Will 2021): bulk density of the filled box and "
@@ -162,7 +175,7 @@ SCENE = Scene(
             10.0,
             "d_max",
             "smallest inner box side in largest particle diameters (Richter & Will: 10)",
-            4.0,
+            BOX_SIZE_DMAX_MIN,
             40.0,
         ),
         "base_length": SettingSpec(
@@ -187,6 +200,7 @@ SCENE = Scene(
     drivers={"lammps": f"{__name__}.lammps:run"},
     check_settings=check_settings,
     size_setting="box_size_dmax",
+    coarse=coarse_box,
 )
 
 #: A tiny shear box, seconds per LAMMPS run (monodisperse 3 mm spheres, the box's smallest
