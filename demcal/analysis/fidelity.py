@@ -14,11 +14,9 @@ targeted response:
   CPU seconds of its simulations of the response's scene.
 
 **Verdict.** A level pays for a response when a budget spent on both levels estimates it
-with less variance than the same budget spent on fine runs alone. For two models whose
-single runs correlate with r and cost w = cost(coarse) / cost(fine), the variance of the
-optimal two-model estimator relative to fine runs alone is (sqrt(1 - r²) + sqrt(r² w))²
-(Peherstorfer, Willcox & Gunzburger 2016, multifidelity Monte Carlo, two models). The level
-pays when that ratio, at the lower bound of r, is below 1; ``saving`` is 1 minus it.
+with less variance than the same budget spent on fine runs alone: the rule of
+:mod:`demcal.optimizer.levels` at the lower bound of r; the saving is 1 minus the variance
+ratio.
 """
 
 from __future__ import annotations
@@ -29,17 +27,17 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from scipy import stats
 
 from demcal.errors import SimulationFailed
+from demcal.optimizer.levels import (
+    CONFIDENCE,
+    MIN_POINTS,
+    correlation_lower_bound,
+    variance_ratio,
+)
 from demcal.reporting.figures import ReportFigure, finish_figure, new_figure
 from demcal.results.records import FINE, PointRecord, ResponsesRecord, Status
 from demcal.study.model import Study
-
-#: One-sided confidence of the correlation's lower bound that the verdict uses.
-CONFIDENCE = 0.9
-#: Fewest points with runs at both levels that a verdict needs (Fisher's z needs n > 3).
-MIN_POINTS = 4
 
 
 def runs_table(study: Study, names: list[str]) -> pd.DataFrame:
@@ -81,26 +79,6 @@ def runs_table(study: Study, names: list[str]) -> pd.DataFrame:
                 ]
     columns = ["evaluation", "level", "point", "scene", "replicate", "response", "value", "cpu_s"]
     return pd.DataFrame(rows, columns=columns)
-
-
-def correlation_lower_bound(r: float, n: int, confidence: float = CONFIDENCE) -> float:
-    """The one-sided lower confidence bound of a correlation ``r`` of ``n`` pairs (Fisher's z:
-    atanh(r) is about normal with sd 1 / sqrt(n - 3))."""
-    if n <= 3 or not math.isfinite(r):
-        return math.nan
-    z = math.atanh(min(max(r, -0.999999), 0.999999))
-    return math.tanh(z - stats.norm.ppf(confidence) / math.sqrt(n - 3))
-
-
-def variance_ratio(r: float, cost_ratio: float) -> float:
-    """Variance of the two-model multifidelity estimator relative to fine runs alone at the
-    same budget, (sqrt(1 - r²) + sqrt(r² w))² (Peherstorfer et al. 2016); nan where r or the
-    cost ratio w is unknown. A correlation at or below 0 helps nothing: 1."""
-    if not (math.isfinite(r) and math.isfinite(cost_ratio)):
-        return math.nan
-    if r <= 0.0:
-        return 1.0
-    return (math.sqrt(1.0 - r * r) + math.sqrt(r * r * cost_ratio)) ** 2
 
 
 def pooled_noise(runs: pd.DataFrame) -> float:

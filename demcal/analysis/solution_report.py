@@ -107,7 +107,7 @@ def analyse(
             f"run the calibration first"
         )
     optimizer = saved_optimizer(study)
-    predictor = optimizer.response_predictor(study.objective)
+    predictor = optimizer.response_predictor(study.objective, levels=True)
     dimension = optimizer.bounds.dimension
     if predictor is None:
         raise DemcalError(

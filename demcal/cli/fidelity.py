@@ -20,6 +20,7 @@ from demcal.domain.campaign import (
     write_points,
 )
 from demcal.errors import ConfigError
+from demcal.optimizer import levels
 from demcal.resources import DEFAULT_CONFIG
 from demcal.results.records import FINE
 from demcal.snakemake_command import LOCAL_PROFILE, check_profile
@@ -40,9 +41,9 @@ def arguments(sub: argparse.ArgumentParser) -> None:
     )
     sub.add_argument(
         "--points",
-        type=whole_number(fidelity.MIN_POINTS, 1000),
+        type=whole_number(levels.MIN_POINTS, 1000),
         default=8,
-        help=f"Sobol points run at every level (default 8, at least {fidelity.MIN_POINTS})",
+        help=f"Sobol points run at every level (default 8, at least {levels.MIN_POINTS})",
     )
     sub.add_argument(
         "--replicates",
@@ -125,7 +126,7 @@ def describe(found: list[fidelity.LevelComparison]) -> str:
             f"{c.noise_level:>8.3g} {c.cost_ratio:>6.2f}  {c.verdict}"
         )
     lines.append(
-        f"r: correlation of single runs at the same point, r_lo its {fidelity.CONFIDENCE:.0%} "
+        f"r: correlation of single runs at the same point, r_lo its {levels.CONFIDENCE:.0%} "
         f"lower bound; fine = scale * level + bias; cost: the level's CPU per simulation / "
         f"fine's. A level pays when (sqrt(1 - r_lo^2) + sqrt(r_lo^2 cost))^2 < 1 (Peherstorfer "
         f"et al. 2016)"

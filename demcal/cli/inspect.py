@@ -9,6 +9,7 @@ from demcal.cli.run import print_best
 from demcal.cli.study_argument import study_of
 from demcal.daemon.control import running_daemon, saved_optimizer
 from demcal.errors import ConfigError, DemcalError
+from demcal.reporting.terminal import level_spending
 from demcal.results.layout import RESULTS, STUDY_FILE
 from demcal.results.records import BestRecord, FinishedRecord, Status
 from demcal.study.model import Study, load_frozen
@@ -58,6 +59,9 @@ def status(args: argparse.Namespace) -> int:
         return 0
     state, counts = study_state(study)
     print(f"study {study.name!r}: {state}\n  {counts}")
+    spending = level_spending(study)
+    if spending:
+        print(f"  simulations {spending}")
     if study.files.best.exists():
         print_best(study)
     return 0

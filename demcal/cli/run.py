@@ -21,6 +21,7 @@ from demcal.reporting.terminal import (
     CHOSEN_BY,
     confirmation_summary,
     evaluation_summary,
+    level_spending,
 )
 from demcal.results.layout import StudyFiles
 from demcal.results.records import BestRecord, ObjectiveRecord, ReusedRecord
@@ -126,6 +127,9 @@ def print_best(study: Study) -> None:
             f"evaluations: {best.evaluations['new']} new, {best.evaluations['reused']} points "
             f"reused from the archive ({files.reused})"
         )
+    spending = level_spending(study)
+    if spending:
+        print(f"simulations {spending}; the answer and its confirmations are fine runs")
     print(f"all evaluations: {files.evaluations_csv}")
 
 

@@ -51,6 +51,7 @@ from demcal.optimizer.best import lowest_run
 from demcal.optimizer.evaluation import ReusedPoint
 from demcal.results.layout import CALIBRATION_FILE, SIMULATION_FILE, evaluation_id, proposal_id
 from demcal.results.records import (
+    FINE,
     FinishedRecord,
     LaunchRecord,
     ObjectiveRecord,
@@ -96,6 +97,8 @@ class Calibration:
         self.optimizer = self._load_or_create_optimizer()
         self.started_at = self._load_start_time()
         self.stop_requested: set[str] = set()
+        #: per response, whether the cheaper level pays, as last logged (`say_verdicts`)
+        self.verdicts_said: dict[str, bool] = {}
         self.watch = EarlyTerminationWatch(
             study, self.optimizer, self.started_at, self.stop_requested
         )
@@ -250,6 +253,7 @@ class Calibration:
             in_initial_design=proposal.in_initial_design,
             proposed_by=None if of is None else f"confirmation of {of}",
             staged=self.study.staging is not None and self.optimizer.can_stop_early(proposal.id),
+            fidelity=None if proposal.fidelity == FINE else proposal.fidelity,
         ).write(self.files.evaluation(evaluation_id(proposal.id)).params)
 
     def confirm_best(self, reason: str) -> bool:
@@ -440,7 +444,9 @@ class Calibration:
                 value=record.objective,
                 replicates=self._replicate_values(record),
                 responses=record.replicates,
+                cpu_s=record.cost.get("cpu_s"),
             )
+            self.say_verdicts()
         elif status == Status.TERMINATED:  # what it did learn enters the response models
             self.optimizer.tell(
                 pid,
@@ -462,6 +468,28 @@ class Calibration:
             record.objective if status == Status.OK else record.reason,
         )
         self.write_tables()
+
+    def say_verdicts(self) -> None:
+        """Log each response for which the cheaper level's verdict (does it pay?) is new or has
+        changed: where it does not pay, the response is modelled from fine runs alone."""
+        level = self.optimizer.settings.fidelity
+        if level is None:
+            return
+        for key, verdict in self.optimizer.level_verdicts().items():
+            if self.verdicts_said.get(key) == verdict.pays:
+                continue
+            self.verdicts_said[key] = verdict.pays
+            log.info(
+                "level %s %s for %s (correlation %.2f with the fine runs at %d points, cost "
+                "ratio %.2f)%s",
+                level,
+                "pays" if verdict.pays else "does not pay",
+                key,
+                verdict.correlation,
+                verdict.points,
+                verdict.cost_ratio,
+                "" if verdict.pays else ": modelled from fine runs alone",
+            )
 
     def _replicate_values(self, record: ObjectiveRecord) -> list[float] | None:
         """Eq. 3.3 per replicate of an evaluation, for the optimizer's noise estimate: the
@@ -545,6 +573,7 @@ class Calibration:
             best_text,
             elapsed,
             to_budget,
+            cheaper_text(optimizer),
         )
 
     # -- the loop ------------------------------------------------------------------
@@ -612,3 +641,12 @@ class Calibration:
                 f"the daemon ends too; {len(self.children)} running evaluations go on and are "
                 f"collected when the same command runs again"
             )
+
+
+def cheaper_text(optimizer: Optimizer) -> str:
+    """The evaluations done at the cheaper level, as "+9 coarse" ("" without one)."""
+    level = optimizer.settings.fidelity
+    if level is None:
+        return ""
+    done = sum(r.status != Status.PENDING for r in optimizer.cheap_records)
+    return f"+{done} {level}"

@@ -60,6 +60,8 @@ class Progress:
     best: str
     elapsed_s: float
     to_budget_s: float | None
+    #: the evaluations done at a cheaper level, as "+9 coarse" ("" without one)
+    cheaper: str = ""
 
     def status(self) -> str:
         """Everything but the study and the count of finished evaluations."""
@@ -70,7 +72,8 @@ class Progress:
         )
 
     def line(self) -> str:
-        return f"[demcal {self.study}] {self.finished}/{self.budget} done, {self.status()}"
+        cheaper = f" ({self.cheaper})" if self.cheaper else ""
+        return f"[demcal {self.study}] {self.finished}/{self.budget} done{cheaper}, {self.status()}"
 
 
 class ProgressDisplay:

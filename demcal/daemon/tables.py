@@ -12,7 +12,14 @@ from demcal.errors import SimulationFailed
 from demcal.jobs.steps import reused_objectives
 from demcal.optimizer import Optimizer
 from demcal.results.layout import evaluation_id
-from demcal.results.records import BestRecord, LaunchRecord, ObjectiveRecord, PointRecord, Status
+from demcal.results.records import (
+    FINE,
+    BestRecord,
+    LaunchRecord,
+    ObjectiveRecord,
+    PointRecord,
+    Status,
+)
 from demcal.results.storage import atomic_write_text
 from demcal.study.model import Study
 
@@ -51,6 +58,12 @@ def evaluation_columns(study: Study) -> list[tuple[str, str, str]]:
             "answer with new seeds; mapping: simulated to map the solution set; archive: reused "
             "from the archive (reused.json; evaluation is the study/evaluation that simulated it)",
         ),
+        (
+            "fidelity",
+            "",
+            f"the level it ran at: {FINE} (the study's own settings) or a cheaper one "
+            f"(fidelities:), whose runs teach the fine response models only",
+        ),
         ("reason", "", "why it failed or was stopped"),
         (
             "objective",
@@ -87,6 +100,7 @@ def write_evaluations_csv(study: Study) -> None:
             "evaluation": reused.evaluation,
             "status": reused.status,
             "origin": "archive",
+            "fidelity": FINE,
             "reason": reused.reason,
             "objective": reused.objective,
             **reused.parameters,
@@ -111,6 +125,7 @@ def write_evaluations_csv(study: Study) -> None:
             "evaluation": files.id,
             "status": record.status,
             "origin": origins.get(files.id, "new"),
+            "fidelity": point.level,
             "reason": record.reason,
             "objective": record.objective,
             "attempts": point.attempt + 1,

@@ -53,7 +53,7 @@ is for adding a strategy, see below):
         # with response models: the evaluated point of lowest predicted
         # objective; else the one whose larger of observed and predicted
         # value is lowest; a confirmed point stays the answer
-    opt.response_predictor(objective=None) -> ResponsePredictor | None
+    opt.response_predictor(objective=None, levels=False) -> ResponsePredictor | None
         # one model per targeted response, the objective on top
     opt.early_termination(id, partial_estimate, run=None) -> EarlyTerminationDecision
         # run: RunProgress(done, heading, estimated, provisional), where it stands

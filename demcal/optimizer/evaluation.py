@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from demcal.results.records import Status
+from demcal.results.records import FINE, Status
 
 
 @dataclass(frozen=True)
@@ -55,7 +55,9 @@ class Evaluation:
     confirmation run repeats; ``by_hand`` marks a point given by hand;
     ``maps_solutions`` one of the solution-set mapping (``map_solutions``);
     ``reused_from`` a point another study simulated, taken from the archive
-    (its ``study/evaluation``): data, not a simulation of this study.
+    (its ``study/evaluation``): data, not a simulation of this study. ``fidelity`` names
+    the level it ran at (a cheaper one teaches the fine response models only) and ``cpu_s``
+    what its simulations cost (None where not told).
     """
 
     id: int
@@ -70,6 +72,8 @@ class Evaluation:
     by_hand: bool = False
     maps_solutions: bool = False
     reused_from: str | None = None
+    fidelity: str = FINE
+    cpu_s: float | None = None
 
     @property
     def finished(self) -> bool:
@@ -100,6 +104,10 @@ class Evaluation:
             record["maps_solutions"] = True
         if self.reused_from is not None:
             record["reused_from"] = self.reused_from
+        if self.fidelity != FINE:
+            record["fidelity"] = self.fidelity
+        if self.cpu_s is not None:
+            record["cpu_s"] = self.cpu_s
         return record
 
     @classmethod
@@ -122,6 +130,8 @@ class Evaluation:
             by_hand=bool(record.get("by_hand", False)),
             maps_solutions=bool(record.get("maps_solutions", False)),
             reused_from=record.get("reused_from"),
+            fidelity=record.get("fidelity", FINE),
+            cpu_s=record.get("cpu_s"),
         )
 
 

@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from demcal.optimizer.objective import ResponseObjective
-from demcal.results.records import ENDED, Status
+from demcal.results.records import ENDED, FINE, Status
 
 from . import candidates as st
 from . import state
@@ -50,24 +50,30 @@ from .early_termination import (
     reference,
 )
 from .evaluation import BestPoint, Confirmation, Evaluation, ObservedResponse, ReusedPoint
+from .levels import LevelOutlook, cheap_is_worth_more
 from .objective_surrogate import fit_surrogate, training_data
 from .registry import STRATEGIES, strategy_class
-from .responses import ResponseModels, ResponsePredictor
+from .responses import LevelVerdict, ResponseModels, ResponsePredictor
 from .settings import OptimizerSettings
 from .stopping import stop_reason
 from .strategies.base import History, WeightCycle
 from .surrogates.base import Surrogate
+from .surrogates.multi_fidelity import MultiFidelityKriging
+
+#: Evaluations at a cheaper level the search may spend per fine evaluation of its budget.
+CHEAP_RUNS_PER_FINE = 3
 
 
 @dataclass(frozen=True)
 class Proposal:
     """A point to evaluate: ``id`` (unique, increasing), ``x`` in real units; ``confirms``: the
-    id of the point a confirmation run repeats."""
+    id of the point a confirmation run repeats; ``fidelity``: the level it runs at."""
 
     id: int
     x: list[float]
     in_initial_design: bool
     confirms: int | None = None
+    fidelity: str = FINE
 
 
 def _outcome(
@@ -140,6 +146,11 @@ class Optimizer:
         )
         self.initial_size = len(design)
         self.design_queue: list[list[float]] = design.tolist()
+        #: with a cheaper level (``fidelity``): its evaluations, apart from the fine ones in
+        #: ``records`` that the search, the answer and the budget count; and the initial design
+        #: again at that level, handed out after the fine one
+        self.cheap_records: list[Evaluation] = []
+        self.cheap_queue: list[list[float]] = design.tolist() if self.settings.fidelity else []
         self.records: list[Evaluation] = [
             Evaluation(
                 id,
@@ -189,6 +200,10 @@ class Optimizer:
         self._response_models = ResponseModels(
             s.response_model, s.duplicate_tolerance, s.kriging_restarts, self.seed
         )
+        #: with a cheaper level: the models of both levels' runs (the search's)
+        self._level_models = ResponseModels(
+            s.response_model, s.duplicate_tolerance, s.kriging_restarts, self.seed
+        )
 
     # ------------------------------------------------------------------ ask
     def ask(self, n: int = 1) -> list[Proposal]:
@@ -203,20 +218,62 @@ class Optimizer:
         if self.search_ended is not None:
             confirmations = self.confirm(n)
             return confirmations + self._map_solutions(n - len(confirmations))
-        room = self.settings.max_evaluations - self.completed_evaluations() - len(self.pending())
-        proposals = []
-        for _ in range(max(min(n, room), 0)):
-            unit: np.ndarray | None
-            if self.design_queue:
-                unit = np.array(self.design_queue.pop(0))
-                in_design = True
+        proposals: list[Proposal] = []
+        while len(proposals) < n:
+            fine_room = (
+                self.settings.max_evaluations
+                - self.completed_evaluations()
+                - sum(r.status == Status.PENDING for r in self.records)
+            )
+            cheap_room = self.cheap_budget - len(self.cheap_records)
+            if self.design_queue and fine_room > 0:
+                proposals.append(self._issue(np.array(self.design_queue.pop(0)), True))
+            elif self.cheap_queue and cheap_room > 0:
+                unit = np.array(self.cheap_queue.pop(0))
+                proposals.append(self._issue(unit, True, fidelity=self.settings.fidelity or FINE))
+            elif fine_room > 0:
+                point = self._adaptive_point()
+                if point is None:  # the strategy waits for running evaluations, or has finished
+                    break
+                level = self._level_for(point) if cheap_room > 0 else FINE
+                proposals.append(self._issue(point, False, fidelity=level))
             else:
-                unit = self._adaptive_point()
-                in_design = False
-            if unit is None:  # the strategy waits for running evaluations, or has finished
                 break
-            proposals.append(self._issue(unit, in_design))
         return proposals
+
+    @property
+    def cheap_budget(self) -> int:
+        """Evaluations at the cheaper level the search may spend in all: CHEAP_RUNS_PER_FINE
+        per fine evaluation of the budget (0 without a cheaper level)."""
+        return CHEAP_RUNS_PER_FINE * self.settings.max_evaluations if self.settings.fidelity else 0
+
+    def level_cost(self, fidelity: str) -> float:
+        """The median CPU seconds of the told evaluations at ``fidelity`` (nan before any)."""
+        records = self.records if fidelity == FINE else self.cheap_records
+        costs = [r.cpu_s for r in records if r.cpu_s is not None and r.status == Status.OK]
+        return float(np.median(costs)) if costs else math.nan
+
+    def _level_for(self, unit: np.ndarray) -> str:
+        """The level the next evaluation at ``unit`` runs at: the cheaper one when it is worth
+        more per CPU second than a fine run (:func:`.levels.cheap_is_worth_more`) for the
+        responses whose multi-fidelity model says the level pays; fine otherwise."""
+        fidelity = self.settings.fidelity
+        predictor = self.response_predictor(levels=True)
+        if fidelity is None or predictor is None:
+            return FINE
+        fine: list[LevelOutlook] = []
+        cheap: list[LevelOutlook | None] = []
+        for model in predictor.models.values():
+            if isinstance(model, MultiFidelityKriging):
+                at_fine, at_cheap = model.outlooks(unit)
+                fine.append(at_fine)
+                cheap.append(at_cheap)
+            else:
+                sd = float(model.predict_std(np.atleast_2d(unit))[0])
+                fine.append(LevelOutlook(1.0, sd, model.noise_sd))
+                cheap.append(None)
+        ratio = self.level_cost(fidelity) / self.level_cost(FINE)
+        return fidelity if cheap_is_worth_more(fine, cheap, ratio) else FINE
 
     def _map_solutions(self, n: int) -> list[Proposal]:
         """Up to ``n`` points of the solution-set mapping, within ``map_solutions``."""
@@ -237,6 +294,7 @@ class Optimizer:
         confirms: int | None = None,
         by_hand: bool = False,
         maps_solutions: bool = False,
+        fidelity: str = FINE,
     ) -> Proposal:
         record = Evaluation(
             self.next_id,
@@ -245,10 +303,12 @@ class Optimizer:
             confirms=confirms,
             by_hand=by_hand,
             maps_solutions=maps_solutions,
+            fidelity=fidelity,
         )
-        self.records.append(record)
+        (self.records if fidelity == FINE else self.cheap_records).append(record)
         self.next_id += 1
-        return Proposal(record.id, self.bounds.from_unit(unit)[0].tolist(), in_design, confirms)
+        x = self.bounds.from_unit(unit)[0].tolist()
+        return Proposal(record.id, x, in_design, confirms, fidelity)
 
     def add_point(self, x: list[float]) -> Proposal:
         """A point given by hand (a colleague's, a previous best): pending, evaluated like any
@@ -286,7 +346,7 @@ class Optimizer:
             settings=self.settings,
             initial_size=self.initial_size,
             reused=self.reused_points,
-            responses=self.response_predictor()
+            responses=self.response_predictor(levels=True)
             if mapping or STRATEGIES[self.settings.strategy].needs_targets
             else None,
             response_means=tuple(
@@ -307,6 +367,7 @@ class Optimizer:
         replicates: list[float] | None = None,
         responses: dict[str, list[float]] | None = None,
         partial: dict[str, dict[str, Any]] | None = None,
+        cpu_s: float | None = None,
     ) -> None:
         """Report the outcome of proposal ``id``.
 
@@ -320,7 +381,8 @@ class Optimizer:
         ``scene.response``; with an objective and no value given, the value
         and its replicates follow from them. ``partial`` ("terminated"): what
         the stopped run reported, ``{key: {"values": [...], "final": bool}}``
-        (final: the response was complete; else an early estimate).
+        (final: the response was complete; else an early estimate). ``cpu_s``: what its
+        simulations cost (the cost of each level, for the choice of level).
         """
         record = self._record(id)
         if record.status != Status.PENDING:
@@ -340,8 +402,10 @@ class Optimizer:
             id,
             **_outcome(id, value, status, replicates),
             responses={key: ObservedResponse.of(entry) for key, entry in (observed or {}).items()},
+            cpu_s=cpu_s,
         )
-        self._update_progress(record)
+        if record.fidelity == FINE:  # a cheaper level's value is not the objective's
+            self._update_progress(record)
 
     def _objective_of(self, responses: dict[str, list[float]]) -> tuple[float, list[float] | None]:
         """The objective of the replicates' responses, and per replicate when the counts agree
@@ -423,8 +487,17 @@ class Optimizer:
         return sum(1 for r in self.records if r.reused_from)
 
     def pending(self) -> list[int]:
-        """Ids handed out and not yet told."""
-        return [r.id for r in self.records if r.status == Status.PENDING]
+        """Ids handed out and not yet told, at every level."""
+        return [r.id for r in [*self.records, *self.cheap_records] if r.status == Status.PENDING]
+
+    def level_verdicts(self) -> dict[str, LevelVerdict]:
+        """Per targeted response, whether the cheaper level pays, as last judged (none before
+        the level has data)."""
+        return dict(self._level_models.verdicts)
+
+    def cheap_counts(self) -> dict[str, int]:
+        """How many evaluations at the cheaper level are ok, failed, terminated and pending."""
+        return dict(Counter(str(r.status) for r in self.cheap_records))
 
     def best(self) -> BestPoint | None:
         """The best evaluated point, and how it was chosen (``chosen_by``); see
@@ -439,18 +512,27 @@ class Optimizer:
         )
 
     def response_predictor(
-        self, objective: ResponseObjective | None = None
+        self, objective: ResponseObjective | None = None, levels: bool = False
     ) -> ResponsePredictor | None:
         """The models of the targeted responses with ``objective`` (default: the optimizer's) on
-        top.
+        top: of the fine runs alone, which the answer, the stopping rules and every "within
+        spread" claim rest on; with ``levels``, of the cheaper level's runs too where it pays
+        (multi-fidelity models), which the search and the solution set use.
 
         Inputs in the unit box. None without an objective or while some
-        targeted response has fewer than d + 2 observations.
+        targeted response has fewer than d + 2 fine observations.
         """
         objective = objective or self.objective
         if objective is None:
             return None
-        models = self._response_models.fit(self.records, objective.keys, self.bounds.dimension)
+        dimension = self.bounds.dimension
+        if levels and self.settings.fidelity:
+            ratio = self.level_cost(self.settings.fidelity) / self.level_cost(FINE)
+            models = self._level_models.fit(
+                self.records, objective.keys, dimension, self.cheap_records, ratio
+            )
+        else:
+            models = self._response_models.fit(self.records, objective.keys, dimension)
         return None if models is None else ResponsePredictor(models, objective)
 
     def stop_reason(self, elapsed_seconds: float) -> str | None:
@@ -557,6 +639,7 @@ class Optimizer:
             and STRATEGIES[self.settings.strategy].stops_early
             and record.confirms is None
             and not record.maps_solutions
+            and record.fidelity == FINE
         )
 
     def can_stop_early(self, id: int) -> bool:
@@ -588,20 +671,23 @@ class Optimizer:
         `demcal.optimizer.confirmation.confirmation_summary`)."""
         return confirmation_summary(self.records, self.objective.keys if self.objective else [])
 
-    def _index(self, id: int) -> int:
-        for index, record in enumerate(self.records):
-            if record.id == id:
-                return index
+    def _index(self, id: int) -> tuple[list[Evaluation], int]:
+        """The list that holds evaluation ``id`` (fine or cheaper level) and its place there."""
+        for records in (self.records, self.cheap_records):
+            for index, record in enumerate(records):
+                if record.id == id:
+                    return records, index
         raise ValueError(f"unknown evaluation id {id!r}")
 
     def _record(self, id: int) -> Evaluation:
-        return self.records[self._index(id)]
+        records, index = self._index(id)
+        return records[index]
 
     def _replace(self, id: int, **changes: Any) -> Evaluation:
         """Replace evaluation ``id``'s record by a copy with ``changes``; returns the new one."""
-        index = self._index(id)
-        self.records[index] = replace(self.records[index], **changes)
-        return self.records[index]
+        records, index = self._index(id)
+        records[index] = replace(records[index], **changes)
+        return records[index]
 
     def _fitted_surrogate(self) -> Surrogate | None:
         """The surrogate of the objective (`demcal.optimizer.objective_surrogate`), refitted

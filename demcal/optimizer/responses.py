@@ -26,8 +26,11 @@ from demcal.optimizer.objective import ResponseObjective, Target
 from demcal.results.records import Status
 
 from .evaluation import Evaluation
+from .levels import pays
 from .registry import RESPONSE_MODELS
 from .surrogates.base import ResponseModel
+from .surrogates.kriging import KrigingSurrogate
+from .surrogates.multi_fidelity import LevelData, MultiFidelityKriging
 
 #: Standard deviation of an early estimate relative to its value, when a run
 #: stopped before the response was final (the calibration device's mass flow
@@ -119,40 +122,104 @@ def replicates_per_evaluation(records: list[Evaluation], key: str) -> int:
 FULL_REFIT_EVERY = 8
 
 
+@dataclass(frozen=True)
+class LevelVerdict:
+    """Whether a cheaper level pays for one response (:func:`.levels.pays`): the correlation
+    of its model's predictions with the fine values at the fine points, how many, the cost
+    ratio it was judged at."""
+
+    correlation: float
+    points: int
+    cost_ratio: float
+    pays: bool
+
+
 class ResponseModels:
-    """One model per response, refitted only when that response's data changed."""
+    """One model per response, refitted only when that response's data changed; with a cheaper
+    level's data, a multi-fidelity model where the level pays for the response."""
 
     def __init__(self, kind: str, duplicate_tolerance: float, restarts: int, seed: int):
         self.kind, self.duplicate_tolerance = kind, duplicate_tolerance
         self.restarts, self.seed = restarts, seed
-        self._fitted: dict[str, tuple[tuple[bytes, bytes, bytes, float], ResponseModel]] = {}
+        self._fitted: dict[str, tuple[tuple[object, ...], PredictsResponse]] = {}
         #: per response: refits since the last full one, and the data size then
         self._since_full: dict[str, tuple[int, int]] = {}
+        #: per response: whether the cheaper level pays, as last judged
+        self.verdicts: dict[str, LevelVerdict] = {}
+        self._verdict_data: dict[str, tuple[object, ...]] = {}
 
     def fit(
-        self, records: list[Evaluation], keys: list[str], dimension: int
-    ) -> dict[str, ResponseModel] | None:
-        """The models of ``keys``, or None while some response has fewer than d + 2 points."""
+        self,
+        records: list[Evaluation],
+        keys: list[str],
+        dimension: int,
+        cheap: list[Evaluation] | None = None,
+        cost_ratio: float = math.nan,
+    ) -> dict[str, PredictsResponse] | None:
+        """The models of ``keys``, or None while some response has fewer than d + 2 points.
+        ``cheap``: evaluations at a cheaper level, costing ``cost_ratio`` of a fine one."""
         models = {}
         for key in keys:
             x, y, variance = observations(records, key, dimension)
             if len(y) < dimension + 2:
                 return None
             floor = replicate_scatter(records, key) / replicates_per_evaluation(records, key)
-            signature = (x.tobytes(), y.tobytes(), variance.tobytes(), floor)
+            levels = observations(cheap or [], key, dimension)
+            if not self._level_pays(key, (x, y), levels, cost_ratio):
+                levels = (np.empty((0, dimension)), np.empty(0), np.empty(0))
+            signature = (x.tobytes(), y.tobytes(), variance.tobytes(), floor, levels[1].tobytes())
             cached = self._fitted.get(key)
             if cached is None or cached[0] != signature:
-                refits, size = self._since_full.get(key, (0, 0))
-                due = cached is None or refits + 1 >= FULL_REFIT_EVERY or len(y) > 1.25 * size
-                start = None if due or cached is None else cached[1].warm_start
-                kind: type[ResponseModel] = RESPONSE_MODELS.load(self.kind)
-                model = kind.create(
-                    self.duplicate_tolerance, self.restarts, self.seed, warm_start=start
-                )
-                self._fitted[key] = (signature, model.fit(x, y, variance, noise_floor=floor))
-                self._since_full[key] = (0, len(y)) if start is None else (refits + 1, size)
+                self._fitted[key] = (signature, self._model(key, (x, y, variance), levels, floor))
             models[key] = self._fitted[key][1]
         return models
+
+    def _model(
+        self,
+        key: str,
+        fine: tuple[np.ndarray, np.ndarray, np.ndarray],
+        cheap: tuple[np.ndarray, np.ndarray, np.ndarray],
+        floor: float,
+    ) -> PredictsResponse:
+        """A new model of one response: multi-fidelity with a cheaper level's data, else the
+        configured kind, warm-started from the last fit between full refits."""
+        x, y, variance = fine
+        if len(cheap[1]):
+            return MultiFidelityKriging(self.restarts, self.seed).fit(
+                [LevelData(*cheap), LevelData(x, y, variance)], floor
+            )
+        cached = self._fitted.get(key)
+        last = cached[1] if cached is not None and isinstance(cached[1], ResponseModel) else None
+        refits, size = self._since_full.get(key, (0, 0))
+        due = last is None or refits + 1 >= FULL_REFIT_EVERY or len(y) > 1.25 * size
+        start = None if due or last is None else last.warm_start
+        kind: type[ResponseModel] = RESPONSE_MODELS.load(self.kind)
+        model = kind.create(self.duplicate_tolerance, self.restarts, self.seed, warm_start=start)
+        self._since_full[key] = (0, len(y)) if start is None else (refits + 1, size)
+        return model.fit(x, y, variance, noise_floor=floor)
+
+    def _level_pays(
+        self,
+        key: str,
+        fine: tuple[np.ndarray, np.ndarray],
+        cheap: tuple[np.ndarray, np.ndarray, np.ndarray],
+        cost_ratio: float,
+    ) -> bool:
+        """Whether the cheaper level pays for response ``key`` (:func:`.levels.pays`): a model
+        of its data alone, predicted at the fine points, correlated with the fine values."""
+        x, y = fine
+        dimension = x.shape[1]
+        if len(cheap[1]) < dimension + 2 or not math.isfinite(cost_ratio):
+            self.verdicts.pop(key, None)
+            return False
+        data = (x.tobytes(), y.tobytes(), cheap[1].tobytes(), cost_ratio)
+        if self._verdict_data.get(key) != data:
+            model = KrigingSurrogate(self.duplicate_tolerance, self.restarts, self.seed)
+            predicted = model.fit(cheap[0], cheap[1], cheap[2]).predict(x)
+            r = float(np.corrcoef(predicted, y)[0, 1]) if np.ptp(predicted) > 0 else 0.0
+            self.verdicts[key] = LevelVerdict(r, len(y), cost_ratio, pays(r, len(y), cost_ratio))
+            self._verdict_data[key] = data
+        return self.verdicts[key].pays
 
 
 class PredictsResponse(Protocol):

@@ -75,6 +75,9 @@ class OptimizerSettings:
     ``map_solutions``: once the search for the best point has stopped, this
     many more evaluations map the set of parameters that meet the targets as
     well (the ``solution_map`` strategy; needs the targets; 0: none).
+    ``fidelity``: a cheaper fidelity level the search may also spend
+    (:mod:`.levels`: multi-fidelity response models, the level of each run chosen by its
+    worth per CPU second); None: fine runs only.
     """
 
     strategy: str = "dycors"
@@ -105,6 +108,7 @@ class OptimizerSettings:
     calm_share: float = 0.05
     calm_proposals: int = 3
     map_solutions: int = 0
+    fidelity: str | None = None
     early_termination: EarlyTerminationSettings = field(default_factory=EarlyTerminationSettings)
 
     @classmethod
@@ -188,6 +192,8 @@ class OptimizerSettings:
         _integer("kriging_restarts", self.kriging_restarts, 1, None)
         _integer("confirm_replicates", self.confirm_replicates, 0, 100)
         _integer("map_solutions", self.map_solutions, 0, None)
+        if self.fidelity is not None and not isinstance(self.fidelity, str):
+            raise ValueError(f"optimizer.fidelity: {self.fidelity!r} is not a level's name")
         _boolean("stop_when_known", self.stop_when_known)
         _integer("calm_proposals", self.calm_proposals, 1, None)
         _number("calm_share", self.calm_share, 0.0, 1.0, open_low=True)

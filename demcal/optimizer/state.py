@@ -2,7 +2,8 @@
 writes and :meth:`~.optimizer.Optimizer.from_json` reads back.
 
 One JSON object, format version 1: the bounds, settings, seed, workers,
-initial design (its size and the points not yet handed out), the records,
+initial design (its size and the points not yet handed out), the records (and with a
+cheaper fidelity level its records and what is left of its initial design),
 the next id, the step size, the weight index, the best value and the
 evaluations without improvement, the random generator's state, and, when
 present, what the strategy remembers (``strategy_state``) and the version of
@@ -55,6 +56,9 @@ def encode(optimizer: Optimizer) -> str:
         "evaluations_without_improvement": optimizer.evaluations_without_improvement,
         "rng": optimizer.rng.bit_generator.state,
     }
+    if optimizer.cheap_records or optimizer.cheap_queue:
+        state["cheap_records"] = [record.to_dict() for record in optimizer.cheap_records]
+        state["cheap_queue"] = optimizer.cheap_queue
     if optimizer.strategy_state:
         state["strategy_state"] = optimizer.strategy_state
     if optimizer.search_ended is not None:
@@ -94,6 +98,8 @@ def decode(text: str, objective: ResponseObjective | None) -> dict[str, Any]:
         "initial_size": state["initial_size"],
         "design_queue": state["design_queue"],
         "records": [Evaluation.from_dict(record) for record in state["records"]],
+        "cheap_records": [Evaluation.from_dict(r) for r in state.get("cheap_records", [])],
+        "cheap_queue": state.get("cheap_queue", []),
         "next_id": state["next_id"],
         "step": StepSize(**state["step"]),
         "weight_index": state["weight_index"],

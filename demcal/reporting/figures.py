@@ -38,7 +38,7 @@ from demcal.optimizer.bounds import to_unit_box
 from demcal.optimizer.objective import PRECISION
 from demcal.reporting.terminal import time_unit
 from demcal.results.layout import CALIBRATION_FILE, ESTIMATE_COLUMNS, proposal_id
-from demcal.results.records import BestRecord, SimulationRecord, Status
+from demcal.results.records import FINE, BestRecord, SimulationRecord, Status
 from demcal.results.storage import read_json
 from demcal.snakemake_command import ScriptJob, dag_command
 from demcal.study.model import Study, load_frozen
@@ -63,7 +63,9 @@ STATUS_COLOURS: dict[str, str] = {
 
 def load_table(study: Study) -> pd.DataFrame:
     """evaluations.csv with evaluation number, wall time since start and cumulative CPU time:
-    the study's own evaluations (the points reused from the archive have neither)."""
+    the study's own evaluations at the fine level (the points reused from the archive have
+    neither; a cheaper level's runs count in the CPU spent, but their objective is not the
+    fine one's)."""
     table = pd.read_csv(study.files.evaluations_csv)
     if "origin" in table:  # tables written before reuse have no origin
         table = table[table["origin"] != "archive"].reset_index(drop=True)
@@ -76,6 +78,8 @@ def load_table(study: Study) -> pd.DataFrame:
     table["since_start_s"] = (table["ended_at"] - start).dt.total_seconds()
     order = table.sort_values("ended_at").index
     table.loc[order, "cpu_total_s"] = table.loc[order, "cpu_s"].cumsum()
+    if "fidelity" in table:  # tables written before fidelity levels have none
+        table = table[table["fidelity"].fillna(FINE) == FINE].reset_index(drop=True)
     return table
 
 

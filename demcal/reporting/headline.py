@@ -21,6 +21,7 @@ from demcal.reporting.terminal import (
     CHOSEN_BY,
     duration,
     error_text,
+    level_spending,
     posterior_line,
     target_text,
     with_sd,
@@ -87,6 +88,8 @@ def _ended(study: Study, finished: FinishedRecord) -> list[str]:
     if study.files.evaluations_csv.exists():
         cpu = pd.to_numeric(pd.read_csv(study.files.evaluations_csv)["cpu_s"], errors="coerce")
         spent = f"; simulation CPU time {duration(cpu.sum())}"
+        spending = level_spending(study)
+        spent += f" ({spending})" if spending else ""
     new, reused = "", ""
     if finished.reused is not None:
         new = " new"

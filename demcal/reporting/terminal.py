@@ -10,7 +10,7 @@ from pathlib import Path
 
 from demcal.errors import SimulationFailed
 from demcal.optimizer.objective import Target, relative_miss
-from demcal.results.records import BestRecord, ObjectiveRecord, Status
+from demcal.results.records import FINE, BestRecord, ObjectiveRecord, Status
 from demcal.snakemake_command import report_command
 from demcal.study.model import Study
 
@@ -97,6 +97,28 @@ def bound_advice(verdict: str | None, solutions_summary: Path) -> str:
             "`demcal solutions` finds that the targets do not identify it"
         )
     return "the bounds may cut the solution off; widen them if the physics allows"
+
+
+def level_spending(study: Study) -> str | None:
+    """The simulations and CPU time of each fidelity level, from evaluations.csv, as
+    "fine 12 evaluations (13 min CPU), coarse 25 (4 min)"; None with one level."""
+    import pandas as pd
+
+    if not study.files.evaluations_csv.is_file():
+        return None
+    table = pd.read_csv(study.files.evaluations_csv)
+    if "fidelity" not in table or table["fidelity"].nunique() < 2:
+        return None
+    if "origin" in table:  # the points reused from the archive cost this study nothing
+        table = table[table["origin"] != "archive"]
+    cpu = pd.to_numeric(table["cpu_s"], errors="coerce").fillna(0.0)
+    levels = sorted(table["fidelity"].unique(), key=lambda level: level != FINE)
+    parts = [
+        f"{level} {int((table['fidelity'] == level).sum())} evaluations "
+        f"({duration(float(cpu[table['fidelity'] == level].sum()))} CPU)"
+        for level in levels
+    ]
+    return "by level: " + ", ".join(parts)
 
 
 def evaluation_summary(

@@ -33,6 +33,9 @@ from demcal.study.schema import default, load_schema, validate_schema
 from demcal.study.study_file import read_study_yaml
 from demcal.study.targets import targets_of
 
+#: The strategy that can spend a cheaper fidelity level (``optimizer.fidelity``).
+SEARCH_WITH_LEVELS = "response_ei"
+
 
 def _scenes_of(config: dict[str, Any]) -> dict[str, Scene]:
     names = [t["scene"] for t in config["targets"]]
@@ -254,6 +257,25 @@ def _timestep_notes(free: list[FreeParameter], engine: Engine) -> list[str]:
     ]
 
 
+def _check_search_level(optimizer: OptimizerSettings, levels: dict[str, FidelityLevel]) -> None:
+    """``optimizer.fidelity`` must name a cheaper level of the study, and the search must model
+    the responses (response_ei), which the multi-fidelity models are."""
+    name = optimizer.fidelity
+    if name is None:
+        return
+    if name not in levels:
+        have = f"its levels are {', '.join(levels)}" if levels else "it declares none"
+        raise ConfigError(
+            f"optimizer.fidelity: {name!r} is not a cheaper level of the study ({have}); "
+            f"declare it under fidelities: (docs/fidelity.md)"
+        )
+    if optimizer.strategy != SEARCH_WITH_LEVELS:
+        raise ConfigError(
+            f"optimizer.fidelity: the {optimizer.strategy} strategy cannot spend a cheaper "
+            f"level; use strategy: {SEARCH_WITH_LEVELS} (its multi-fidelity response models)"
+        )
+
+
 def load_study(config: dict[str, Any], check_engine: bool = True) -> Study:
     """Validate a study configuration (mapping from YAML) and resolve it into a ``Study``."""
     if not isinstance(config, dict):
@@ -323,6 +345,7 @@ def load_study(config: dict[str, Any], check_engine: bool = True) -> Study:
     if check_engine:
         for level in levels.values():
             level.engine.check(list(scenes.values()))
+    _check_search_level(optimizer, levels)
     return Study(
         name=config["study"],
         engine=engine,

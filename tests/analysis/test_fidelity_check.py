@@ -13,13 +13,9 @@ import pytest
 import yaml
 from helpers import ANALYTIC_STUDY, demcal, finish
 
-from demcal.analysis.fidelity import (
-    compare,
-    correlation_lower_bound,
-    pooled_noise,
-    variance_ratio,
-)
+from demcal.analysis.fidelity import compare, pooled_noise
 from demcal.engines.analytic import distorted, ripple_phase
+from demcal.optimizer.levels import correlation_lower_bound, variance_ratio
 from demcal.results.records import FINE
 
 SCENE = "cylinder_lift"

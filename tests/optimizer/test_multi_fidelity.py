@@ -50,3 +50,33 @@ def test_it_needs_two_levels_with_data():
     empty = LevelData(np.zeros((0, 2)), np.zeros(0), np.zeros(0))
     with pytest.raises(ValueError, match="each with data"):
         MultiFidelityKriging().fit([empty, one])
+
+
+def test_a_run_is_worth_its_information_per_cpu_second():
+    from demcal.optimizer.levels import LevelOutlook, cheap_is_worth_more
+
+    fine = LevelOutlook(1.0, sd=2.0, noise_sd=0.5)
+    cheap = LevelOutlook(0.9, sd=2.0, noise_sd=1.0)
+    assert fine.information() == pytest.approx(1.0 - 0.5 / np.sqrt(4.25))
+    assert cheap.information() == pytest.approx(0.9 * (1.0 - 1.0 / np.sqrt(5.0)))
+    assert cheap_is_worth_more([fine], [cheap], cost_ratio=0.1)
+    assert not cheap_is_worth_more([fine], [cheap], cost_ratio=0.9)
+    assert not cheap_is_worth_more([fine], [None], cost_ratio=0.1)  # it tells nothing
+    assert not cheap_is_worth_more([fine], [cheap], cost_ratio=float("nan"))  # cost unknown
+    known = LevelOutlook(0.9, sd=0.0, noise_sd=1.0)  # nothing left to learn there
+    assert not cheap_is_worth_more([fine], [known], cost_ratio=0.1)
+
+
+def test_the_outlook_of_the_cheap_level_follows_the_model():
+    rng = np.random.default_rng(2)
+    x_fine, x_coarse = rng.random((6, 2)), rng.random((30, 2))
+    model = MultiFidelityKriging(seed=1).fit(
+        [
+            LevelData(x_coarse, coarse(x_coarse), np.zeros(30)),
+            LevelData(x_fine, fine(x_fine), np.zeros(6)),
+        ]
+    )
+    at_fine, at_cheap = model.outlooks(np.array([0.5, 0.5]))
+    assert at_fine.correlation == 1.0
+    assert at_fine.sd == pytest.approx(float(model.predict_std(np.array([[0.5, 0.5]]))[0]))
+    assert 0.0 <= at_cheap.correlation <= 1.0 and at_cheap.sd >= 0.0

@@ -26,6 +26,8 @@ from typing import Any, Self
 import numpy as np
 from numpy.typing import ArrayLike
 
+from demcal.optimizer.levels import LevelOutlook
+
 from .kriging import NUGGET_START_MIN
 
 
@@ -112,11 +114,31 @@ class MultiFidelityKriging:
         std: np.ndarray = self.scale * np.sqrt(np.maximum(variance, 0.0))
         return std
 
+    def level_noise_sd(self, level: int) -> float:
+        """The fitted noise of level ``level`` (0 the cheapest; -1 fine): its nugget times its
+        process variance, in response units."""
+        nugget = float(np.ravel(self.model.optimal_noise_all[level])[0])
+        sigma2 = float(np.ravel(self.model.optimal_par[level]["sigma2"])[0])
+        return self.scale * float(np.sqrt(max(nugget * sigma2, 0.0)))
+
     @property
     def noise_sd(self) -> float:
-        """The fine level's fitted noise (nugget times its process variance), never below the
-        ``noise_floor``."""
-        nugget = float(np.ravel(self.model.optimal_noise_all[-1])[0])
-        sigma2 = float(np.ravel(self.model.optimal_par[-1]["sigma2"])[0])
-        fitted = self.scale * float(np.sqrt(max(nugget * sigma2, 0.0)))
-        return max(fitted, float(np.sqrt(self.noise_floor)))
+        """The fine level's fitted noise, never below the ``noise_floor``."""
+        return max(self.level_noise_sd(-1), float(np.sqrt(self.noise_floor)))
+
+    def outlooks(self, x: ArrayLike) -> tuple[LevelOutlook, LevelOutlook]:
+        """What a run at the point ``x`` would tell about the fine response, at the fine level
+        and at the level below it: the posterior correlation with the fine value (rho s_c / s_f
+        in the recursive model), the level's predictive sd and its noise."""
+        point = np.atleast_2d(np.asarray(x, float))[:1]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            variances = np.maximum(self.model.predict_variances_all_levels(point)[0][0], 0.0)
+        fine_sd = float(self.predict_std(point)[0])
+        below, top = float(variances[-2]), float(variances[-1])
+        below_sd = fine_sd * float(np.sqrt(below / top)) if top > 0.0 else 0.0
+        correlation = self.rho * below_sd / fine_sd if fine_sd > 0.0 else 0.0
+        return (
+            LevelOutlook(1.0, fine_sd, self.noise_sd),
+            LevelOutlook(float(np.clip(correlation, -1.0, 1.0)), below_sd, self.level_noise_sd(-2)),
+        )
