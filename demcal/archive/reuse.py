@@ -8,7 +8,9 @@ variable settings are the study's, and its free ones lie inside the study's boun
 engine must name its version (``engine.version``) to reuse anything. The compatible
 simulations of every scene are grouped by their free values into points; a point is usable
 when every targeted response has at least one final value there. Replicates and repeated runs
-of one point (a confirmation) pool into one point.
+of one point (a confirmation) pool into one point. A study whose search spends a cheaper level
+(``optimizer.fidelity``) also takes the simulations compatible with that level: the coarse
+runs of the same material (docs/fidelity.md).
 """
 
 from __future__ import annotations
@@ -20,49 +22,55 @@ from demcal.archive.simulation import ArchivedSimulation, digest
 from demcal.archive.store import Archive
 from demcal.errors import ConfigError
 from demcal.results.archive_url import shown
-from demcal.results.records import ReusedRecord
+from demcal.results.records import FINE, ReusedRecord
 from demcal.study.model import Study
 
 
 def compatible_simulations(
-    study: Study, archive: Archive, from_study: Callable[[str], bool] = lambda name: True
+    study: Study,
+    archive: Archive,
+    from_study: Callable[[str], bool] = lambda name: True,
+    fidelity: str = FINE,
 ) -> list[ArchivedSimulation]:
     """The archive's ok simulations of the study's scenes that the study could have run, each
     once: two studies that differ only in name or targets run the same points with the same
     seeds, and the archive keeps both records (its key names the study); one scene's run with
     one seed at one point is one simulation, not two replicates. ``from_study`` picks the
-    studies whose simulations count (the metamodels hold a validation campaign out)."""
+    studies whose simulations count (the metamodels hold a validation campaign out);
+    ``fidelity``: the study's level whose settings, time step and simulator they must share."""
     problem = study.engine.reuse_problem()
     if problem is not None:
         raise ConfigError(problem)
     names = [p.name for p in study.free]
+    level = study.level(fidelity)
     found, seen = [], set()
     for scene in study.scenes:
-        settings, fixed, inputs = study.archive_view(scene)
+        settings, fixed, inputs = study.archive_view(scene, fidelity)
         for record in archive.compatible(
             scene=scene,
-            engine=study.engine.name,
+            engine=level.engine.name,
             settings=settings,
             fixed=fixed,
             inputs=inputs,
-            simulator=digest(study.simulator(scene)),
+            simulator=digest(study.simulator(scene, fidelity)),
         ):
             inside = all(p.lower <= record.parameters[p.name].value <= p.upper for p in study.free)
             run = (record.scene, record.seed, tuple(record.values(names)))
             counts = inside and from_study(record.study)
-            if counts and record.timestep_fraction == study.timestep_fraction and run not in seen:
+            if counts and record.timestep_fraction == level.timestep_fraction and run not in seen:
                 seen.add(run)
                 found.append(record)
     return found
 
 
-def reused_points(study: Study, archive: Archive) -> ReusedRecord:
-    """The usable points of the study's compatible simulations, in archive order; a damaged
-    simulation is left out, or counts without its damaged values, as the archive reads it
+def reused_points(study: Study, archive: Archive, fidelity: str = FINE) -> ReusedRecord:
+    """The usable points of the study's compatible simulations at level ``fidelity``, in
+    archive order (each point of a cheaper level names it); a damaged simulation is left out,
+    or counts without its damaged values, as the archive reads it
     (:meth:`Archive.warn_damaged` names them)."""
     names = [p.name for p in study.free]
     groups: dict[tuple[float, ...], list[ArchivedSimulation]] = defaultdict(list)
-    for record in compatible_simulations(study, archive):
+    for record in compatible_simulations(study, archive, fidelity=fidelity):
         groups[tuple(record.values(names))].append(record)
     archive.warn_damaged()
     points = []
@@ -94,5 +102,6 @@ def reused_points(study: Study, archive: Archive) -> ReusedRecord:
                     for r in records
                 ],
             }
+            | ({} if fidelity == FINE else {"fidelity": fidelity})
         )
     return ReusedRecord(shown(archive.url), points)

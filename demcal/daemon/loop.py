@@ -44,6 +44,7 @@ from demcal.jobs.steps import (
     objective_record,
     rescore,
     response_paths,
+    reused_levels,
     reused_objectives,
 )
 from demcal.optimizer import Optimizer, Proposal
@@ -138,8 +139,13 @@ class Calibration:
         from demcal.archive.store import Archive
 
         assert self.study.archive is not None, "the study's config requires an archive to reuse"
+        level = self.study.optimizer.fidelity
         with Archive(self.study.archive) as archive:
-            reused_points(self.study, archive).write(self.files.reused)
+            reused = reused_points(self.study, archive)
+            if level is not None:  # and the coarse runs of the same material
+                reused.points.extend(reused_points(self.study, archive, level).points)
+            reused.write(self.files.reused)
+        levels = reused_levels(self.study)
         points = [
             ReusedPoint(
                 [record.parameters[name] for name in self.names],
@@ -147,11 +153,17 @@ class Calibration:
                 record.objective,
                 self._replicate_values(record),
                 record.evaluation,
+                levels[record.evaluation],
             )
             for record in reused_objectives(self.study)
             if record.ok and record.objective is not None
         ]
-        log.info("reused %d points of the archive as data (reused.json)", len(points))
+        cheap = sum(point.fidelity != FINE for point in points)
+        log.info(
+            "reused %d points of the archive as data (reused.json)%s",
+            len(points),
+            f", {cheap} of them at {level}" if cheap else "",
+        )
         return points
 
     def _load_start_time(self) -> float:

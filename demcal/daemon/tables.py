@@ -9,7 +9,7 @@ from datetime import UTC, datetime
 from typing import TYPE_CHECKING
 
 from demcal.errors import SimulationFailed
-from demcal.jobs.steps import reused_objectives
+from demcal.jobs.steps import reused_levels, reused_objectives
 from demcal.optimizer import Optimizer
 from demcal.results.layout import evaluation_id
 from demcal.results.records import (
@@ -95,12 +95,13 @@ def write_evaluations_csv(study: Study) -> None:
     buffer = io.StringIO()
     writer = csv.DictWriter(buffer, fieldnames=[c for c, _, _ in columns], extrasaction="ignore")
     writer.writeheader()
+    levels = reused_levels(study)
     for reused in reused_objectives(study):
         row = {
             "evaluation": reused.evaluation,
             "status": reused.status,
             "origin": "archive",
-            "fidelity": FINE,
+            "fidelity": levels[reused.evaluation],
             "reason": reused.reason,
             "objective": reused.objective,
             **reused.parameters,

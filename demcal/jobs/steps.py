@@ -443,6 +443,12 @@ def rescore(study: Study, files: EvaluationFiles, record: ObjectiveRecord) -> Ob
     return rescored
 
 
+def reused_levels(study: Study) -> dict[str, str]:
+    """The fidelity level of each point the study reused (``reused.json``), by its source."""
+    reused = ReusedRecord.read_if_any(study.files.reused)
+    return {p["source"]: p.get("fidelity", FINE) for p in ([] if reused is None else reused.points)}
+
+
 def reused_objectives(study: Study) -> list[ObjectiveRecord]:
     """The points the study reused (``reused.json``), each scored by the study's objective as
     it stands now (its targets may have changed since); [] when it reused none. Each record's

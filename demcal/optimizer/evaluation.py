@@ -142,7 +142,7 @@ class ReusedPoint:
     ``x`` in real units; ``responses`` each targeted response's final values, keyed
     ``scene.response``; ``value`` the objective of this study applied to them, and
     ``replicates`` per replicate (None when the counts differ); ``source`` the
-    ``study/evaluation`` that simulated it.
+    ``study/evaluation`` that simulated it; ``fidelity`` the study's level it ran at.
     """
 
     x: list[float]
@@ -150,6 +150,7 @@ class ReusedPoint:
     value: float
     replicates: list[float] | None
     source: str
+    fidelity: str = FINE
 
 
 @dataclass(frozen=True)

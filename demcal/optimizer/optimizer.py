@@ -134,7 +134,8 @@ class Optimizer:
             per_parameter * dimension if per_parameter else default_initial_size(dimension, workers)
         )
         include = None if not initial_points else self.bounds.to_unit(initial_points)
-        covered = self.bounds.to_unit([p.x for p in reused]) if reused else None
+        fine_reused = [p for p in reused if p.fidelity == FINE]
+        covered = self.bounds.to_unit([p.x for p in fine_reused]) if fine_reused else None
         design = initial_design(
             self.settings.initial_design,
             self.initial_size,
@@ -149,20 +150,22 @@ class Optimizer:
         #: with a cheaper level (``fidelity``): its evaluations, apart from the fine ones in
         #: ``records`` that the search, the answer and the budget count; and the initial design
         #: again at that level, handed out after the fine one
-        self.cheap_records: list[Evaluation] = []
         self.cheap_queue: list[list[float]] = design.tolist() if self.settings.fidelity else []
-        self.records: list[Evaluation] = [
+        taken = [
             Evaluation(
                 id,
-                tuple(float(v) for v in unit),
+                tuple(float(v) for v in self.bounds.to_unit([point.x])[0]),
                 in_initial_design=False,
                 **_outcome(id, point.value, Status.OK, point.replicates),
                 responses={key: ObservedResponse(tuple(v)) for key, v in point.responses.items()},
                 reused_from=point.source,
+                fidelity=point.fidelity,
             )
-            for id, (point, unit) in enumerate(zip(reused, [] if covered is None else covered))
+            for id, point in enumerate(reused)
         ]
-        self.next_id = len(self.records)
+        self.records: list[Evaluation] = [r for r in taken if r.fidelity == FINE]
+        self.cheap_records: list[Evaluation] = [r for r in taken if r.fidelity != FINE]
+        self.next_id = len(taken)
         self.step = st.StepSize(self.settings.sigma_max)
         self.weight_index = 0
         values = [r.value for r in self.records if r.value is not None]
@@ -225,7 +228,7 @@ class Optimizer:
                 - self.completed_evaluations()
                 - sum(r.status == Status.PENDING for r in self.records)
             )
-            cheap_room = self.cheap_budget - len(self.cheap_records)
+            cheap_room = self.cheap_budget - sum(not r.reused_from for r in self.cheap_records)
             if self.design_queue and fine_room > 0:
                 proposals.append(self._issue(np.array(self.design_queue.pop(0)), True))
             elif self.cheap_queue and cheap_room > 0:
