@@ -12,6 +12,7 @@ from demcal.cli.inspect import study_state
 from demcal.cli.study_argument import study_yaml
 from demcal.daemon.session import workers_of
 from demcal.domain.campaign import runs_at_once
+from demcal.optimizer.optimizer import CHEAP_RUNS_PER_FINE
 from demcal.snakemake_command import check_profile
 from demcal.study.config import load_study_file
 from demcal.study.model import Study
@@ -31,7 +32,11 @@ def check(args: argparse.Namespace) -> int:
     print("\n".join(f"  {line}" for line in plan_lines(study)))
     print(f"  workers: {workers} evaluations in flight ({source}), profile {profile}")
     at_once = runs_at_once(settings)
-    print(f"  at most {cost_line(study, per_scene(study, evaluations), count, at_once)}")
+    cheap = CHEAP_RUNS_PER_FINE * budget.max_evaluations * len(study.scenes) * study.replicates
+    print(
+        f"  at most {cost_line(study, per_scene(study, evaluations), count, at_once)}"
+        + (f"; and at most {cheap} at {budget.fidelity}" if budget.fidelity else "")
+    )
     print(f"  {results_line(study)}")
     return 0
 
@@ -53,6 +58,15 @@ def plan_lines(study: Study) -> list[str]:
         else "",
     ]
     then = "; then " + " and ".join(a for a in after if a) if any(after) else ""
+    levels = [
+        f"fidelity levels: {', '.join(study.fidelities)} besides fine"
+        + (
+            f"; the search may spend {settings.fidelity} (at most {CHEAP_RUNS_PER_FINE} runs "
+            f"per fine evaluation, docs/fidelity.md)"
+            if settings.fidelity
+            else "; the search runs fine only (optimizer.fidelity spends a level)"
+        )
+    ]
     return [
         f"engine: {study.engine.version()}",
         f"scenes: {', '.join(study.scenes)}; {study.replicates} "
@@ -61,6 +75,7 @@ def plan_lines(study: Study) -> list[str]:
         f"targets: {targets}",
         f"budget: at most {settings.max_evaluations} evaluations (strategy {settings.strategy})"
         f"{then}",
+        *(levels if study.fidelities else []),
     ]
 
 

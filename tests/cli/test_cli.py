@@ -106,6 +106,22 @@ def test_check_says_what_run_would_run_and_writes_nothing(tmp_path, monkeypatch,
     assert not (tmp_path / "results").exists()
 
 
+def test_check_says_what_a_cheaper_level_may_spend(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    config = {
+        **copy.deepcopy(ANALYTIC_STUDY),
+        "study": "levels",
+        "replicates": 1,
+        "fidelities": {"coarse": {"engine": {"scale": 0.9}}},
+        "optimizer": {"max_evaluations": 10, "fidelity": "coarse"},
+    }
+    (tmp_path / "levels.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
+    assert main(["check", "levels.yaml"]) == 0
+    out = capsys.readouterr().out
+    assert "  fidelity levels: coarse besides fine; the search may spend coarse (at most 3" in out
+    assert "; and at most 30 at coarse" in out
+
+
 def test_check_refuses_a_bad_study_and_a_name_in_one_line(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     config = {**copy.deepcopy(ANALYTIC_STUDY), "replicates": 0}
