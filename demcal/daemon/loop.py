@@ -656,9 +656,13 @@ class Calibration:
 
 
 def cheaper_text(optimizer: Optimizer) -> str:
-    """The evaluations done at the cheaper level, as "+9 coarse" ("" without one)."""
+    """The evaluations done at the cheaper level and for how many responses it pays, as
+    "+9 coarse, pays for 1 of 2 responses" ("" without a level)."""
     level = optimizer.settings.fidelity
     if level is None:
         return ""
-    done = sum(r.status != Status.PENDING for r in optimizer.cheap_records)
-    return f"+{done} {level}"
+    done = sum(r.status != Status.PENDING and not r.reused_from for r in optimizer.cheap_records)
+    verdicts = optimizer.level_verdicts()
+    paying = sum(v.pays for v in verdicts.values())
+    judged = f", pays for {paying} of {len(verdicts)} responses" if verdicts else ""
+    return f"+{done} {level}{judged}"

@@ -59,7 +59,7 @@ def test_a_calibration_spends_the_cheap_level_and_answers_from_fine_runs(
     assert simulation.fidelity == "coarse" and simulation.simulator["settings"]["scale"] == 0.9
     best = BestRecord.read(study.files.best)
     assert best.evaluation in set(table[table["fidelity"] == FINE]["evaluation"])
-    assert cheaper_text(calibration.optimizer).startswith(f"+{len(cheap)} coarse")
+    assert cheaper_text(calibration.optimizer).startswith(f"+{len(cheap)} coarse, pays for ")
     assert "level coarse pays for cylinder_lift.angle_of_repose" in caplog.text
     assert level_spending(study).startswith(
         f"by level: fine 9 evaluations (9 min CPU), coarse {len(cheap)} evaluations ("
