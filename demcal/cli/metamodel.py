@@ -47,9 +47,16 @@ def arguments(sub: argparse.ArgumentParser) -> None:
     sub.add_argument(
         "--model",
         nargs="+",
-        default=list(metamodel.MODEL_KINDS),
+        default=list(metamodel.SINGLE_LEVEL_KINDS),
         choices=metamodel.MODEL_KINDS,
-        help="build: the kinds of model (default: both)",
+        help="build: the kinds of model (default: kriging and symbolic; multi_fidelity needs "
+        "--fidelity)",
+    )
+    sub.add_argument(
+        "--fidelity",
+        metavar="LEVEL",
+        help="build: the cheaper level of the study whose runs the multi_fidelity model learns "
+        "from as well (demcal sample --fidelity LEVEL runs them)",
     )
     sub.add_argument(
         "--holdout",
@@ -85,10 +92,23 @@ def metamodel_command(args: argparse.Namespace) -> int:
     study, url = domain_study(args.config)
     holdout = tuple(args.holdout)
     if args.action == "build":
+        if args.fidelity is not None and args.fidelity not in study.fidelities:
+            raise ConfigError(
+                f"--fidelity {args.fidelity}: not a cheaper level of the study "
+                f"({', '.join(study.fidelities) or 'it declares none under fidelities:'})"
+            )
         with Archive(url) as archive:
             data = metamodel.domain_data(study, archive, exclude=holdout)
+            cheap = (
+                None
+                if args.fidelity is None
+                else (
+                    args.fidelity,
+                    metamodel.domain_data(study, archive, exclude=holdout, fidelity=args.fidelity),
+                )
+            )
         start = time.monotonic()
-        models = metamodel.build(data, tuple(args.model), args.seed, holdout)
+        models = metamodel.build(data, tuple(args.model), args.seed, holdout, cheap)
         path = metamodel.save(study, models)
         print(
             f"demcal metamodel: {', '.join(args.model)} models of {len(models.models)} responses "

@@ -11,7 +11,10 @@ sampling campaign (``demcal sample``). Each targeted response gets
 - ``symbolic``: symbolic regression by genetic programming (gplearn, as Richter & Will: the
   function set +, -, *, /, sqrt, log, exp, tanh; parsimony 0.001, population 5000), on the
   unit box and the standardised response, so its equation reads
-  ``response = mean + sd * f(x_name, ...)`` with ``x_name`` the parameter scaled to [0, 1].
+  ``response = mean + sd * f(x_name, ...)`` with ``x_name`` the parameter scaled to [0, 1];
+- ``multi_fidelity``: multi-fidelity Kriging (demcal.optimizer.surrogates.multi_fidelity) of
+  the fine runs and the archive's runs of the same domain at a cheaper level of the study
+  (``--fidelity``): a large coarse campaign and a small fine one (docs/fidelity.md).
 
 The models are saved under ``results/<study>/metamodels/`` with the fingerprint of the data
 they were trained on, so a later command knows when the archive has moved on.
@@ -33,9 +36,13 @@ from demcal.archive.simulation import digest
 from demcal.archive.store import Archive
 from demcal.errors import ConfigError
 from demcal.optimizer.bounds import to_unit_box
+from demcal.optimizer.surrogates.multi_fidelity import LevelData, MultiFidelityKriging
+from demcal.results.records import FINE
 from demcal.study.model import Study
 
-MODEL_KINDS = ("kriging", "symbolic")
+MODEL_KINDS = ("kriging", "symbolic", "multi_fidelity")
+#: The kinds built when none is named: those that need no cheaper level's runs.
+SINGLE_LEVEL_KINDS = ("kriging", "symbolic")
 #: Richter & Will's genetic-programming settings (sec. 2.4): population and parsimony.
 POPULATION = 5000
 PARSIMONY = 0.001
@@ -75,8 +82,9 @@ def domain_data(
     archive: Archive,
     exclude: tuple[str, ...] = (),
     only: tuple[str, ...] | None = None,
+    fidelity: str = FINE,
 ) -> DomainData:
-    """The study's domain and its compatible simulations (as for reuse:
+    """The study's domain and its compatible simulations at level ``fidelity`` (as for reuse:
     :func:`demcal.archive.reuse.compatible_simulations`): without those of the studies
     ``exclude`` names (a held-out validation campaign), or those of the studies ``only``
     names alone. A damaged simulation is left out, or gives only its sound responses, as the
@@ -89,6 +97,7 @@ def domain_data(
         study,
         archive,
         lambda name: name not in exclude and (only is None or name in only),
+        fidelity,
     )
     archive.warn_damaged()
     for record in records:
@@ -219,7 +228,45 @@ class SymbolicMetamodel:
         return f"{self.key} = {self.mean:.6g} + {self.sd:.6g} * {self.program._program}"
 
 
-#: How each kind of model is fitted: (x in the unit box, y, input names, seed, response key).
+@dataclass
+class MultiFidelityMetamodel:
+    """Multi-fidelity Kriging of the fine runs and a cheaper level's (the fine prediction)."""
+
+    model: MultiFidelityKriging
+    level: str
+
+    @classmethod
+    def fit(
+        cls, fine: tuple[np.ndarray, np.ndarray], cheap: tuple[np.ndarray, np.ndarray], level: str
+    ) -> MultiFidelityMetamodel:
+        """From the fine and the cheaper level's (x in the unit box, y)."""
+        model = MultiFidelityKriging(restarts=KRIGING_RESTARTS).fit(
+            [
+                LevelData(cheap[0], cheap[1], np.zeros(len(cheap[1]))),
+                LevelData(fine[0], fine[1], np.zeros(len(fine[1]))),
+            ]
+        )
+        return cls(model, level)
+
+    def predict(self, x_unit: np.ndarray) -> np.ndarray:
+        return self.model.predict(x_unit)
+
+    def predict_std(self, x_unit: np.ndarray) -> np.ndarray:
+        return self.model.predict_std(x_unit)
+
+    @property
+    def noise_sd(self) -> float:
+        return self.model.noise_sd
+
+    def describe(self) -> str:
+        return (
+            f"multi-fidelity Kriging ({self.level} -> fine, scale {self.model.rho:.3g}), "
+            f"noise sd {self.model.noise_sd:.3g}"
+        )
+
+
+#: How each single-level kind of model is fitted: (x in the unit box, y, input names, seed,
+#: response key).
 FITTERS: dict[str, Callable[[np.ndarray, np.ndarray, list[str], int, str], Model]] = {
     "kriging": KrigingMetamodel.fit,
     "symbolic": SymbolicMetamodel.fit,
@@ -250,12 +297,22 @@ class Metamodels:
 
 
 def build(
-    data: DomainData, kinds: tuple[str, ...], seed: int, exclude: tuple[str, ...]
+    data: DomainData,
+    kinds: tuple[str, ...],
+    seed: int,
+    exclude: tuple[str, ...],
+    cheap: tuple[str, DomainData] | None = None,
 ) -> Metamodels:
-    """One model of each kind per response of ``data``."""
+    """One model of each kind per response of ``data``; ``cheap``: a cheaper level's name and
+    its data, which the ``multi_fidelity`` kind needs."""
     unknown = [k for k in kinds if k not in MODEL_KINDS]
     if unknown:
         raise ConfigError(f"--model {unknown[0]}: use one of {', '.join(MODEL_KINDS)}")
+    if "multi_fidelity" in kinds and cheap is None:
+        raise ConfigError(
+            "--model multi_fidelity: name the cheaper level whose runs it learns from "
+            "(--fidelity LEVEL; demcal sample --fidelity LEVEL runs them)"
+        )
     models: dict[str, dict[str, Model]] = {}
     sizes = {}
     for key, rows in data.responses.items():
@@ -265,9 +322,23 @@ def build(
                 f"a global model needs many more: run demcal sample first"
             )
         unit = to_unit_box(np.atleast_2d(rows.x), data.lower, data.upper)
-        models[key] = {}
-        for kind in kinds:
-            models[key][kind] = FITTERS[kind](unit, rows.y, data.names, seed, key)
+        models[key] = {
+            kind: FITTERS[kind](unit, rows.y, data.names, seed, key)
+            for kind in kinds
+            if kind in FITTERS
+        }
+        if cheap is not None and "multi_fidelity" in kinds:
+            level, cheap_data = cheap
+            low = cheap_data.responses[key]
+            if len(low.y) < len(data.names) + 2:
+                raise ConfigError(
+                    f"{key}: {len(low.y)} simulations at {level} in the archive for "
+                    f"{len(data.names)} inputs; run demcal sample --fidelity {level} first"
+                )
+            low_unit = to_unit_box(np.atleast_2d(low.x), data.lower, data.upper)
+            models[key]["multi_fidelity"] = MultiFidelityMetamodel.fit(
+                (unit, rows.y), (low_unit, low.y), level
+            )
         sizes[key] = len(rows.y)
     return Metamodels(
         data.names, data.lower, data.upper, models, sizes, data.fingerprint, exclude, FORMAT

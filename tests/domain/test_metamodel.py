@@ -4,6 +4,7 @@ on one campaign's archived simulations, validated on another's."""
 from __future__ import annotations
 
 import copy
+import dataclasses
 import json
 import pickle
 import re
@@ -347,3 +348,53 @@ def test_models_saved_before_the_package_moved_still_load(tmp_path, monkeypatch)
     assert isinstance(loaded, metamodel.Metamodels) and loaded.training_size == models.training_size
     kriging = loaded.models["cylinder_lift.angle_of_repose"]["kriging"]
     assert isinstance(kriging, metamodel.KrigingMetamodel)
+
+
+def test_a_multi_fidelity_model_learns_a_domain_from_few_fine_runs(tmp_path, monkeypatch, capsys):
+    """Issue 38, item 6: 10 fine and 80 coarse runs (a coarse level scaled by 0.9, the angle
+    shifted by 3 deg) predict held-out fine runs better than Kriging of the 10 fine ones."""
+    from demcal.engines.analytic import distorted
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(metamodel, "KRIGING_RESTARTS", 1)
+    level = {"scale": 0.9, "bias": {"angle_of_repose": 3.0}}
+    config = {**copy.deepcopy(DOMAIN), "fidelities": {"coarse": {"engine": level}}}
+    study = freeze(load_study(config))
+    coarse = [
+        dataclasses.replace(
+            record,
+            simulator=digest(study.simulator("cylinder_lift", "coarse")),
+            fidelity="coarse",
+            responses={
+                name: Quantity(value, "")
+                for name, value in distorted(
+                    {n: q.value for n, q in record.responses.items()},
+                    {n: q.value for n, q in record.parameters.items()},
+                    level,
+                ).items()
+            },
+        )
+        for record in simulated(study, "coarse-domain", fssf_f(80, 4, np.random.default_rng(3)))
+    ]
+    with Archive(study.archive) as archive:
+        archive.add(simulated(study, "domain", fssf_f(10, 4, np.random.default_rng(1))))
+        archive.add(coarse)
+        archive.add(simulated(study, "check", latin_hypercube(20, 4, np.random.default_rng(2))))
+    (tmp_path / "domain.yaml").write_text(yaml.safe_dump(config))
+    assert main(["metamodel", "build", "domain.yaml", "--model", "multi_fidelity"]) == 2
+    assert "--model multi_fidelity: name the cheaper level" in capsys.readouterr().err
+    assert main(["metamodel", "build", "domain.yaml", "--fidelity", "nope"]) == 2
+    assert "--fidelity nope: not a cheaper level of the study (coarse)" in capsys.readouterr().err
+    build = ["metamodel", "build", "domain.yaml", "--holdout", "check", "--fidelity", "coarse"]
+    assert main([*build, "--model", "kriging", "multi_fidelity"]) == 0
+    assert "multi-fidelity Kriging (coarse -> fine, scale" in capsys.readouterr().out
+    assert main(["metamodel", "validate", "domain.yaml", "--holdout", "check"]) == 0
+    rows = {
+        tuple(cells[1:3]): float(cells[4])
+        for line in capsys.readouterr().out.splitlines()
+        if line.startswith("| cylinder_lift")
+        for cells in [[c.strip() for c in line.split("|")]]
+    }
+    angle = "cylinder_lift.angle_of_repose"
+    assert rows[(angle, "multi_fidelity")] > 0.99
+    assert rows[(angle, "multi_fidelity")] > rows[(angle, "kriging")]
