@@ -24,7 +24,7 @@ from demcal.daemon.tables import iso_time
 from demcal.errors import ConfigError, DemcalError
 from demcal.results.archive_url import check_url, missing_file, shown
 from demcal.results.layout import RESULTS
-from demcal.results.records import Status
+from demcal.results.records import FINE, Status
 from demcal.study.schema import default
 
 
@@ -171,11 +171,13 @@ def simulation_word(word: str) -> str:
 
 
 def line(record: ArchivedSimulation, width: int | None = None) -> str:
-    """One simulation in one line: number, origin, status, start time (ISO 8601, UTC), free
-    parameters and responses (``~``: an estimate) or why it failed. Wider than ``width``
-    characters, it is two, the parameters on the second, each cut to ``width``."""
+    """One simulation in one line: number, origin (with its fidelity level unless fine),
+    status, start time (ISO 8601, UTC), free parameters and responses (``~``: an estimate) or
+    why it failed. Wider than ``width`` characters, it is two, the parameters on the second,
+    each cut to ``width``."""
+    level = "" if record.fidelity == FINE else f" [{record.fidelity}]"
     head = (
-        f"{record.id:>6} {record.study}/{record.evaluation} {record.scene} "
+        f"{record.id:>6} {record.study}/{record.evaluation} {record.scene}{level} "
         f"rep{record.replicate} {record.status} {iso_time(record.started_at)}"
     )
     free = " ".join(

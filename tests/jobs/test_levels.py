@@ -11,6 +11,7 @@ from helpers import ANALYTIC_STUDY, run_last_jobs, run_simulations
 
 from demcal.archive.simulation import digest
 from demcal.archive.store import Archive
+from demcal.cli.archive import line
 from demcal.domain.campaign import plan, point_names, write_points
 from demcal.errors import ConfigError
 from demcal.results.records import FINE, PointRecord, SimulationRecord
@@ -63,6 +64,8 @@ def test_a_point_at_a_level_runs_and_is_archived_as_that_level(leveled):
         "e0001": "coarse",
         "e0002": "loose",
     }
+    assert " cylinder_lift [coarse] rep0 ok " in line(records["e0001"])
+    assert " cylinder_lift rep0 ok " in line(records["e0000"])
     fine_level = digest(leveled.fine_level_view("cylinder_lift"))
     assert {r.fine_level for r in records.values()} == {fine_level}
     # a level's runs are not the fine level's: reuse finds only the fine one
