@@ -332,7 +332,9 @@ class Optimizer:
     def _history(self, weights: WeightCycle, mapping: bool = False) -> History:
         """The frozen view of the evaluations that a strategy receives (``mapping``: for the
         solution-set mapping, which needs the response models whatever the strategy)."""
-        records, dimension = self.records, self.bounds.dimension
+        # a cheap run still running keeps new points away from it, as a fine one does
+        running_cheap = [r for r in self.cheap_records if r.status == Status.PENDING]
+        records, dimension = [*self.records, *running_cheap], self.bounds.dimension
         return History(
             ids=tuple(r.id for r in records),
             points=np.array([r.x for r in records], float).reshape(len(records), dimension),
