@@ -29,12 +29,8 @@ import numpy as np
 import pandas as pd
 
 from demcal.errors import SimulationFailed
-from demcal.optimizer.levels import (
-    CONFIDENCE,
-    MIN_POINTS,
-    correlation_lower_bound,
-    variance_ratio,
-)
+from demcal.optimizer import levels
+from demcal.optimizer.levels import CONFIDENCE, MIN_POINTS
 from demcal.reporting.figures import ReportFigure, finish_figure, new_figure
 from demcal.results.records import FINE, PointRecord, ResponsesRecord, Status
 from demcal.study.model import Study
@@ -117,15 +113,19 @@ class LevelComparison:
     noise_level: float
     cpu_fine_s: float
     cpu_level_s: float
-    variance_ratio: float
 
     @property
     def cost_ratio(self) -> float:
         return self.cpu_level_s / self.cpu_fine_s if self.cpu_fine_s > 0 else math.nan
 
     @property
+    def variance_ratio(self) -> float:
+        """The rule's variance ratio at the correlation's lower bound (:mod:`.levels`)."""
+        return levels.variance_ratio(self.correlation_lower, self.cost_ratio)
+
+    @property
     def pays(self) -> bool:
-        return math.isfinite(self.variance_ratio) and self.variance_ratio < 1.0
+        return levels.ratio_pays(self.variance_ratio)
 
     @property
     def verdict(self) -> str:
@@ -138,15 +138,25 @@ class LevelComparison:
         return "does not pay: fine runs alone estimate it better for the same CPU"
 
 
+def paired_means(runs: pd.DataFrame, level: str, response: str) -> pd.DataFrame:
+    """Per point run at both levels, the replicate means of ``response`` at fine and at
+    ``level`` (columns ``fine`` and ``level``)."""
+    of = runs[runs["response"] == response]
+    return pd.concat(
+        [
+            of[of["level"] == FINE].groupby("point")["value"].mean(),
+            of[of["level"] == level].groupby("point")["value"].mean(),
+        ],
+        axis=1,
+        keys=["fine", "level"],
+    ).dropna()
+
+
 def compare(runs: pd.DataFrame, level: str, response: str) -> LevelComparison:
     """``level`` against fine for one ``response`` from the check's ``runs`` (`runs_table`)."""
     of = runs[runs["response"] == response]
     fine, cheap = of[of["level"] == FINE], of[of["level"] == level]
-    means = pd.concat(
-        [fine.groupby("point")["value"].mean(), cheap.groupby("point")["value"].mean()],
-        axis=1,
-        keys=["fine", "level"],
-    ).dropna()
+    means = paired_means(runs, level, response)
     single = fine.merge(cheap, on=["point", "replicate"], suffixes=("_fine", "_level"))
     n = len(means)
     r = (
@@ -161,8 +171,7 @@ def compare(runs: pd.DataFrame, level: str, response: str) -> LevelComparison:
         spread = float(np.sqrt(np.sum(residuals**2) / (n - 2)))
     scene = of["scene"].iloc[0] if len(of) else ""
     cpu = {name: median_cpu(runs, name, scene) for name in (FINE, level)}
-    lower = correlation_lower_bound(r, len(single.groupby("point"))) if n else math.nan
-    cost_ratio = cpu[level] / cpu[FINE] if cpu[FINE] > 0 else math.nan
+    lower = levels.correlation_lower_bound(r, len(single.groupby("point"))) if n else math.nan
     return LevelComparison(
         level=level,
         response=response,
@@ -176,7 +185,6 @@ def compare(runs: pd.DataFrame, level: str, response: str) -> LevelComparison:
         noise_level=pooled_noise(cheap),
         cpu_fine_s=cpu[FINE],
         cpu_level_s=cpu[level],
-        variance_ratio=variance_ratio(lower, cost_ratio),
     )
 
 
@@ -218,21 +226,13 @@ def plot(
 ) -> ReportFigure:
     """Fine against each cheaper level, one panel per level and response: the points'
     replicate means, the fitted line and the line of equal values."""
-    levels = list(dict.fromkeys(c.level for c in found))
+    names = list(dict.fromkeys(c.level for c in found))
     responses = list(dict.fromkeys(c.response for c in found))
-    fig = new_figure(3.6 * len(responses), 3.4 * len(levels))
-    axes = fig.subplots(len(levels), len(responses), squeeze=False)
+    fig = new_figure(3.6 * len(responses), 3.4 * len(names))
+    axes = fig.subplots(len(names), len(responses), squeeze=False)
     for c in found:
-        ax = axes[levels.index(c.level)][responses.index(c.response)]
-        of = runs[runs["response"] == c.response]
-        means = pd.concat(
-            [
-                of[of["level"] == FINE].groupby("point")["value"].mean(),
-                of[of["level"] == c.level].groupby("point")["value"].mean(),
-            ],
-            axis=1,
-            keys=["fine", "level"],
-        ).dropna()
+        ax = axes[names.index(c.level)][responses.index(c.response)]
+        means = paired_means(runs, c.level, c.response)
         ax.scatter(means["level"], means["fine"], s=18, color="tab:blue", zorder=3)
         if len(means):
             low = float(min(means.min()))

@@ -52,10 +52,14 @@ def variance_ratio(r: float, cost_ratio: float) -> float:
     return (math.sqrt(1.0 - r * r) + math.sqrt(r * r * cost_ratio)) ** 2
 
 
+def ratio_pays(ratio: float) -> bool:
+    """Whether a variance ratio (:func:`variance_ratio`) is a saving: finite and below 1."""
+    return math.isfinite(ratio) and ratio < 1.0
+
+
 def pays(r: float, n: int, cost_ratio: float) -> bool:
     """The rule: the variance ratio at the lower bound of ``r`` over ``n`` pairs is below 1."""
-    ratio = variance_ratio(correlation_lower_bound(r, n), cost_ratio)
-    return math.isfinite(ratio) and ratio < 1.0
+    return ratio_pays(variance_ratio(correlation_lower_bound(r, n), cost_ratio))
 
 
 @dataclass(frozen=True)

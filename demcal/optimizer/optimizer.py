@@ -256,6 +256,12 @@ class Optimizer:
         costs = [r.cpu_s for r in records if r.cpu_s is not None and r.status == Status.OK]
         return float(np.median(costs)) if costs else math.nan
 
+    def cost_ratio(self) -> float:
+        """The cheaper level's CPU per evaluation over a fine one's (nan before both ran, or
+        without a cheaper level)."""
+        level = self.settings.fidelity
+        return math.nan if level is None else self.level_cost(level) / self.level_cost(FINE)
+
     def _level_for(self, unit: np.ndarray) -> str:
         """The level the next evaluation at ``unit`` runs at: the cheaper one when it is worth
         more per CPU second than a fine run (:func:`.levels.cheap_is_worth_more`) for the
@@ -275,8 +281,7 @@ class Optimizer:
                 sd = float(model.predict_std(np.atleast_2d(unit))[0])
                 fine.append(LevelOutlook(1.0, sd, model.noise_sd))
                 cheap.append(None)
-        ratio = self.level_cost(fidelity) / self.level_cost(FINE)
-        return fidelity if cheap_is_worth_more(fine, cheap, ratio) else FINE
+        return fidelity if cheap_is_worth_more(fine, cheap, self.cost_ratio()) else FINE
 
     def _map_solutions(self, n: int) -> list[Proposal]:
         """Up to ``n`` points of the solution-set mapping, within ``map_solutions``."""
@@ -500,10 +505,6 @@ class Optimizer:
         the level has data)."""
         return dict(self._level_models.verdicts)
 
-    def cheap_counts(self) -> dict[str, int]:
-        """How many evaluations at the cheaper level are ok, failed, terminated and pending."""
-        return dict(Counter(str(r.status) for r in self.cheap_records))
-
     def best(self) -> BestPoint | None:
         """The best evaluated point, and how it was chosen (``chosen_by``); see
         `demcal.optimizer.best`.
@@ -532,9 +533,8 @@ class Optimizer:
             return None
         dimension = self.bounds.dimension
         if levels and self.settings.fidelity:
-            ratio = self.level_cost(self.settings.fidelity) / self.level_cost(FINE)
             models = self._level_models.fit(
-                self.records, objective.keys, dimension, self.cheap_records, ratio
+                self.records, objective.keys, dimension, self.cheap_records, self.cost_ratio()
             )
         else:
             models = self._response_models.fit(self.records, objective.keys, dimension)

@@ -49,6 +49,7 @@ def fidelity_levels(
     their time-step fractions. ``fine`` is the study's own level, ``resolve`` its settings
     check."""
     levels, warnings = {}, []
+    own = given_settings(config, scenes)
     for name, given in (config.get("fidelities") or {}).items():
         where = f"fidelities.{name}"
         if name == FINE:
@@ -61,10 +62,7 @@ def fidelity_levels(
             else _given_overrides(given, scenes, where)
         )
         settings = resolve(
-            {
-                scene: {**given_settings(config, scenes)[scene], **overrides.get(scene, {})}
-                for scene in scenes
-            },
+            {scene: {**own[scene], **overrides.get(scene, {})} for scene in scenes},
             f"{where}.scenes",
         )
         fraction = fine.timestep_fraction
