@@ -1,0 +1,114 @@
+"""CPU to a confirmed answer on LAMMPS, multi-fidelity against fine only (issue 38).
+
+One study file with a coarse level (``fidelities:``) is run as ``demcal run`` runs it, once per
+seed and arm: fine only (``optimizer.fidelity`` removed) and multi-fidelity
+(``optimizer.fidelity: coarse``), with no mapping (``map_solutions: 0``), so that a run ends
+when its answer is confirmed or its budget is spent. Per run (the measures of
+``benchmarks/fidelity_calibration.py``): the fine and coarse simulations, the CPU the engine
+reports for every simulation (confirmations included), whether the mean of the confirmation
+runs meets every target within its spread, and, with ``--truth``, whether the truth lies inside
+the reported likely spans.
+
+    OMP_NUM_THREADS=1 python benchmarks/fidelity_lammps.py \\
+        benchmarks/results/fidelity_quickstart_mf.yaml --seeds 5 \\
+        --truth sliding_friction_pp=0.3 rolling_friction_pp=0.06
+    OMP_NUM_THREADS=1 python benchmarks/fidelity_lammps.py \\
+        benchmarks/results/fidelity_rig_mf.yaml --seeds 3
+
+Writes benchmarks/results/fidelity_lammps_<study>.csv (one row per run) and prints the medians.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import pandas as pd
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path[:0] = [str(ROOT), str(ROOT / "benchmarks")]
+
+from fidelity_calibration import outcome  # noqa: E402
+
+from demcal.study.config import load_study  # noqa: E402
+from demcal.study.model import freeze  # noqa: E402
+
+ARMS = ("fine only", "coarse")
+
+
+def arm_config(base: dict, seed: int, arm: str) -> dict:
+    """The study of one seed and arm: the base study with its seed, its own name, no mapping,
+    and the coarse level spent only in the multi-fidelity arm."""
+    config = yaml.safe_load(yaml.safe_dump(base))
+    config["study"] = f"{base['study']}-s{seed}-{'fine' if arm == 'fine only' else arm}"
+    config["seed"] = seed
+    optimizer = config.setdefault("optimizer", {})
+    optimizer["map_solutions"] = 0
+    optimizer.pop("fidelity", None)
+    if arm != "fine only":
+        optimizer["fidelity"] = arm
+    return config
+
+
+def one_run(base: dict, seed: int, arm: str, truth: dict[str, float] | None, workers: int) -> dict:
+    config = arm_config(base, seed, arm)
+    path = Path(f"{config['study']}.yaml")
+    path.write_text(yaml.safe_dump(config, sort_keys=False))
+    start = time.monotonic()
+    command = [sys.executable, "-m", "demcal.cli", "run", str(path), "--workers", str(workers)]
+    finished = subprocess.run(command, capture_output=True, text=True, check=False)
+    Path(f"{config['study']}.out").write_text(finished.stdout + finished.stderr)
+    study = freeze(load_study(config))
+    lower = {free.name: free.lower for free in study.free}
+    upper = {free.name: free.upper for free in study.free}
+    return {
+        "study": base["study"],
+        "seed": seed,
+        "arm": arm,
+        "exit": finished.returncode,
+        **outcome(study, truth, lower, upper),
+        "wall_s": time.monotonic() - start,
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("study", type=Path)
+    parser.add_argument("--seeds", type=int, default=5)
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--truth", nargs="*", default=[], metavar="NAME=VALUE")
+    args = parser.parse_args()
+    base = yaml.safe_load(args.study.read_text())
+    truth = {k: float(v) for k, v in (item.split("=", 1) for item in args.truth)} or None
+    rows = []
+    with tempfile.TemporaryDirectory() as folder:
+        os.chdir(folder)
+        for seed in range(1, args.seeds + 1):
+            for arm in ARMS:
+                rows.append(one_run(base, seed, arm, truth, args.workers))
+                print(rows[-1], flush=True)
+    table = pd.DataFrame(rows)
+    out = ROOT / "benchmarks" / "results" / f"fidelity_lammps_{base['study']}.csv"
+    table.to_csv(out, index=False)
+    summary = table.groupby("arm").agg(
+        runs=("cpu_s", "size"),
+        cpu_median_s=("cpu_s", "median"),
+        cpu_min_s=("cpu_s", "min"),
+        cpu_max_s=("cpu_s", "max"),
+        fine_runs=("fine_runs", "median"),
+        cheap_runs=("cheap_runs", "median"),
+        confirmed=("confirmed", "mean"),
+        truth_in_set=("truth_in_set", "mean"),
+    )
+    print(summary.to_string())
+    print(f"written {out.relative_to(ROOT)}")
+
+
+if __name__ == "__main__":
+    main()
