@@ -38,6 +38,7 @@ from fidelity_calibration import outcome  # noqa: E402
 
 from demcal.study.config import load_study  # noqa: E402
 from demcal.study.model import freeze  # noqa: E402
+from demcal.study.study_file import read_study_yaml  # noqa: E402
 
 ARMS = ("fine only", "coarse")
 
@@ -64,6 +65,8 @@ def one_run(base: dict, seed: int, arm: str, truth: dict[str, float] | None, wor
     command = [sys.executable, "-m", "demcal.cli", "run", str(path), "--workers", str(workers)]
     finished = subprocess.run(command, capture_output=True, text=True, check=False)
     Path(f"{config['study']}.out").write_text(finished.stdout + finished.stderr)
+    if finished.returncode != 0:
+        raise SystemExit(f"{config['study']} failed:\n{finished.stdout}{finished.stderr}")
     study = freeze(load_study(config))
     lower = {free.name: free.lower for free in study.free}
     upper = {free.name: free.upper for free in study.free}
@@ -84,7 +87,7 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--truth", nargs="*", default=[], metavar="NAME=VALUE")
     args = parser.parse_args()
-    base = yaml.safe_load(args.study.read_text())
+    base = read_study_yaml(args.study)
     truth = {k: float(v) for k, v in (item.split("=", 1) for item in args.truth)} or None
     rows = []
     with tempfile.TemporaryDirectory() as folder:
