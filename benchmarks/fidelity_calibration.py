@@ -44,6 +44,7 @@ from helpers import InProcessLauncher  # noqa: E402
 
 from demcal.analysis.solution_report import analyse  # noqa: E402
 from demcal.daemon.loop import Calibration  # noqa: E402
+from demcal.results.layout import REUSED_ORIGINS  # noqa: E402
 from demcal.results.records import BestRecord  # noqa: E402
 from demcal.scenes.cylinder_lift.analytic import analytic_model  # noqa: E402
 from demcal.study.config import load_study  # noqa: E402
@@ -67,12 +68,26 @@ LEVELS = {
 FINE_CPU, LEVEL_CPU = 60.0, 6.0
 
 
-def truth_responses(truth: dict[str, float]) -> dict[str, float]:
+def truth_responses(truth: dict[str, float], fixed: dict[str, float] = FIXED) -> dict[str, float]:
     """The noise-free fine responses at ``truth`` (the analytic engine's defaults around it)."""
     from demcal.physics.catalogue import CATALOG
 
     parameters = {name: spec.default for name, spec in CATALOG.items()}
-    return analytic_model({**parameters, **FIXED, **truth}, {})
+    return analytic_model({**parameters, **fixed, **truth}, {})
+
+
+def targets_at(exact: dict[str, float]) -> list[dict]:
+    """The cylinder lift's targets at the responses ``exact``, with the quickstart's spreads."""
+    return [
+        {
+            "scene": "cylinder_lift",
+            "response": response,
+            "value": float(exact[response]),
+            "unit": UNITS[response],
+            "spread": SPREADS[response],
+        }
+        for response in SPREADS
+    ]
 
 
 def study_config(name: str, truth: dict[str, float], seed: int, level: str | None) -> dict:
@@ -82,16 +97,7 @@ def study_config(name: str, truth: dict[str, float], seed: int, level: str | Non
         "engine": {"name": "analytic", "noise": NOISE, "cpu": FINE_CPU},
         "parameters": {p: {"lower": LOWER[p], "upper": UPPER[p]} for p in LOWER},
         "fixed": FIXED,
-        "targets": [
-            {
-                "scene": "cylinder_lift",
-                "response": response,
-                "value": float(exact[response]),
-                "unit": UNITS[response],
-                "spread": SPREADS[response],
-            }
-            for response in SPREADS
-        ],
+        "targets": targets_at(exact),
         "seed": seed,
         "optimizer": {"max_evaluations": 30, "confirm_replicates": 2},
         "calibration": {"poll_seconds": 0.001, "retries": 1},
@@ -127,16 +133,39 @@ def one_run(truth_name: str, seed: int, level: str | None) -> dict:
     }
 
 
+def write_summary(rows: list[dict], name: str, by: str | list[str], **extra: tuple) -> None:
+    """Write ``rows`` to benchmarks/results/<name>.csv and print, per group ``by``, the
+    medians and spread of the CPU and runs, the share confirmed and with the truth in the set
+    (and the ``extra`` aggregations, pandas' named form)."""
+    table = pd.DataFrame(rows)
+    out = ROOT / "benchmarks" / "results" / f"{name}.csv"
+    table.to_csv(out, index=False)
+    summary = table.groupby(by).agg(
+        runs=("cpu_s", "size"),
+        cpu_median_s=("cpu_s", "median"),
+        cpu_q25=("cpu_s", lambda s: s.quantile(0.25)),
+        cpu_q75=("cpu_s", lambda s: s.quantile(0.75)),
+        fine_runs=("fine_runs", "median"),
+        cheap_runs=("cheap_runs", "median"),
+        confirmed=("confirmed", "mean"),
+        truth_in_set=("truth_in_set", "mean"),
+        **extra,
+    )
+    print(summary.to_string())
+    print(f"written {out.relative_to(ROOT)}")
+
+
 def outcome(
     study: Study,
     truth: dict[str, float] | None,
     lower: dict[str, float],
     upper: dict[str, float],
 ) -> dict:
-    """A finished study's runs and CPU per level, whether its confirmation met every target
+    """A finished study's new runs and CPU per level, whether its confirmation met every target
     within its spread, and (with a known ``truth``) whether the truth lies inside the reported
     likely spans and how far the answer is from it in the unit box."""
     table = pd.read_csv(study.files.evaluations_csv)
+    table = table[~table["origin"].isin(REUSED_ORIGINS)]  # new simulations only
     cpu = pd.to_numeric(table["cpu_s"], errors="coerce").fillna(0.0)
     fine = table["fidelity"] == "fine"
     best = BestRecord.read(study.files.best)
@@ -175,22 +204,9 @@ def main() -> None:
                 for level in levels:
                     rows.append(one_run(truth, seed, level))
                     print(rows[-1], flush=True)
-    table = pd.DataFrame(rows)
-    out = ROOT / "benchmarks" / "results" / "fidelity_calibration.csv"
-    table.to_csv(out, index=False)
-    summary = table.groupby("level").agg(
-        runs=("cpu_s", "size"),
-        cpu_median_s=("cpu_s", "median"),
-        cpu_q25=("cpu_s", lambda s: s.quantile(0.25)),
-        cpu_q75=("cpu_s", lambda s: s.quantile(0.75)),
-        fine_runs=("fine_runs", "median"),
-        cheap_runs=("cheap_runs", "median"),
-        confirmed=("confirmed", "mean"),
-        truth_in_set=("truth_in_set", "mean"),
-        answer_error=("answer_error_unit", "median"),
+    write_summary(
+        rows, "fidelity_calibration", "level", answer_error=("answer_error_unit", "median")
     )
-    print(summary.to_string())
-    print(f"written {out.relative_to(ROOT)}")
 
 
 if __name__ == "__main__":

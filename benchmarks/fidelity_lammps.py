@@ -15,7 +15,8 @@ the reported likely spans.
     OMP_NUM_THREADS=1 python benchmarks/fidelity_lammps.py \\
         benchmarks/results/fidelity_rig_mf.yaml --seeds 3
 
-Writes benchmarks/results/fidelity_lammps_<study>.csv (one row per run) and prints the medians.
+Writes benchmarks/results/fidelity_lammps_<study>.csv (one row per run; the rows so far to
+fidelity_lammps_partial.csv after every run) and prints the medians.
 """
 
 from __future__ import annotations
@@ -34,13 +35,15 @@ import yaml
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "benchmarks")]
 
-from fidelity_calibration import outcome  # noqa: E402
+from fidelity_calibration import outcome, write_summary  # noqa: E402
 
 from demcal.study.config import load_study  # noqa: E402
 from demcal.study.model import freeze  # noqa: E402
 from demcal.study.study_file import read_study_yaml  # noqa: E402
 
 ARMS = ("fine only", "coarse")
+#: the rows so far, rewritten after every run
+PARTIAL = ROOT / "benchmarks" / "results" / "fidelity_lammps_partial.csv"
 
 
 def arm_config(base: dict, seed: int, arm: str) -> dict:
@@ -96,21 +99,8 @@ def main() -> None:
             for arm in ARMS:
                 rows.append(one_run(base, seed, arm, truth, args.workers))
                 print(rows[-1], flush=True)
-    table = pd.DataFrame(rows)
-    out = ROOT / "benchmarks" / "results" / f"fidelity_lammps_{base['study']}.csv"
-    table.to_csv(out, index=False)
-    summary = table.groupby("arm").agg(
-        runs=("cpu_s", "size"),
-        cpu_median_s=("cpu_s", "median"),
-        cpu_min_s=("cpu_s", "min"),
-        cpu_max_s=("cpu_s", "max"),
-        fine_runs=("fine_runs", "median"),
-        cheap_runs=("cheap_runs", "median"),
-        confirmed=("confirmed", "mean"),
-        truth_in_set=("truth_in_set", "mean"),
-    )
-    print(summary.to_string())
-    print(f"written {out.relative_to(ROOT)}")
+                pd.DataFrame(rows).to_csv(PARTIAL, index=False)  # kept if the run is cut short
+    write_summary(rows, f"fidelity_lammps_{base['study']}", "arm")
 
 
 if __name__ == "__main__":

@@ -10,7 +10,10 @@ simulations of every scene are grouped by their free values into points; a point
 when every targeted response has at least one final value there. Replicates and repeated runs
 of one point (a confirmation) pool into one point. A study whose search spends a cheaper level
 (``optimizer.fidelity``) also takes the simulations compatible with that level: the coarse
-runs of the same material (docs/fidelity.md).
+runs of the same material (docs/fidelity.md). With ``reuse: neighbours`` it takes as well the
+runs of neighbouring materials, compatible in everything but the values of fixed parameters:
+each point names the values in which its material differs, and the response models take
+them as inputs (:mod:`demcal.optimizer.surrogates.material`, docs/archive.md).
 """
 
 from __future__ import annotations
@@ -31,13 +34,16 @@ def compatible_simulations(
     archive: Archive,
     from_study: Callable[[str], bool] = lambda name: True,
     fidelity: str = FINE,
+    neighbours: bool = False,
 ) -> list[ArchivedSimulation]:
     """The archive's ok simulations of the study's scenes that the study could have run, each
     once: two studies that differ only in name or targets run the same points with the same
     seeds, and the archive keeps both records (its key names the study); one scene's run with
     one seed at one point is one simulation, not two replicates. ``from_study`` picks the
     studies whose simulations count (the metamodels hold a validation campaign out);
-    ``fidelity``: the study's level whose settings, time step and simulator they must share."""
+    ``fidelity``: the study's level whose settings, time step and simulator they must share.
+    With ``neighbours``, those of neighbouring materials instead: every fixed parameter may
+    differ, and at least one does (:func:`material_of`)."""
     problem = study.engine.reuse_problem()
     if problem is not None:
         raise ConfigError(problem)
@@ -46,35 +52,51 @@ def compatible_simulations(
     found, seen = [], set()
     for scene in study.scenes:
         settings, fixed, inputs = study.archive_view(scene, fidelity)
+        material = sorted(study.fixed) if neighbours else []
         for record in archive.compatible(
             scene=scene,
             engine=level.engine.name,
             settings=settings,
             fixed=fixed,
-            inputs=inputs,
+            inputs=[*inputs, *material],
             simulator=digest(study.simulator(scene, fidelity)),
         ):
             inside = all(p.lower <= record.parameters[p.name].value <= p.upper for p in study.free)
-            run = (record.scene, record.seed, tuple(record.values(names)))
+            run = (record.scene, record.seed, tuple(record.values([*names, *material])))
             counts = inside and from_study(record.study)
+            counts = counts and bool(material_of(study, record)) == neighbours
             if counts and record.timestep_fraction == level.timestep_fraction and run not in seen:
                 seen.add(run)
                 found.append(record)
     return found
 
 
-def reused_points(study: Study, archive: Archive, fidelity: str = FINE) -> ReusedRecord:
+def material_of(study: Study, record: ArchivedSimulation) -> dict[str, float]:
+    """The archived simulation's values of the study's fixed parameters where they differ from
+    the study's (empty for a run of the study's own material)."""
+    return {
+        name: record.parameters[name].value
+        for name, value in study.fixed.items()
+        if name in record.parameters and record.parameters[name].value != value
+    }
+
+
+def reused_points(
+    study: Study, archive: Archive, fidelity: str = FINE, neighbours: bool = False
+) -> ReusedRecord:
     """The usable points of the study's compatible simulations at level ``fidelity``, in
-    archive order (each point of a cheaper level names it); a damaged simulation is left out,
-    or counts without its damaged values, as the archive reads it
-    (:meth:`Archive.warn_damaged` names them)."""
+    archive order (each point of a cheaper level names it; with ``neighbours``, those of
+    neighbouring materials, each naming its values of the fixed parameters that differ); a
+    damaged simulation is left out, or counts without its damaged values, as the archive
+    reads it (:meth:`Archive.warn_damaged` names them)."""
     names = [p.name for p in study.free]
-    groups: dict[tuple[float, ...], list[ArchivedSimulation]] = defaultdict(list)
-    for record in compatible_simulations(study, archive, fidelity=fidelity):
-        groups[tuple(record.values(names))].append(record)
+    groups: dict[tuple[object, ...], list[ArchivedSimulation]] = defaultdict(list)
+    for record in compatible_simulations(study, archive, fidelity=fidelity, neighbours=neighbours):
+        other = tuple(sorted(material_of(study, record).items()))
+        groups[(*record.values(names), *other)].append(record)
     archive.warn_damaged()
     points = []
-    for values, records in groups.items():
+    for records in groups.values():
         replicates = {
             t.key: [
                 r.responses[t.response].value
@@ -85,10 +107,11 @@ def reused_points(study: Study, archive: Archive, fidelity: str = FINE) -> Reuse
         }
         if not all(replicates.values()):
             continue
+        material = material_of(study, records[0])
         points.append(
             {
                 "source": "+".join(dict.fromkeys(f"{r.study}/{r.evaluation}" for r in records)),
-                "parameters": dict(zip(names, values)),
+                "parameters": dict(zip(names, records[0].values(names))),
                 "replicates": replicates,
                 "simulations": [
                     {
@@ -103,5 +126,6 @@ def reused_points(study: Study, archive: Archive, fidelity: str = FINE) -> Reuse
                 ],
             }
             | ({} if fidelity == FINE else {"fidelity": fidelity})
+            | ({"material": material} if material else {})
         )
     return ReusedRecord(shown(archive.url), points)

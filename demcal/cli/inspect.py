@@ -43,8 +43,10 @@ def study_state(study: Study) -> tuple[str, str]:
         )
     confirmations = sum(r.confirms is not None for r in optimizer.records)
     extra = f", plus {confirmations} confirmation runs" if confirmations else ""
-    reused = optimizer.reused_points
+    reused, near = optimizer.reused_points, len(optimizer.neighbour_records)
     reused_text = f"; {reused} points reused from the archive" if reused else ""
+    if near:
+        reused_text += f"; {near} points of neighbouring materials (data of the models only)"
     return (
         state,
         f"{line or 'no evaluations yet'} (budget {optimizer.settings.max_evaluations}{extra})"

@@ -123,9 +123,16 @@ def print_best(study: Study) -> None:
             f"{best.lowest_run['objective']:.4g} ({ANSWER_VERSUS_LOWEST_RUN})"
         )
     if best.evaluations is not None:
+        near = best.evaluations.get("neighbours")
         print(
             f"evaluations: {best.evaluations['new']} new, {best.evaluations['reused']} points "
-            f"reused from the archive ({files.reused})"
+            f"reused from the archive"
+            + (
+                ""
+                if near is None
+                else f" and {near} of neighbouring materials (data of the response models only)"
+            )
+            + f" ({files.reused})"
         )
     spending = level_spending(study)
     if spending:

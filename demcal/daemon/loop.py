@@ -44,8 +44,8 @@ from demcal.jobs.steps import (
     objective_record,
     rescore,
     response_paths,
-    reused_levels,
     reused_objectives,
+    reused_origins,
 )
 from demcal.optimizer import Optimizer, Proposal
 from demcal.optimizer.best import lowest_run
@@ -61,7 +61,7 @@ from demcal.results.records import (
     Status,
 )
 from demcal.results.storage import atomic_write_text, log_tail, read_json, write_json
-from demcal.study.model import RESUMABLE_OPTIMIZER_SETTINGS, Study
+from demcal.study.model import NEIGHBOURS, RESUMABLE_OPTIMIZER_SETTINGS, Study
 
 log = logging.getLogger("demcal.daemon")
 
@@ -130,9 +130,10 @@ class Calibration:
         )
 
     def _reused_points(self) -> list[ReusedPoint]:
-        """With ``reuse: archive``: the archive's points compatible with the study, written to
-        reused.json and scored by the study's objective, for a calibration that starts; []
-        when reuse is off."""
+        """With ``reuse: archive``: the archive's points compatible with the study (and with
+        ``reuse: neighbours`` those of neighbouring materials), written to reused.json and
+        scored by the study's objective, for a calibration that starts; [] when reuse is
+        off."""
         if self.study.reuse is None:
             return []
         from demcal.archive.reuse import reused_points
@@ -144,8 +145,10 @@ class Calibration:
             reused = reused_points(self.study, archive)
             if level is not None:  # and the coarse runs of the same material
                 reused.points.extend(reused_points(self.study, archive, level).points)
+            if self.study.reuse == NEIGHBOURS:
+                reused.points.extend(reused_points(self.study, archive, neighbours=True).points)
             reused.write(self.files.reused)
-        levels = reused_levels(self.study)
+        origins = reused_origins(self.study)
         points = [
             ReusedPoint(
                 [record.parameters[name] for name in self.names],
@@ -153,16 +156,25 @@ class Calibration:
                 record.objective,
                 self._replicate_values(record),
                 record.evaluation,
-                levels[record.evaluation],
+                origins[record.evaluation].fidelity,
+                {
+                    name: value - self.study.fixed[name]
+                    for name, value in origins[record.evaluation].material.items()
+                },
             )
             for record in reused_objectives(self.study)
             if record.ok and record.objective is not None
         ]
         cheap = sum(point.fidelity != FINE for point in points)
+        near = sorted({name for point in points for name in point.material})
         log.info(
-            "reused %d points of the archive as data (reused.json)%s",
+            "reused %d points of the archive as data (reused.json)%s%s",
             len(points),
             f", {cheap} of them at {level}" if cheap else "",
+            f", {sum(bool(p.material) for p in points)} of neighbouring materials "
+            f"(other {', '.join(near)})"
+            if near
+            else "",
         )
         return points
 
@@ -545,13 +557,18 @@ class Calibration:
 
     def reuse_counts(self) -> dict[str, int] | None:
         """With ``reuse: archive``: the evaluations simulated by this study (``new``, told)
-        and the points taken from the archive (``reused``); None when reuse is off."""
+        and the points taken from the archive (``reused``; with ``reuse: neighbours`` also
+        those of neighbouring materials, ``neighbours``); None when reuse is off."""
         if self.study.reuse is None:
             return None
         return {
             "new": self.optimizer.completed_evaluations(),
             "reused": self.optimizer.reused_points,
-        }
+        } | (
+            {"neighbours": len(self.optimizer.neighbour_records)}
+            if self.study.reuse == NEIGHBOURS
+            else {}
+        )
 
     def progress(self) -> Progress:
         counts = self.optimizer.status_counts()

@@ -9,9 +9,9 @@ from datetime import UTC, datetime
 from typing import TYPE_CHECKING
 
 from demcal.errors import SimulationFailed
-from demcal.jobs.steps import reused_levels, reused_objectives
+from demcal.jobs.steps import reused_objectives, reused_origins
 from demcal.optimizer import Optimizer
-from demcal.results.layout import evaluation_id
+from demcal.results.layout import REUSED_ORIGINS, evaluation_id
 from demcal.results.records import (
     FINE,
     BestRecord,
@@ -56,7 +56,9 @@ def evaluation_columns(study: Study) -> list[tuple[str, str, str]]:
             "",
             "new: simulated by this study in its search; confirmation: a re-simulation of the "
             "answer with new seeds; mapping: simulated to map the solution set; archive: reused "
-            "from the archive (reused.json; evaluation is the study/evaluation that simulated it)",
+            "from the archive (reused.json; evaluation is the study/evaluation that simulated it); "
+            "neighbouring material: reused from the archive's runs of another material, which "
+            "teach the response models (its objective is left empty: not this material's)",
         ),
         (
             "fidelity",
@@ -95,15 +97,16 @@ def write_evaluations_csv(study: Study) -> None:
     buffer = io.StringIO()
     writer = csv.DictWriter(buffer, fieldnames=[c for c, _, _ in columns], extrasaction="ignore")
     writer.writeheader()
-    levels = reused_levels(study)
+    sources = reused_origins(study)
     for reused in reused_objectives(study):
+        neighbour = bool(sources[reused.evaluation].material)
         row = {
             "evaluation": reused.evaluation,
             "status": reused.status,
-            "origin": "archive",
-            "fidelity": levels[reused.evaluation],
+            "origin": REUSED_ORIGINS[neighbour],
+            "fidelity": sources[reused.evaluation].fidelity,
             "reason": reused.reason,
-            "objective": reused.objective,
+            "objective": None if neighbour else reused.objective,  # another material's
             **reused.parameters,
             **reused.responses,
             **_replicate_columns(reused),

@@ -23,7 +23,7 @@ import time
 import traceback
 from collections import defaultdict
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -443,10 +443,22 @@ def rescore(study: Study, files: EvaluationFiles, record: ObjectiveRecord) -> Ob
     return rescored
 
 
-def reused_levels(study: Study) -> dict[str, str]:
-    """The fidelity level of each point the study reused (``reused.json``), by its source."""
+@dataclass(frozen=True)
+class ReusedOrigin:
+    """Where a reused point comes from: the study's level it ran at, and for a neighbouring
+    material its values of the fixed parameters that differ from the study's (else empty)."""
+
+    fidelity: str
+    material: dict[str, float]
+
+
+def reused_origins(study: Study) -> dict[str, ReusedOrigin]:
+    """The origin of each point the study reused (``reused.json``), by its source."""
     reused = ReusedRecord.read_if_any(study.files.reused)
-    return {p["source"]: p.get("fidelity", FINE) for p in ([] if reused is None else reused.points)}
+    return {
+        p["source"]: ReusedOrigin(p.get("fidelity", FINE), p.get("material", {}))
+        for p in ([] if reused is None else reused.points)
+    }
 
 
 def reused_objectives(study: Study) -> list[ObjectiveRecord]:

@@ -57,7 +57,10 @@ class Evaluation:
     ``reused_from`` a point another study simulated, taken from the archive
     (its ``study/evaluation``): data, not a simulation of this study. ``fidelity`` names
     the level it ran at (a cheaper one teaches the fine response models only) and ``cpu_s``
-    what its simulations cost (None where not told).
+    what its simulations cost (None where not told). ``material``, for a point of a
+    neighbouring material taken from the archive (``reuse: neighbours``), is how far each of
+    its fixed parameters that differ lies from the study's value (SI units, theirs minus the
+    study's): such a point teaches the response models only, with these as inputs.
     """
 
     id: int
@@ -74,6 +77,7 @@ class Evaluation:
     reused_from: str | None = None
     fidelity: str = FINE
     cpu_s: float | None = None
+    material: dict[str, float] = field(default_factory=dict)
 
     @property
     def finished(self) -> bool:
@@ -108,6 +112,8 @@ class Evaluation:
             record["fidelity"] = self.fidelity
         if self.cpu_s is not None:
             record["cpu_s"] = self.cpu_s
+        if self.material:
+            record["material"] = self.material
         return record
 
     @classmethod
@@ -132,6 +138,7 @@ class Evaluation:
             reused_from=record.get("reused_from"),
             fidelity=record.get("fidelity", FINE),
             cpu_s=record.get("cpu_s"),
+            material={k: float(v) for k, v in (record.get("material") or {}).items()},
         )
 
 
@@ -142,7 +149,8 @@ class ReusedPoint:
     ``x`` in real units; ``responses`` each targeted response's final values, keyed
     ``scene.response``; ``value`` the objective of this study applied to them, and
     ``replicates`` per replicate (None when the counts differ); ``source`` the
-    ``study/evaluation`` that simulated it; ``fidelity`` the study's level it ran at.
+    ``study/evaluation`` that simulated it; ``fidelity`` the study's level it ran at;
+    ``material`` a neighbouring material's offsets (:attr:`Evaluation.material`).
     """
 
     x: list[float]
@@ -151,6 +159,7 @@ class ReusedPoint:
     replicates: list[float] | None
     source: str
     fidelity: str = FINE
+    material: dict[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

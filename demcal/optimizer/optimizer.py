@@ -160,11 +160,16 @@ class Optimizer:
                 responses={key: ObservedResponse(tuple(v)) for key, v in point.responses.items()},
                 reused_from=point.source,
                 fidelity=point.fidelity,
+                material=point.material,
             )
             for id, point in enumerate(reused)
         ]
-        self.records: list[Evaluation] = [r for r in taken if r.fidelity == FINE]
-        self.cheap_records: list[Evaluation] = [r for r in taken if r.fidelity != FINE]
+        own = [r for r in taken if not r.material]
+        self.records: list[Evaluation] = [r for r in own if r.fidelity == FINE]
+        self.cheap_records: list[Evaluation] = [r for r in own if r.fidelity != FINE]
+        #: the archive's points of neighbouring materials (``reuse: neighbours``): data of the
+        #: response models only, never an answer, a best value or a point of the budget
+        self.neighbour_records: list[Evaluation] = [r for r in taken if r.material]
         self.next_id = len(taken)
         self.step = st.StepSize(self.settings.sigma_max)
         self.weight_index = 0
@@ -537,7 +542,9 @@ class Optimizer:
                 self.records, objective.keys, dimension, self.cheap_records, self.cost_ratio()
             )
         else:
-            models = self._response_models.fit(self.records, objective.keys, dimension)
+            models = self._response_models.fit(
+                self.records, objective.keys, dimension, neighbours=self.neighbour_records
+            )
         return None if models is None else ResponsePredictor(models, objective)
 
     def stop_reason(self, elapsed_seconds: float) -> str | None:

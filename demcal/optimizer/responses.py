@@ -30,6 +30,7 @@ from .levels import pays
 from .registry import RESPONSE_MODELS
 from .surrogates.base import ResponseModel
 from .surrogates.kriging import KrigingSurrogate
+from .surrogates.material import MaterialKriging, offsets_matrix
 from .surrogates.multi_fidelity import LevelData, MultiFidelityKriging
 
 #: Standard deviation of an early estimate relative to its value, when a run
@@ -47,7 +48,18 @@ def observations(
     replicate: the model's nugget then carries the noise); an early estimate
     gets ``ESTIMATE_RELATIVE_SD`` of its value as standard deviation.
     """
-    x, y, variance = [], [], []
+    rows = _observed(records, key)
+    return (
+        np.array([r.x for r, _, _ in rows], float).reshape(len(rows), dimension),
+        np.array([mean for _, mean, _ in rows], float),
+        np.array([var for _, _, var in rows], float),
+    )
+
+
+def _observed(records: list[Evaluation], key: str) -> list[tuple[Evaluation, float, float]]:
+    """The records with a finite value of response ``key``, each with its mean and the
+    variance of that mean (:func:`observations`)."""
+    rows = []
     for record in records:
         entry = record.responses.get(key)
         if record.status not in (Status.OK, Status.TERMINATED) or not entry or not entry.values:
@@ -60,14 +72,14 @@ def observations(
             var = float(values.var(ddof=1) / len(values)) if len(values) > 1 else 0.0
         else:
             var = (ESTIMATE_RELATIVE_SD * mean) ** 2
-        x.append(record.x)
-        y.append(mean)
-        variance.append(var)
-    return (
-        np.array(x, float).reshape(len(x), dimension),
-        np.array(y, float),
-        np.array(variance, float),
-    )
+        rows.append((record, mean, var))
+    return rows
+
+
+def material_offsets(records: list[Evaluation], key: str, names: list[str]) -> np.ndarray:
+    """Per record :func:`observations` keeps for response ``key``, its material offset in each
+    of ``names`` (:attr:`Evaluation.material`; 0 for the study's own runs)."""
+    return offsets_matrix([record.material for record, _, _ in _observed(records, key)], names)
 
 
 def final_means(
@@ -155,22 +167,43 @@ class ResponseModels:
         dimension: int,
         cheap: list[Evaluation] | None = None,
         cost_ratio: float = math.nan,
+        neighbours: list[Evaluation] | None = None,
     ) -> dict[str, PredictsResponse] | None:
         """The models of ``keys``, or None while some response has fewer than d + 2 points.
-        ``cheap``: evaluations at a cheaper level, costing ``cost_ratio`` of a fine one."""
+        ``cheap``: evaluations at a cheaper level, costing ``cost_ratio`` of a fine one;
+        ``neighbours``: the archive's points of neighbouring materials (their offsets become
+        inputs, :class:`~.surrogates.material.MaterialKriging`)."""
         models = {}
+        names = sorted({name for r in neighbours or [] for name in r.material})
         for key in keys:
             x, y, variance = observations(records, key, dimension)
-            if len(y) < dimension + 2:
+            near = observations(neighbours or [], key, dimension)
+            if len(y) + len(near[1]) < dimension + 2:
                 return None
             floor = replicate_scatter(records, key) / replicates_per_evaluation(records, key)
             levels = observations(cheap or [], key, dimension)
             if not self._level_pays(key, (x, y), levels, cost_ratio):
                 levels = (np.empty((0, dimension)), np.empty(0), np.empty(0))
-            signature = (x.tobytes(), y.tobytes(), variance.tobytes(), floor, levels[1].tobytes())
+            signature = (
+                *(a.tobytes() for a in (x, y, variance, levels[1], near[1])),
+                floor,
+            )
             cached = self._fitted.get(key)
             if cached is None or cached[0] != signature:
-                self._fitted[key] = (signature, self._model(key, (x, y, variance), levels, floor))
+                if len(near[1]):
+                    offsets = material_offsets(neighbours or [], key, names)
+                    model: PredictsResponse = MaterialKriging(
+                        self.duplicate_tolerance, self.restarts, self.seed
+                    ).fit(
+                        np.vstack([x, near[0]]),
+                        np.concatenate([y, near[1]]),
+                        np.concatenate([variance, near[2]]),
+                        np.vstack([np.zeros((len(y), len(names))), offsets]),
+                        floor,
+                    )
+                else:
+                    model = self._model(key, (x, y, variance), levels, floor)
+                self._fitted[key] = (signature, model)
             models[key] = self._fitted[key][1]
         return models
 

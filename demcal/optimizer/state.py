@@ -3,7 +3,8 @@ writes and :meth:`~.optimizer.Optimizer.from_json` reads back.
 
 One JSON object, format version 1: the bounds, settings, seed, workers,
 initial design (its size and the points not yet handed out), the records (and with a
-cheaper fidelity level its records and what is left of its initial design),
+cheaper fidelity level its records and what is left of its initial design; with
+neighbouring materials their points),
 the next id, the step size, the weight index, the best value and the
 evaluations without improvement, the random generator's state, and, when
 present, what the strategy remembers (``strategy_state``) and the version of
@@ -59,6 +60,8 @@ def encode(optimizer: Optimizer) -> str:
     if optimizer.cheap_records or optimizer.cheap_queue:
         state["cheap_records"] = [record.to_dict() for record in optimizer.cheap_records]
         state["cheap_queue"] = optimizer.cheap_queue
+    if optimizer.neighbour_records:
+        state["neighbour_records"] = [record.to_dict() for record in optimizer.neighbour_records]
     if optimizer.strategy_state:
         state["strategy_state"] = optimizer.strategy_state
     if optimizer.search_ended is not None:
@@ -100,6 +103,7 @@ def decode(text: str, objective: ResponseObjective | None) -> dict[str, Any]:
         "records": [Evaluation.from_dict(record) for record in state["records"]],
         "cheap_records": [Evaluation.from_dict(r) for r in state.get("cheap_records", [])],
         "cheap_queue": state.get("cheap_queue", []),
+        "neighbour_records": [Evaluation.from_dict(r) for r in state.get("neighbour_records", [])],
         "next_id": state["next_id"],
         "step": StepSize(**state["step"]),
         "weight_index": state["weight_index"],

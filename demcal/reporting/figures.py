@@ -37,7 +37,12 @@ from demcal.errors import SimulationFailed
 from demcal.optimizer.bounds import to_unit_box
 from demcal.optimizer.objective import PRECISION
 from demcal.reporting.terminal import time_unit
-from demcal.results.layout import CALIBRATION_FILE, ESTIMATE_COLUMNS, proposal_id
+from demcal.results.layout import (
+    CALIBRATION_FILE,
+    ESTIMATE_COLUMNS,
+    REUSED_ORIGINS,
+    proposal_id,
+)
 from demcal.results.records import FINE, BestRecord, SimulationRecord, Status
 from demcal.results.storage import read_json
 from demcal.snakemake_command import ScriptJob, dag_command
@@ -68,7 +73,7 @@ def load_table(study: Study) -> pd.DataFrame:
     fine one's)."""
     table = pd.read_csv(study.files.evaluations_csv)
     if "origin" in table:  # tables written before reuse have no origin
-        table = table[table["origin"] != "archive"].reset_index(drop=True)
+        table = table[~table["origin"].isin(REUSED_ORIGINS)].reset_index(drop=True)
     table["number"] = table["evaluation"].map(proposal_id)  # as in the files: e0007 is 7
     start = pd.Timestamp(
         read_json(study.files.calibration, CALIBRATION_FILE)["started_at"], unit="s", tz="UTC"

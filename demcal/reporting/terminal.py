@@ -10,6 +10,7 @@ from pathlib import Path
 
 from demcal.errors import SimulationFailed
 from demcal.optimizer.objective import Target, relative_miss
+from demcal.results.layout import REUSED_ORIGINS
 from demcal.results.records import FINE, BestRecord, ObjectiveRecord, Status
 from demcal.snakemake_command import report_command
 from demcal.study.model import Study
@@ -110,7 +111,7 @@ def level_spending(study: Study) -> str | None:
     if "fidelity" not in table or table["fidelity"].nunique() < 2:
         return None
     if "origin" in table:  # the points reused from the archive cost this study nothing
-        table = table[table["origin"] != "archive"]
+        table = table[~table["origin"].isin(REUSED_ORIGINS)]
     cpu = pd.to_numeric(table["cpu_s"], errors="coerce").fillna(0.0)
     levels = sorted(table["fidelity"].unique(), key=lambda level: level != FINE)
     parts = [

@@ -37,6 +37,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+#: The origin of a point reused from the archive: of the study's own material, or of a
+#: neighbouring one (evaluations.csv's ``origin``); neither cost this study anything.
+REUSED_ORIGINS = ("archive", "neighbouring material")
+
+
 RESULTS = Path("results")
 #: The names of the results files that other modules also need (the records name their file,
 #: the engines the files of a run directory, globs find studies and simulations): spelled here

@@ -422,7 +422,8 @@ class BestRecord(Record):
     ``confirmation``: the re-simulations of the point, when asked for. With
     ``reuse: archive``: ``reused`` is true when the point was taken from the
     archive (``evaluation`` is then the ``study/evaluation`` that simulated it),
-    and ``evaluations`` counts the ``new`` evaluations and the ``reused`` points.
+    and ``evaluations`` counts the ``new`` evaluations and the ``reused`` points (and, with
+    ``reuse: neighbours``, the ``neighbours`` points of neighbouring materials).
     """
 
     FILE: ClassVar[str] = BEST_FILE

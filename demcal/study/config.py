@@ -28,7 +28,7 @@ from demcal.scenes import SCENES, Scene
 from demcal.scenes.base import variable_settings
 from demcal.study.fidelity import fidelity_levels, given_settings
 from demcal.study.material import with_material
-from demcal.study.model import FidelityLevel, FreeParameter, Study
+from demcal.study.model import NEIGHBOURS, FidelityLevel, FreeParameter, Study
 from demcal.study.schema import default, load_schema, validate_schema
 from demcal.study.study_file import read_study_yaml
 from demcal.study.targets import targets_of
@@ -211,19 +211,37 @@ def _archive(config: dict[str, Any]) -> str | None:
     return check_url(url, "archive.url")
 
 
-def _reuse(config: dict[str, Any], archive: str | None, engine: Engine) -> str | None:
-    """``reuse: archive`` (None when off, the default); it needs an archive to read and an
-    engine whose simulator demcal can tell apart from others."""
+def _reuse(
+    config: dict[str, Any], archive: str | None, engine: Engine, optimizer: OptimizerSettings
+) -> str | None:
+    """``reuse: archive`` or ``neighbours`` (None when off, the default); it needs an archive
+    to read and an engine whose simulator demcal can tell apart from others; neighbouring
+    materials teach the response models, so they need the search that uses them
+    (response_ei) and, for now, no cheaper level."""
     reuse = config.get("reuse", default("reuse")) or None
-    if reuse is not None and archive is None:
+    if reuse is None:
+        return None
+    if archive is None:
         raise ConfigError(
-            "reuse: 'archive' reads the study's archive, but it has none (archive: false); "
+            f"reuse: {reuse!r} reads the study's archive, but it has none (archive: false); "
             "name one (archive: {url: ...}) or set reuse: false"
         )
     problem = engine.reuse_problem()
-    if reuse is not None and problem is not None:
-        raise ConfigError(f"reuse: 'archive' needs {problem}")
-    return reuse
+    if problem is not None:
+        raise ConfigError(f"reuse: {reuse!r} needs {problem}")
+    if reuse == NEIGHBOURS and optimizer.strategy != SEARCH_WITH_LEVELS:
+        raise ConfigError(
+            f"reuse: {NEIGHBOURS!r} teaches the response models, which the "
+            f"{optimizer.strategy} strategy does not search with; use strategy: "
+            f"{SEARCH_WITH_LEVELS}, or reuse: archive"
+        )
+    if reuse == NEIGHBOURS and optimizer.fidelity is not None:
+        raise ConfigError(
+            f"reuse: {NEIGHBOURS!r} cannot be combined with optimizer.fidelity yet (the "
+            "multi-fidelity models take no material inputs); use reuse: archive, or drop "
+            "optimizer.fidelity"
+        )
+    return str(reuse)
 
 
 def _staging(
@@ -375,7 +393,7 @@ def load_study(config: dict[str, Any], check_engine: bool = True) -> Study:
             *level_warnings,
         ],
         archive=archive,
-        reuse=_reuse(config, archive, engine),
+        reuse=_reuse(config, archive, engine, optimizer),
         material=material,
         material_draws=material_draws,
         fidelities=levels,

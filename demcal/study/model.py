@@ -59,6 +59,10 @@ RESUMABLE_OPTIMIZER_SETTINGS = (
 RESCORABLE_TARGET_FIELDS = ("value", "weight", "spread", "unit", "lower", "upper")
 
 
+#: ``reuse:`` that also takes the archive's runs of neighbouring materials (docs/archive.md)
+NEIGHBOURS = "neighbours"
+
+
 @dataclass(frozen=True)
 class FreeParameter:
     """A parameter the optimizer varies between ``lower`` and ``upper`` (SI units)."""
@@ -111,7 +115,8 @@ class Study:
     warnings: list[str] = field(default_factory=list)
     #: URL of the archive every simulation is recorded in (demcal.archive); None: none
     archive: str | None = None
-    #: "archive": start from the archive's compatible simulations (docs/archive.md); None: off
+    #: "archive": start from the archive's compatible simulations (docs/archive.md);
+    #: NEIGHBOURS: and from those of neighbouring materials; None: off
     reuse: str | None = None
     #: where the material came from when a calibration gave it (``CalibratedMaterial``)
     material: dict[str, Any] | None = None

@@ -202,7 +202,7 @@ def test_seeds_move_on_only_past_those_to_avoid(tmp_path, monkeypatch):
 @pytest.mark.parametrize(
     ("changes", "message"),
     [
-        ({"reuse": "yes"}, "reuse: 'yes' is not one of archive, False"),
+        ({"reuse": "yes"}, "reuse: 'yes' is not one of archive, neighbours, False"),
         ({"reuse": "archive", "archive": False}, "reuse: 'archive' reads the study's archive"),
     ],
 )

@@ -20,7 +20,9 @@ class ResponseEI(Strategy):
     :meth:`~demcal.optimizer.responses.ResponsePredictor.expected_improvement`), damped
     within sigma of running points. The best point is the evaluated one
     with the lowest predicted objective. Without response models yet, or
-    without an admissible candidate, the point is space filling.
+    without an admissible candidate, the point is space filling. With models but no
+    evaluated point (models taught by neighbouring materials alone), the perturbations are
+    of the uniform candidate with the lowest predicted objective.
 
     It counts the proposals in a row whose largest expected improvement is
     below ``calm_share`` of the noise level (``calm_proposals`` in the
@@ -30,11 +32,13 @@ class ResponseEI(Strategy):
     def propose(self, history: History) -> np.ndarray:
         predictor = history.responses
         finished = history.select(Status.OK)
-        if predictor is None or len(finished) == 0:
+        if predictor is None:
             return history.space_filling_point()
+        s = history.settings
+        if len(finished) == 0:  # models taught by neighbouring materials: start at their best
+            finished = st.uniform_candidates(s.candidates, history.dimension, history.rng)
         predicted = predictor.objective_mean(finished)
         center = finished[int(np.argmin(predicted))]
-        s = history.settings
         probability = st.perturbation_probability(
             history.dimension, history.evaluated, history.initial_size, s.max_evaluations
         )
