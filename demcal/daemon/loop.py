@@ -642,6 +642,7 @@ class Calibration:
             time.time(),
             self.optimizer.status_counts(),
             None if counts is None else counts["reused"],
+            None if counts is None else counts.get("neighbours"),
         ).write(self.files.finished)
         log.info("calibration finished: %s", reason)
         return reason

@@ -93,7 +93,13 @@ def _ended(study: Study, finished: FinishedRecord) -> list[str]:
     new, reused = "", ""
     if finished.reused is not None:
         new = " new"
-        reused = f" and {finished.reused} points reused from the archive (``reused.json``)"
+        near = (
+            f", plus {finished.neighbours} of neighbouring materials (data of the response "
+            "models only)"
+            if finished.neighbours
+            else ""
+        )
+        reused = f" and {finished.reused} points reused from the archive{near} (``reused.json``)"
     return [
         f"**Ended:** {finished.reason}. **Evaluations:** {sum(finished.evaluations.values())}"
         f"{new} ({finished.count(Status.OK)} ok, {finished.count(Status.FAILED)} failed, "

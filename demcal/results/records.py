@@ -461,6 +461,9 @@ class FinishedRecord(Record):
     evaluations: dict[str, int] = field(default_factory=dict)
     #: points taken from the archive (``reuse: archive``), not among ``evaluations``
     reused: int | None = _optional()
+    #: points of neighbouring materials taken from the archive (``reuse: neighbours``), not
+    #: among ``reused``
+    neighbours: int | None = _optional()
 
     def count(self, status: Status) -> int:
         return int(self.evaluations.get(status, 0))
@@ -474,7 +477,9 @@ class ReusedRecord(Record):
     Each point is ``{"source", "parameters", "replicates", "simulations"}``: the
     ``study/evaluation`` that simulated it (several joined by ``+``), its free values, each
     targeted response's final values keyed ``scene.response``, and per archived simulation
-    its archive ``id``, ``study``, ``evaluation``, ``scene``, ``replicate`` and ``seed``.
+    its archive ``id``, ``study``, ``evaluation``, ``scene``, ``replicate`` and ``seed``; a
+    point of a cheaper level names it (``fidelity``), one of a neighbouring material its
+    values of the fixed parameters that differ from the study's (``material``).
     ``archive`` is the archive's URL as shown (without a password).
     """
 

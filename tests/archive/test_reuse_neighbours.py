@@ -13,7 +13,8 @@ from helpers import ANALYTIC_STUDY, run_calibration
 
 from demcal.errors import ConfigError
 from demcal.optimizer import Optimizer
-from demcal.results.records import BestRecord, ReusedRecord
+from demcal.reporting.headline import report_headline
+from demcal.results.records import BestRecord, FinishedRecord, ReusedRecord
 from demcal.study.config import load_study
 
 
@@ -59,6 +60,8 @@ def test_a_neighbouring_material_teaches_the_models_and_nothing_else(tmp_path, m
     table = pd.read_csv(denser.files.evaluations_csv)
     near = table[table["origin"] == "neighbouring material"]
     assert len(near) == ran and near["objective"].isna().all()
+    assert FinishedRecord.read(denser.files.finished).neighbours == ran
+    assert f"plus {ran} of neighbouring materials" in report_headline(denser.study)
     again = Optimizer.from_json(optimizer.to_json(), optimizer.objective)
     assert again.neighbour_records == optimizer.neighbour_records
 
