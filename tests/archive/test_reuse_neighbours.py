@@ -54,6 +54,7 @@ def test_a_neighbouring_material_teaches_the_models_and_nothing_else(tmp_path, m
     offsets = [r.material for r in optimizer.neighbour_records]
     assert offsets == [{"particle_density": -100.0}] * ran
     assert [r.reused_from for r in optimizer.records][:2] == ["plain/e0000", "plain/e0001"]
+    assert optimizer.neighbour_records[0].reused_from == "archived/e0000 (particle_density 2500)"
     assert optimizer.completed_evaluations() == 2  # the budget is this study's runs only
     best = BestRecord.read(denser.files.best)
     assert best.evaluations == {"new": 2, "reused": 2, "neighbours": ran}
