@@ -109,11 +109,11 @@ def reused_points(
             continue
         material = material_of(study, records[0])
         # one evaluation of a robust study ran several materials: each is its own point
-        other = " ".join(f"({name} {value:g})" for name, value in material.items())
+        named = " ".join(f"({name} {value:g})" for name, value in material.items())
         points.append(
             {
                 "source": "+".join(dict.fromkeys(f"{r.study}/{r.evaluation}" for r in records))
-                + (f" {other}" if other else ""),
+                + (f" {named}" if named else ""),
                 "parameters": dict(zip(names, records[0].values(names))),
                 "replicates": replicates,
                 "simulations": [

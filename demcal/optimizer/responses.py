@@ -174,7 +174,6 @@ class ResponseModels:
         ``neighbours``: the archive's points of neighbouring materials (their offsets become
         inputs, :class:`~.surrogates.material.MaterialKriging`)."""
         models = {}
-        names = sorted({name for r in neighbours or [] for name in r.material})
         for key in keys:
             x, y, variance = observations(records, key, dimension)
             near = observations(neighbours or [], key, dimension)
@@ -190,22 +189,31 @@ class ResponseModels:
             )
             cached = self._fitted.get(key)
             if cached is None or cached[0] != signature:
-                if len(near[1]):
-                    offsets = material_offsets(neighbours or [], key, names)
-                    model: PredictsResponse = MaterialKriging(
-                        self.duplicate_tolerance, self.restarts, self.seed
-                    ).fit(
-                        np.vstack([x, near[0]]),
-                        np.concatenate([y, near[1]]),
-                        np.concatenate([variance, near[2]]),
-                        np.vstack([np.zeros((len(y), len(names))), offsets]),
-                        floor,
-                    )
-                else:
-                    model = self._model(key, (x, y, variance), levels, floor)
+                model: PredictsResponse = (
+                    self._material_model((x, y, variance), near, neighbours or [], key, floor)
+                    if len(near[1])
+                    else self._model(key, (x, y, variance), levels, floor)
+                )
                 self._fitted[key] = (signature, model)
             models[key] = self._fitted[key][1]
         return models
+
+    def _material_model(
+        self,
+        own: tuple[np.ndarray, np.ndarray, np.ndarray],
+        near: tuple[np.ndarray, np.ndarray, np.ndarray],
+        neighbours: list[Evaluation],
+        key: str,
+        floor: float,
+    ) -> MaterialKriging:
+        """A new model of response ``key`` from the study's own data and its neighbouring
+        materials' (``near``, from the records ``neighbours``), their offsets as inputs."""
+        names = sorted({name for r in neighbours for name in r.material})
+        offsets = material_offsets(neighbours, key, names)
+        x, y, variance = (np.concatenate([mine, theirs]) for mine, theirs in zip(own, near))
+        return MaterialKriging(self.duplicate_tolerance, self.restarts, self.seed).fit(
+            x, y, variance, np.vstack([np.zeros((len(own[1]), len(names))), offsets]), floor
+        )
 
     def _model(
         self,
