@@ -9,7 +9,7 @@ from demcal.cli.run import print_best
 from demcal.cli.study_argument import study_of
 from demcal.daemon.control import running_daemon, saved_optimizer
 from demcal.errors import ConfigError, DemcalError
-from demcal.reporting.terminal import level_spending
+from demcal.reporting.terminal import NEIGHBOURS_ROLE, level_spending
 from demcal.results.layout import RESULTS, STUDY_FILE
 from demcal.results.records import BestRecord, FinishedRecord, Status
 from demcal.study.model import Study, load_frozen
@@ -46,7 +46,7 @@ def study_state(study: Study) -> tuple[str, str]:
     reused, near = optimizer.reused_points, len(optimizer.neighbour_records)
     reused_text = f"; {reused} points reused from the archive" if reused else ""
     if near:
-        reused_text += f"; {near} points of neighbouring materials (data of the models only)"
+        reused_text += f"; {near} points {NEIGHBOURS_ROLE}"
     return (
         state,
         f"{line or 'no evaluations yet'} (budget {optimizer.settings.max_evaluations}{extra})"

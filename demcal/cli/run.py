@@ -19,6 +19,7 @@ from demcal.jobs.steps import reused_objectives
 from demcal.reporting.terminal import (
     ANSWER_VERSUS_LOWEST_RUN,
     CHOSEN_BY,
+    NEIGHBOURS_ROLE,
     confirmation_summary,
     evaluation_summary,
     level_spending,
@@ -124,15 +125,10 @@ def print_best(study: Study) -> None:
         )
     if best.evaluations is not None:
         near = best.evaluations.get("neighbours")
+        neighbours = "" if near is None else f" and {near} {NEIGHBOURS_ROLE}"
         print(
             f"evaluations: {best.evaluations['new']} new, {best.evaluations['reused']} points "
-            f"reused from the archive"
-            + (
-                ""
-                if near is None
-                else f" and {near} of neighbouring materials (data of the response models only)"
-            )
-            + f" ({files.reused})"
+            f"reused from the archive{neighbours} ({files.reused})"
         )
     spending = level_spending(study)
     if spending:

@@ -19,6 +19,7 @@ import pandas as pd
 from demcal.reporting.terminal import (
     ANSWER_VERSUS_LOWEST_RUN,
     CHOSEN_BY,
+    NEIGHBOURS_ROLE,
     duration,
     error_text,
     level_spending,
@@ -93,12 +94,7 @@ def _ended(study: Study, finished: FinishedRecord) -> list[str]:
     new, reused = "", ""
     if finished.reused is not None:
         new = " new"
-        near = (
-            f", plus {finished.neighbours} of neighbouring materials (data of the response "
-            "models only)"
-            if finished.neighbours
-            else ""
-        )
+        near = f", plus {finished.neighbours} {NEIGHBOURS_ROLE}" if finished.neighbours else ""
         reused = f" and {finished.reused} points reused from the archive{near} (``reused.json``)"
     return [
         f"**Ended:** {finished.reason}. **Evaluations:** {sum(finished.evaluations.values())}"

@@ -31,6 +31,8 @@ def duration(seconds: float) -> str:
 
 
 #: How the best point was chosen (``Optimizer.best()["chosen_by"]``), in words.
+#: What the points of neighbouring materials are for, said wherever they are counted.
+NEIGHBOURS_ROLE = "of neighbouring materials (data of the response models only)"
 #: Why the answer and the lowest single run differ, said once wherever both are shown.
 ANSWER_VERSUS_LOWEST_RUN = (
     "the answer is the point whose objective the models of all runs predict lowest; a single "

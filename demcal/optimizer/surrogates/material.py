@@ -12,8 +12,10 @@ drift learns a response's trend with the material (a bulk density in proportion 
 particle density) and the length scales how far a neighbour's runs carry.
 
 Each offset is divided by its largest size among the data, so that the material inputs span
-about a unit as the free ones do. An offset that is the same for every run carries nothing
-and is left out: before this study's first run, the neighbours stand for it as they are.
+about a unit as the free ones do (SMT standardises its inputs as well, so this changes no
+fit; it keeps the inputs readable and the duplicate check in unit-box terms). An offset
+that is the same for every run carries nothing and is left out: before this study's first
+run, the neighbours stand for it as they are.
 """
 
 from __future__ import annotations
