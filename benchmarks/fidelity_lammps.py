@@ -16,7 +16,8 @@ the reported likely spans.
         benchmarks/results/fidelity_rig_mf.yaml --seeds 3
 
 Writes benchmarks/results/fidelity_lammps_<study>.csv (one row per run; the rows so far to
-fidelity_lammps_partial.csv after every run) and prints the medians.
+fidelity_lammps_<study>_partial.csv after every run) and prints the medians. ``--first-seed``
+adds seeds to a table cut short: the table's rows of other seeds are kept beside the new ones.
 """
 
 from __future__ import annotations
@@ -42,8 +43,7 @@ from demcal.study.model import freeze  # noqa: E402
 from demcal.study.study_file import read_study_yaml  # noqa: E402
 
 ARMS = ("fine only", "coarse")
-#: the rows so far, rewritten after every run
-PARTIAL = ROOT / "benchmarks" / "results" / "fidelity_lammps_partial.csv"
+RESULTS = ROOT / "benchmarks" / "results"
 
 
 def arm_config(base: dict, seed: int, arm: str) -> dict:
@@ -87,20 +87,32 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("study", type=Path)
     parser.add_argument("--seeds", type=int, default=5)
+    parser.add_argument("--first-seed", type=int, default=1)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--truth", nargs="*", default=[], metavar="NAME=VALUE")
     args = parser.parse_args()
     base = read_study_yaml(args.study)
     truth = {k: float(v) for k, v in (item.split("=", 1) for item in args.truth)} or None
-    rows = []
+    name = f"fidelity_lammps_{base['study']}"
+    seeds = range(args.first_seed, args.first_seed + args.seeds)
+    rows = earlier_rows(RESULTS / f"{name}.csv", seeds)
     with tempfile.TemporaryDirectory() as folder:
         os.chdir(folder)
-        for seed in range(1, args.seeds + 1):
+        for seed in seeds:
             for arm in ARMS:
                 rows.append(one_run(base, seed, arm, truth, args.workers))
                 print(rows[-1], flush=True)
-                pd.DataFrame(rows).to_csv(PARTIAL, index=False)  # kept if the run is cut short
-    write_summary(rows, f"fidelity_lammps_{base['study']}", "arm")
+                # kept if the run is cut short
+                pd.DataFrame(rows).to_csv(RESULTS / f"{name}_partial.csv", index=False)
+    write_summary(rows, name, "arm")
+
+
+def earlier_rows(table: Path, seeds: range) -> list[dict]:
+    """The rows of an earlier run of the same study for seeds other than ``seeds``."""
+    if not table.exists():
+        return []
+    earlier = pd.read_csv(table)
+    return earlier[~earlier["seed"].isin(seeds)].to_dict("records")
 
 
 if __name__ == "__main__":
