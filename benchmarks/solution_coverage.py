@@ -13,9 +13,10 @@ calls them, with the same k, sample count and seed). Per parameter:
 - width: the reported span's width against the exact set's.
 
 The exact set is the set of parameter sets whose noise-free responses meet
-every target within k combined sd, with the model sd set to zero and the
-simulation noise set to the true sd of a simulated (replicate-mean)
-response at the truth (``membership_probability`` with zero model sd). It
+every target within k band sd (``demcal.optimizer.membership.band_sd``: the
+target's standard error and discrepancy; the true sd of a simulated
+replicate-mean response at the truth only for a target without a spread),
+with the model sd set to zero (``membership_probability`` with zero model sd). It
 is found on a regular grid (d <= 3, see ``GRID``) or a scrambled Sobol
 sample (d > 3, ``SOBOL_POINTS``) of the box. Its span is taken as the
 report takes its own: the full extent (min to max) of the set's points per
@@ -71,7 +72,12 @@ from demcal.analysis.solution_report import analyse  # noqa: E402
 from demcal.analysis.solutions import identifiability, sample_solutions, simulation_noise_sd  # noqa: E402
 from demcal.engines.analytic import noisy_responses  # noqa: E402
 from demcal.optimizer import Optimizer  # noqa: E402
-from demcal.optimizer.membership import LIKELY, SURE, membership_probability  # noqa: E402
+from demcal.optimizer.membership import (  # noqa: E402
+    LIKELY,
+    SURE,
+    membership_probability,
+    tolerance_sd,
+)
 from demcal.optimizer.objective import DEFAULT_FORM, ResponseObjective, Target  # noqa: E402
 from demcal.optimizer.responses import final_means, replicate_scatter  # noqa: E402
 from demcal.optimizer.settings import OptimizerSettings  # noqa: E402
@@ -214,7 +220,7 @@ class ExactSet:
 
 
 def exact_set(case: Case, k: float, quick: bool) -> ExactSet:
-    """The noise-free set: every target met within k sd (spread and true noise, no model sd)."""
+    """The noise-free set: every target met within k band sd (no model sd)."""
     d = case.dimension
     if d <= 3:
         n = (QUICK_GRID if quick else GRID)[d]
@@ -335,8 +341,7 @@ def run_one(
         noise = solutions.noise_sd
         p_truth = float(membership_probability(case.targets, mean, std, noise, solutions.k)[0])
         tolerance = {
-            t.key: float(np.sqrt((t.spread or 0.0) ** 2 + noise[t.key] ** 2 + std[t.key][0] ** 2))
-            for t in case.targets
+            t.key: float(tolerance_sd(t, noise[t.key], std[t.key][0])) for t in case.targets
         }
         diagnostics = {
             "possible": len(solutions.points_unit),

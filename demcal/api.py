@@ -337,8 +337,8 @@ class Results:
         """The solution space, as ``demcal solutions`` finds it (without writing files).
 
         Args:
-            k: tolerance in combined standard deviations (target spread, simulation
-                noise and model sd).
+            k: tolerance in combined standard deviations (each target's standard error and
+                model discrepancy, demcal.optimizer.membership.band_sd).
             samples: Sobol points sampled over the parameter box (64 to 2**20).
             seed: seed of the sampling.
 
@@ -597,9 +597,11 @@ class StudyFile:
 
     @property
     def targets(self) -> pd.DataFrame:
-        """The targets: scene, response, ``value``, ``unit``, ``weight``, ``spread`` (the
-        measurement's sd, None if not given) and the bounds ``at_least`` and ``at_most`` of a
-        target kept within them (None if it has none), by ``scene.response``."""
+        """The targets: scene, response, ``value``, ``unit``, ``weight``, ``spread`` (the sd of
+        single lab tests, None if not given), ``tests`` (how many the value is the mean of),
+        ``discrepancy`` (the model discrepancy's sd) and the bounds ``at_least`` and
+        ``at_most`` of a target kept within them (None if it has none), by
+        ``scene.response``."""
         study = self.study
         return pd.DataFrame(
             [
@@ -611,6 +613,8 @@ class StudyFile:
                     study.scenes[t.scene].responses[t.response].unit,
                     t.weight,
                     t.spread,
+                    t.tests,
+                    t.discrepancy,
                     t.lower,
                     t.upper,
                 )
@@ -624,6 +628,8 @@ class StudyFile:
                 "unit",
                 "weight",
                 "spread",
+                "tests",
+                "discrepancy",
                 "at_least",
                 "at_most",
             ],

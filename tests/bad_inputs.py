@@ -320,6 +320,25 @@ FIELDS = [
         r"targets\[0\].repeats: 1 given; give at least 2",
     ),
     _field(
+        "tests_with_repeats",
+        ["targets", 0],
+        {"scene": "cylinder_lift", "response": "angle_of_repose", "repeats": [24, 26], "tests": 2},
+        r"targets\[0\].tests: given together with repeats, which determine it",
+    ),
+    _field(
+        "tests_without_spread",
+        ["targets", 0, "tests"],
+        3,
+        r"targets\[0\].tests: 3 tests of what scatter\? give the spread of single tests too",
+    ),
+    _field("no_tests", ["targets", 0, "tests"], 0, r"targets\[0\].tests: 0 must be >= 1"),
+    _field(
+        "negative_discrepancy",
+        ["targets", 0, "discrepancy"],
+        -1.0,
+        r"targets\[0\].discrepancy: -1.0 must be >= 0",
+    ),
+    _field(
         "impossible_angle",
         ["targets", 0, "value"],
         95.0,

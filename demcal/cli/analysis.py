@@ -14,6 +14,7 @@ from demcal.cli.study_argument import study_of, study_source
 from demcal.daemon.control import explore_solutions, lock_study
 from demcal.domain.campaign import runs_at_once
 from demcal.errors import ConfigError
+from demcal.optimizer.membership import BAND_WORDS
 from demcal.reporting.terminal import posterior_line
 from demcal.snakemake_command import LOCAL_PROFILE, check_profile
 from demcal.study.model import Study
@@ -39,8 +40,8 @@ def solutions(args: argparse.Namespace) -> int:
     s = analysis.solutions
     print(
         f"solution space of {study.name!r}: of {s.sampled} sampled parameter sets, "
-        f"{int(s.likely.sum())} are likely to meet every target within {s.k:g} sd (target "
-        f"spread and simulation noise combined) and {len(s.points_unit)} cannot be ruled out; "
+        f"{int(s.likely.sum())} are likely to meet every target within {s.k:g} sd "
+        f"({BAND_WORDS}) and {len(s.points_unit)} cannot be ruled out; "
         f"{100 * s.unsure_share:.0f} % of those are undecided"
     )
     for verdict in analysis.verdicts:
@@ -70,8 +71,8 @@ def print_point_check(study: Study, analysis: SolutionAnalysis, values: dict[str
         mean, sd = check.predicted[t.key]
         unit = study.scenes[t.scene].responses[t.response].unit
         print(
-            f"  {t.key}: predicted {mean:.4g} ±{sd:.2g} {unit}, target {t.shown()} "
-            f"±{check.half_width[t.key]:.2g} ({analysis.solutions.k:g} sd of spread and noise)"
+            f"  {t.key}: predicted {mean:.4g} ±{sd:.2g} {unit}, target {t.shown()}, band "
+            f"±{check.half_width[t.key]:.2g} ({analysis.solutions.k:g} sd)"
         )
     return 0
 
@@ -127,8 +128,8 @@ def solutions_arguments(sub: argparse.ArgumentParser) -> None:
         type=float,
         default=2.0,
         metavar="K",
-        help="tolerance in combined standard deviations (target spread and simulation noise; "
-        "default 2)",
+        help="tolerance in combined standard deviations (each target's standard error and "
+        "model discrepancy; default 2)",
     )
     former_name(sub, "--k", "--tolerance", type=float)
     sub.add_argument(

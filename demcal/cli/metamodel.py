@@ -20,6 +20,7 @@ from demcal.cli.options import MOST_SIMULATIONS, whole_number
 from demcal.cli.study_argument import has_run, study_of, study_yaml
 from demcal.domain import calibration, metamodel
 from demcal.errors import ConfigError
+from demcal.optimizer.membership import BAND_WORDS
 from demcal.optimizer.objective import relative_miss
 from demcal.resources import DEFAULT_CONFIG
 from demcal.results.archive_url import missing_file
@@ -287,11 +288,10 @@ def calibrate_command(args: argparse.Namespace) -> int:
     likely = int(np.sum(solutions.likely))
     print(
         f"solution set: {likely} of {solutions.sampled} sampled parameter sets likely meet every "
-        f"target within {solutions.k:g} sd (target spread and simulation noise, under the "
-        f"models' uncertainty)"
+        f"target within {solutions.k:g} sd ({BAND_WORDS}, under the models' uncertainty)"
     )
     if not likely:
-        print(f"  {calibration.no_solution_reason(result, material)}")
+        print(f"  {calibration.no_solution_reason(result)}")
     for verdict in result.analysis.verdicts:
         print(f"  {verdict.sentence}")
     files = material.files.metamodel_calibration(args.model)

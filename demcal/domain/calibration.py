@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -15,6 +15,7 @@ import numpy as np
 from demcal.domain.metamodel import Metamodels, Model
 from demcal.errors import ConfigError
 from demcal.optimizer.membership import band_half_width
+from demcal.optimizer.objective import ResponseObjective
 from demcal.study.model import Study
 
 if TYPE_CHECKING:
@@ -156,7 +157,9 @@ def calibrate(
     from demcal.optimizer.designs import sobol_sequence
     from demcal.optimizer.responses import ResponsePredictor
 
-    objective = material.objective
+    objective = with_discrepancy(
+        material.objective, {key: models.models[key][kind].discrepancy_sd for key in models.models}
+    )
     specs = {p.name: p for p in material.free}
     low = np.array([specs[n].lower for n in free])
     high = np.array([specs[n].upper for n in free])
@@ -219,16 +222,26 @@ def calibrate(
     )
 
 
-def no_solution_reason(result: MetamodelCalibration, material: Study) -> str:
+def with_discrepancy(objective: ResponseObjective, model_sd: dict[str, float]) -> ResponseObjective:
+    """``objective`` with each target's discrepancy widened by its model's own error about the
+    simulator (``model_sd``, combined in quadrature): the band a metamodel without a posterior
+    must judge a set by."""
+    targets = tuple(
+        replace(t, discrepancy=math.hypot(t.discrepancy, model_sd.get(t.key, 0.0)))
+        for t in objective.targets
+    )
+    return replace(objective, targets=targets)
+
+
+def no_solution_reason(result: MetamodelCalibration) -> str:
     """Why no parameter set is likely to meet every target: the models do not reach the
     targets, or they do but are too unsure there to say where."""
     best, solutions = result.optima[0], result.analysis.solutions
-    band = {
-        t.key: band_half_width(t, solutions.noise_sd[t.key], solutions.k) for t in material.targets
-    }
+    targets = result.analysis.predictor.objective.targets
+    band = {t.key: band_half_width(t, solutions.noise_sd[t.key], solutions.k) for t in targets}
     if all(
         (accepted := t.accepted(band[t.key]))[0] <= best.predicted[t.key] <= accepted[1]
-        for t in material.targets
+        for t in targets
     ):
         widths = ", ".join(
             f"{key} sd {best.predicted_sd[key]:.3g} against ±{band[key]:.3g}" for key in band

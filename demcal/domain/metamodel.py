@@ -129,6 +129,12 @@ class Model(Protocol):
     @property
     def noise_sd(self) -> float: ...
 
+    @property
+    def discrepancy_sd(self) -> float:
+        """The model's own error about the simulator that no posterior holds: a discrepancy
+        that widens each target's band (docs/solutions.md)."""
+        ...
+
     def describe(self) -> str: ...
 
 
@@ -158,6 +164,11 @@ class KrigingMetamodel:
         """The scatter of single simulations the fit found (its nugget)."""
         return float(self.model.noise_sd)
 
+    @property
+    def discrepancy_sd(self) -> float:
+        """None beyond its posterior sd."""
+        return 0.0
+
     def describe(self) -> str:
         return f"Kriging (Matérn 5/2, linear trend), noise sd {self.model.noise_sd:.3g}"
 
@@ -173,9 +184,10 @@ def _protected_exp(x: np.ndarray) -> np.ndarray:
 class SymbolicMetamodel:
     """Symbolic regression (gplearn) on the unit box and the standardised response.
 
-    Genetic programming gives no posterior: its training RMSE, which holds the simulations'
-    scatter and the equation's own error alike, counts as the scatter of a simulation about
-    it (``noise_sd``), so that it widens each target's band, and its sd is 0."""
+    Genetic programming gives no posterior: its sd is 0, and its training RMSE, which holds
+    the simulations' scatter and the equation's own error alike, counts as its discrepancy
+    from the simulator (``discrepancy_sd``), so that it widens each target's band; it makes
+    no separate estimate of the simulations' scatter (``noise_sd`` 0)."""
 
     program: Any
     mean: float
@@ -222,6 +234,10 @@ class SymbolicMetamodel:
 
     @property
     def noise_sd(self) -> float:
+        return 0.0
+
+    @property
+    def discrepancy_sd(self) -> float:
         return self.rmse
 
     def describe(self) -> str:
@@ -257,6 +273,10 @@ class MultiFidelityMetamodel:
     @property
     def noise_sd(self) -> float:
         return self.model.noise_sd
+
+    @property
+    def discrepancy_sd(self) -> float:
+        return 0.0
 
     def describe(self) -> str:
         return (

@@ -1,14 +1,20 @@
 """Whether a parameter set meets the targets: the acceptance band of each target and the
 probability, under the response models, that a point lies inside every band.
 
-The band is k combined standard deviations of the target's measured spread and the scatter of
-single simulations; the probability integrates each model's normal prediction over its band
-(level-set estimation, Bryan et al. 2005). The solution-map strategy samples where it is most
-uncertain; the analysis of a finished calibration (`demcal.analysis.solutions`) reads the set
-off it.
+The statistical model (docs/solutions.md): a measured value is the true lab response plus the
+error of its mean (its standard error, spread / sqrt(tests)); the true lab response is the
+noise-free simulated one plus a model discrepancy the user may give. A point belongs to the set
+where its noise-free response lies within k of those combined sd of the value. The scatter of
+single simulations is not in the band (unless a target has no spread to judge it by): it is in
+the models' uncertainty about the noise-free response. The probability integrates each model's
+normal prediction over its band (level-set estimation, Bryan et al. 2005). The solution-map
+strategy samples where it is most uncertain; the analysis of a finished calibration
+(`demcal.analysis.solutions`) reads the set off it.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from scipy.stats import norm
@@ -17,26 +23,32 @@ from demcal.optimizer.objective import Target
 
 #: Half-width of the acceptance band in combined sd: the default k of the report and the mapping.
 BAND_SD = 2.0
+#: What the band's sd combines, in the words of the commands that print a set.
+BAND_WORDS = "each target's standard error and model discrepancy"
 #: Membership probabilities: at least POSSIBLE, the models cannot rule a point out; at least
 #: LIKELY, it belongs to the estimate of the set; at least SURE, its membership is decided.
 POSSIBLE, LIKELY, SURE = 0.05, 0.5, 0.95
 
 
-def tolerance_sd(target: Target, noise_sd: float, model_sd: float | np.ndarray) -> np.ndarray:
-    """The combined standard deviation a prediction may miss its target by, per point.
+def band_sd(target: Target, noise_sd: float) -> float:
+    """The sd a noise-free simulated response may miss the target's value by at the right
+    parameters: the value's standard error and the model discrepancy, combined. A target with
+    no spread has no measured scatter: the scatter of single simulations (``noise_sd``) takes
+    the standard error's place."""
+    error = target.standard_error if target.spread else noise_sd
+    return math.hypot(error, target.discrepancy)
 
-    sqrt(spread² + noise² + model sd²): the measurement spread of the target,
-    the scatter of single simulations, and the model's uncertainty there.
-    """
-    spread = target.spread or 0.0
-    return np.sqrt(spread**2 + noise_sd**2 + np.asarray(model_sd) ** 2)
+
+def tolerance_sd(target: Target, noise_sd: float, model_sd: float | np.ndarray) -> np.ndarray:
+    """The combined standard deviation a prediction may miss its target by, per point:
+    sqrt(band sd² + model sd²), `band_sd` and the model's uncertainty about the noise-free
+    response there."""
+    return np.sqrt(band_sd(target, noise_sd) ** 2 + np.asarray(model_sd) ** 2)
 
 
 def band_half_width(target: Target, noise_sd: float, k: float) -> float:
-    """How far a noise-free response may lie from its target and still meet it: k combined sd
-    of the target's spread and the simulation noise (`tolerance_sd` without the model
-    term)."""
-    return float(k * tolerance_sd(target, noise_sd, 0.0))
+    """How far a noise-free response may lie from its target and still meet it: k `band_sd`."""
+    return k * band_sd(target, noise_sd)
 
 
 def membership_probability(
@@ -46,12 +58,11 @@ def membership_probability(
     noise_sd: dict[str, float],
     k: float,
 ) -> np.ndarray:
-    """The probability, per point, that every response meets its target within ``k`` sd.
+    """The probability, per point, that every response meets its target within ``k`` band sd.
 
     Each response's noise-free value is normal with the model's predicted
     mean and sd (the model's own uncertainty, independent between
-    responses), and must lie within k sqrt(spread² + noise²) of the target
-    (`tolerance_sd` without the model term). Near 1 where the
+    responses), and must lie within `band_half_width` of the target. Near 1 where the
     simulations show the point meets every target, near 0 where they rule
     it out, and in between where no simulation has been near enough to say:
     the membership a level-set estimation maps (Bryan et al. 2005).

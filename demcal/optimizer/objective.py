@@ -55,13 +55,20 @@ class Target:
     response: str
     value: float
     weight: float = 1.0
-    spread: float | None = None  # measurement standard deviation, same unit as value
+    spread: float | None = None  # sd of single lab tests, same unit as value
     lower: float | None = None
     upper: float | None = None
+    tests: int = 1  # lab tests the value is the mean of
+    discrepancy: float = 0.0  # sd of the simulated test's difference from the real one
 
     @property
     def key(self) -> str:
         return f"{self.scene}.{self.response}"
+
+    @property
+    def standard_error(self) -> float:
+        """The standard error of the measured value: spread / sqrt(tests)."""
+        return (self.spread or 0.0) / math.sqrt(self.tests)
 
     @property
     def is_band(self) -> bool:
@@ -104,7 +111,8 @@ class Target:
             return f"≥ {self.lower:.4g}"
         if self.upper is not None:
             return f"≤ {self.upper:.4g}"
-        return f"{self.value:.4g}" + (f" ± {self.spread:.2g}" if self.spread else "")
+        shown = f"{self.value:.4g}" + (f" ± {self.spread:.2g}" if self.spread else "")
+        return shown + (f" (mean of {self.tests} tests)" if self.tests > 1 else "")
 
 
 def relative_error(simulated: Values, target: float) -> Values:
@@ -268,6 +276,7 @@ class ResponseObjective:
                     "weight": t.weight,
                     "spread": t.spread,
                     **bounds_of(t),
+                    **band_terms_of(t),
                 }
                 for t in self.targets
             ],
@@ -289,6 +298,19 @@ def bounds_of(target: Target) -> dict[str, float]:
         name: bound
         for name, bound in (("lower", target.lower), ("upper", target.upper))
         if bound is not None
+    }
+
+
+def band_terms_of(target: Target) -> dict[str, float]:
+    """The target's number of tests and discrepancy where not the defaults (1 and 0), for a
+    record (records of targets without them stay as they were before they existed)."""
+    return {
+        name: term
+        for name, term, default in (
+            ("tests", target.tests, 1),
+            ("discrepancy", target.discrepancy, 0.0),
+        )
+        if term != default
     }
 
 

@@ -27,7 +27,13 @@ from demcal.engines import make_engine
 from demcal.engines.base import Engine
 from demcal.errors import ConfigError, SimulationFailed
 from demcal.optimizer import OptimizerSettings
-from demcal.optimizer.objective import DEFAULT_FORM, ResponseObjective, Target, bounds_of
+from demcal.optimizer.objective import (
+    DEFAULT_FORM,
+    ResponseObjective,
+    Target,
+    band_terms_of,
+    bounds_of,
+)
 from demcal.physics.catalogue import (
     CATALOG,
     SPLIT_PARAMETERS,
@@ -56,7 +62,16 @@ RESUMABLE_OPTIMIZER_SETTINGS = (
     "calm_proposals",
 )
 #: Target fields that may change on resume (stored simulations are re-scored).
-RESCORABLE_TARGET_FIELDS = ("value", "weight", "spread", "unit", "lower", "upper")
+RESCORABLE_TARGET_FIELDS = (
+    "value",
+    "weight",
+    "spread",
+    "unit",
+    "lower",
+    "upper",
+    "tests",
+    "discrepancy",
+)
 
 
 #: ``reuse:`` that also takes the archive's runs of neighbouring materials (docs/archive.md)
@@ -364,6 +379,7 @@ def study_record(study: Study) -> dict[str, Any]:
                 "weight": t.weight,
                 "spread": t.spread,
                 **bounds_of(t),
+                **band_terms_of(t),
             }
             for t in study.targets
         ],
@@ -422,6 +438,8 @@ def study_from_record(record: dict[str, Any]) -> Study:
                 t["spread"],
                 t.get("lower"),
                 t.get("upper"),
+                t.get("tests", 1),
+                t.get("discrepancy", 0.0),
             )
             for t in record["targets"]
         ],

@@ -15,7 +15,7 @@ from demcal.study.schema import default
 from demcal.study.units import CONVERSIONS, conversion_factor
 
 #: The numbers of a target that are in its unit (``weight`` is not).
-TARGET_QUANTITIES = ("value", "spread", "repeats", "at_least", "at_most")
+TARGET_QUANTITIES = ("value", "spread", "repeats", "at_least", "at_most", "discrepancy")
 
 
 def _in_response_unit(
@@ -78,6 +78,7 @@ def targets_of(config: dict[str, Any], scenes: dict[str, Scene]) -> tuple[list[T
         seen.add(key)
         response = scene.responses[t["response"]]
         lower, upper = _target_bounds(t, i, response)
+        tests = len(t["repeats"]) if "repeats" in t else int(t.get("tests", 1))
         if lower is None and upper is None:
             value, spread = _target_value(t, i)
             where = f"targets[{i}]{'' if 'repeats' in t else '.value'}"
@@ -85,6 +86,11 @@ def targets_of(config: dict[str, Any], scenes: dict[str, Scene]) -> tuple[list[T
         else:
             value = next(bound for bound in (lower, upper) if bound is not None)
             spread = t.get("spread")
+        if "tests" in t and spread is None:
+            raise ConfigError(
+                f"targets[{i}].tests: {t['tests']} tests of what scatter? give the spread of "
+                f"single tests too (spread: ...), or the tests themselves (repeats: [...])"
+            )
         targets.append(
             Target(
                 t["scene"],
@@ -94,6 +100,8 @@ def targets_of(config: dict[str, Any], scenes: dict[str, Scene]) -> tuple[list[T
                 spread,
                 lower,
                 upper,
+                tests,
+                float(t.get("discrepancy", 0.0)),
             )
         )
     return targets, notes
@@ -163,11 +171,11 @@ def _target_value(target: dict[str, Any], index: int) -> tuple[float, float | No
                 f"spread: ...) or the lab test's repeats (repeats: [..., ...])"
             )
         return float(target["value"]), target.get("spread")
-    given = [key for key in ("value", "spread") if key in target]
+    given = [key for key in ("value", "spread", "tests") if key in target]
     if given:
         raise ConfigError(
             f"targets[{index}].{given[0]}: given together with repeats, which "
-            f"determine it (their mean and standard deviation); give one or the other"
+            f"determine it (their mean, standard deviation and number); give one or the other"
         )
     repeats = target["repeats"]
     try:  # exact arithmetic: a float sum of large repeats would overflow where their mean does not

@@ -10,7 +10,7 @@ from demcal.analysis.solutions import (
     sensitivity_indices,
     simulation_noise_sd,
 )
-from demcal.optimizer.membership import membership_probability, tolerance_sd
+from demcal.optimizer.membership import band_sd, membership_probability, tolerance_sd
 from demcal.optimizer.objective import ResponseObjective, Target
 from demcal.optimizer.responses import ResponsePredictor
 from demcal.optimizer.surrogates.cubic_rbf import ResponseRBF
@@ -74,18 +74,27 @@ def test_a_target_out_of_reach_gives_no_verdict_instead_of_a_range():
     assert all(v.verdict == "no solutions" and "only 0 of 4096" in v.sentence for v in verdicts)
 
 
-def test_the_tolerance_combines_spread_noise_and_model_sd():
-    target = Target("s", "r", 10.0, spread=3.0)
-    assert tolerance_sd(target, 4.0, np.array([0.0, 12.0])) == pytest.approx([5.0, 13.0])
-    means, stds = {"s.r": np.array([19.9, 20.1])}, {"s.r": np.zeros(2)}
-    sure = membership_probability((target,), means, stds, {"s.r": 4.0}, k=2.0)
+def test_the_band_is_the_targets_standard_error_and_discrepancy_not_the_simulation_noise():
+    """Spread 3 of single tests: band sd 3 whatever the simulations' scatter (4); the mean of
+    4 tests: standard error 1.5, with a discrepancy of 2: 2.5; the model's sd adds to it."""
+    single = Target("s", "r", 10.0, spread=3.0)
+    assert tolerance_sd(single, 4.0, np.array([0.0, 4.0])) == pytest.approx([3.0, 5.0])
+    mean_of_four = Target("s", "r", 10.0, spread=3.0, tests=4, discrepancy=2.0)
+    assert band_sd(mean_of_four, 4.0) == pytest.approx(2.5)
+    means, stds = {"s.r": np.array([15.9, 16.1])}, {"s.r": np.zeros(2)}
+    sure = membership_probability((single,), means, stds, {"s.r": 4.0}, k=2.0)
     assert sure.tolist() == [1.0, 0.0]
+
+
+def test_a_target_without_a_spread_is_judged_by_the_simulation_noise():
+    unmeasured = Target("s", "r", 10.0, discrepancy=3.0)
+    assert band_sd(unmeasured, 4.0) == pytest.approx(5.0)
 
 
 def test_membership_is_the_chance_that_the_noise_free_response_lies_in_the_band():
     """Target 10, band ±2 x 5 = ±10: a prediction of 20 ± 5 on the band's edge is in with
     probability 1/2; 10 ± 5, centred, with 2 Phi(2) - 1; two responses multiply."""
-    a, b = Target("s", "a", 10.0, spread=3.0), Target("s", "b", 10.0, spread=3.0)
+    a, b = Target("s", "a", 10.0, spread=5.0), Target("s", "b", 10.0, spread=5.0)
     means = {"s.a": np.array([20.0, 10.0]), "s.b": np.array([10.0, 10.0])}
     stds = {"s.a": np.array([5.0, 5.0]), "s.b": np.array([5.0, 5.0])}
     noise = {"s.a": 4.0, "s.b": 4.0}

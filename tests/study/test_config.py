@@ -11,7 +11,7 @@ from helpers import ANALYTIC_STUDY
 from demcal.errors import ConfigError
 from demcal.results.records import BestRecord
 from demcal.study.config import load_study, load_study_file
-from demcal.study.model import freeze
+from demcal.study.model import freeze, load_frozen
 from demcal.study.study_file import read_study_yaml
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -92,6 +92,27 @@ def test_a_target_from_the_lab_tests_repeats_takes_their_mean_and_standard_devia
         ConfigError, match=r"targets\[0\]: give the measured value .* or the lab test's repeats"
     ):
         load_study(analytic_config)
+
+
+def test_the_number_of_tests_and_the_discrepancy_reach_the_target_and_its_record(
+    analytic_config,
+):
+    """Repeats give their number as ``tests``; ``tests`` and ``discrepancy`` (converted to
+    the response's unit like the value) survive the study's frozen record."""
+    analytic_config["targets"][0] = {
+        "scene": "cylinder_lift",
+        "response": "angle_of_repose",
+        "repeats": [24.0, 26.0, 25.5, 24.5],
+    }
+    analytic_config["targets"][1] |= {"spread": 0.01, "tests": 4, "discrepancy": 0.02}
+    analytic_config["targets"][1]["unit"] = "g/cm^3"
+    analytic_config["targets"][1]["value"] = 1.45
+    study = load_study(analytic_config)
+    repeats, density = study.targets
+    assert repeats.tests == 4 and repeats.standard_error == pytest.approx(0.9128709 / 2)
+    assert density.tests == 4 and density.discrepancy == pytest.approx(20.0)
+    assert density.standard_error == pytest.approx(5.0)
+    assert load_frozen(freeze(study).files.study).targets == study.targets
 
 
 @pytest.mark.parametrize("case", FILES, ids=lambda c: c.name)
