@@ -53,6 +53,8 @@ PINNED_SHARE, NOT_IDENTIFIED_SHARE = 0.25, 0.6
 ESTABLISHED_MARGIN = 0.05
 #: A parameter whose largest total Sobol index over the responses is below this moves no response.
 INSENSITIVE_INDEX = 0.05
+#: Where a verdict says that one more test would pin a parameter: the command that says which.
+ADVISE_HINT = "demcal advise STUDY.yaml ranks demcal's lab tests by how far each would narrow it"
 #: Fewer accepted samples than this give no verdict.
 MIN_SOLUTIONS = 20
 #: A solution set with fewer likely points than this is sampled again, densely, around itself.
@@ -386,11 +388,11 @@ def _why(name: str, total_index: dict[str, float] | None) -> str:
     if index is not None and index < INSENSITIVE_INDEX:
         return (
             f"no targeted response is sensitive to it (total Sobol index at most {index:.2f}); "
-            f"a test sensitive to {name} would pin it"
+            f"a test sensitive to {name} would pin it ({ADVISE_HINT})"
         )
     return (
         "it trades off against other parameters (several combinations match the targets equally "
-        f"well); one more test sensitive to {name} would pin it"
+        f"well); one more test sensitive to {name} would pin it ({ADVISE_HINT})"
     )
 
 

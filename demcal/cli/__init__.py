@@ -11,6 +11,7 @@
     demcal rerun-failed [STUDY]
     demcal add-point [STUDY] NAME=VALUE ...
     demcal solutions [STUDY] [--tolerance 2] [--explore N] [--point NAME=VALUE ...]
+    demcal advise [STUDY] [--tests SCENE ...] [--points K] [--spread SCENE.RESPONSE=SD ...]
     demcal convergence [STUDY] [--scene S] [--fractions F ...] [--sizes N ...] [--workers N]
     demcal psd fit SIEVE.csv
     demcal sample [STUDY] --points N [--design fssf_f] [--fidelity LEVEL] [--name STUDY]
@@ -27,6 +28,7 @@ as a traceback; so are mistakes on the command line (``Parser``).
 This module holds the parser and ``main``; the commands live in ``run.py`` (run, the best
 point), ``check.py`` (check), ``report.py`` (report), ``inspect.py`` (status, studies, watch),
 ``manage.py`` (stop, add-point, rerun-failed), ``analysis.py`` (solutions, convergence),
+``advise.py`` (which lab test to add),
 ``psd.py`` (fits to sieve data), ``archive.py`` (the archive of simulations), ``sample.py``
 (sampling campaigns), ``fidelity.py`` (do cheaper levels pay?) and ``metamodel.py`` (global
 metamodels of a domain); ``options.py`` checks the numbers that options take,
@@ -110,6 +112,12 @@ COMMANDS: tuple[Command, ...] = (
         "analysis:solutions_arguments",
     ),
     Command(
+        "advise",
+        "which lab test to measure next: each candidate simulated over the solution set",
+        "advise:advise",
+        "advise:arguments",
+    ),
+    Command(
         "convergence",
         "error against run time: one point at several time steps and sizes",
         "analysis:convergence",
@@ -157,7 +165,7 @@ COMMANDS: tuple[Command, ...] = (
 #: input, or take an action before it).
 WITHOUT_CONFIG = ("studies", "archive", "psd", "metamodel", "fidelity")
 #: Commands whose study must be its YAML file, not the name of a study that has run.
-YAML_ONLY = ("check", "run", "sample")
+YAML_ONLY = ("check", "run", "sample", "advise")
 
 
 class Parser(argparse.ArgumentParser):

@@ -15,7 +15,7 @@ from demcal.daemon.control import explore_solutions, lock_study
 from demcal.domain.campaign import runs_at_once
 from demcal.errors import ConfigError
 from demcal.optimizer.membership import BAND_WORDS
-from demcal.reporting.terminal import posterior_line
+from demcal.reporting.terminal import advised_test, posterior_line
 from demcal.snakemake_command import LOCAL_PROFILE, check_profile
 from demcal.study.model import Study
 
@@ -48,6 +48,9 @@ def solutions(args: argparse.Namespace) -> int:
         print(f"  {verdict.sentence}")
     intervals = {v.name: (v.posterior_low, v.posterior_high) for v in analysis.verdicts}
     print(f"  {posterior_line(intervals, s.posterior.effective_samples)}")
+    advised = advised_test(study.files.advice)
+    if advised:
+        print(f"  {advised}")
     files = study.files
     print(
         f"sets: {files.solutions}; figures: {files.plots / 'solution_space.png'}, "

@@ -8,7 +8,7 @@ import argparse
 from pathlib import Path
 
 from demcal.analysis import fidelity
-from demcal.cli.options import whole_number
+from demcal.cli.options import profile_argument, whole_number
 from demcal.cli.sample import simulate
 from demcal.cli.study_argument import study_yaml
 from demcal.daemon.session import locked_study
@@ -23,7 +23,7 @@ from demcal.errors import ConfigError
 from demcal.optimizer import levels
 from demcal.resources import DEFAULT_CONFIG
 from demcal.results.records import FINE
-from demcal.snakemake_command import LOCAL_PROFILE, check_profile
+from demcal.snakemake_command import check_profile
 from demcal.study.config import load_study_file
 
 #: The check's design: Sobol points, which the check extends when run again with more.
@@ -61,11 +61,7 @@ def arguments(sub: argparse.ArgumentParser) -> None:
         "--name",
         help="the check's study folder (default: <study>-fidelity)",
     )
-    sub.add_argument(
-        "--profile",
-        default=str(LOCAL_PROFILE),
-        help="Snakemake profile of the simulations (default: demcal's profiles/local)",
-    )
+    profile_argument(sub)
 
 
 def fidelity_command(args: argparse.Namespace) -> int:

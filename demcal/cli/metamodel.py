@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from demcal.archive.store import Archive
-from demcal.cli.options import MOST_SIMULATIONS, whole_number
+from demcal.cli.options import MOST_SIMULATIONS, profile_argument, whole_number
 from demcal.cli.study_argument import has_run, study_of, study_yaml
 from demcal.domain import calibration, metamodel
 from demcal.errors import ConfigError
@@ -25,7 +25,7 @@ from demcal.optimizer.objective import relative_miss
 from demcal.resources import DEFAULT_CONFIG
 from demcal.results.archive_url import missing_file
 from demcal.results.storage import write_json
-from demcal.snakemake_command import LOCAL_PROFILE, check_profile
+from demcal.snakemake_command import check_profile
 from demcal.study.config import load_study_file
 from demcal.study.model import Study
 
@@ -238,11 +238,7 @@ def calibrate_arguments(sub: argparse.ArgumentParser) -> None:
         help="then simulate the answer N times (seeds of their own) and compare "
         f"(0 to {MOST_SIMULATIONS})",
     )
-    sub.add_argument(
-        "--profile",
-        default=str(LOCAL_PROFILE),
-        help="Snakemake profile of the validation simulations (default: profiles/local)",
-    )
+    profile_argument(sub, "validation simulations")
 
 
 def calibrate_command(args: argparse.Namespace) -> int:

@@ -59,6 +59,15 @@ def quoted(text: str) -> str:
     return f"{text[:SHOWN_CHARS]!r}... ({len(text)} characters)"
 
 
+def profile_argument(sub: argparse.ArgumentParser, what: str = "simulations") -> None:
+    """``--profile``: the Snakemake profile that runs a command's ``what``."""
+    sub.add_argument(
+        "--profile",
+        default=str(LOCAL_PROFILE),
+        help=f"Snakemake profile of the {what} (default: demcal's profiles/local)",
+    )
+
+
 def evaluation_arguments(sub: argparse.ArgumentParser) -> None:
     sub.add_argument(
         "--profile",

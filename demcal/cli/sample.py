@@ -9,7 +9,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from demcal.cli.options import former_name
+from demcal.cli.options import former_name, profile_argument
 from demcal.cli.study_argument import study_yaml
 from demcal.daemon.session import locked_study
 from demcal.domain.campaign import (
@@ -26,7 +26,7 @@ from demcal.domain.campaign import (
 )
 from demcal.errors import ConfigError
 from demcal.results.records import FINE
-from demcal.snakemake_command import LOCAL_PROFILE, check_profile, runs_locally
+from demcal.snakemake_command import check_profile, runs_locally
 from demcal.study.config import load_study_file
 from demcal.study.model import Study
 
@@ -57,11 +57,7 @@ def arguments(sub: argparse.ArgumentParser) -> None:
         help="run the campaign as this study (same box, its own folder and design), e.g. a "
         "held-out set for demcal metamodel validate",
     )
-    sub.add_argument(
-        "--profile",
-        default=str(LOCAL_PROFILE),
-        help="Snakemake profile of the simulations (default: demcal's profiles/local)",
-    )
+    profile_argument(sub)
     sub.add_argument(
         "--bundle",
         type=int,

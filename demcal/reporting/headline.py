@@ -20,6 +20,7 @@ from demcal.reporting.terminal import (
     ANSWER_VERSUS_LOWEST_RUN,
     CHOSEN_BY,
     NEIGHBOURS_ROLE,
+    advised_test,
     duration,
     error_text,
     level_spending,
@@ -78,7 +79,7 @@ def report_headline(study: Study) -> str:
             [*lines, "No evaluation succeeded: the reasons are in ``evaluations.csv``.", ""]
         )
     lines += _best_parameters(study, best) + _best_responses(study, best)
-    lines += _confirmation(study, best) + _identified(files.solutions_summary)
+    lines += _confirmation(study, best) + _identified(files.solutions_summary, files.advice)
     lines += _image(files.plots / "solution_space.png") + _image(files.plots / "sensitivity.png")
     return "\n".join(lines)
 
@@ -185,12 +186,14 @@ def _confirmation(study: Study, best: BestRecord) -> list[str]:
     ]
 
 
-def _identified(solutions_summary: Path) -> list[str]:
-    """What the targets identify (solutions.json), when the analysis has run."""
+def _identified(solutions_summary: Path, advice: Path) -> list[str]:
+    """What the targets identify (solutions.json), when the analysis has run, and the test
+    ``demcal advise`` advised (advice.json), when it has."""
     solutions = _read(solutions_summary)
     if not solutions:
         return []
     posterior = solutions.get("posterior")
+    advised = advised_test(advice)
     return [
         f"**What the targets identify** ({solutions['likely']} of {solutions['sampled']} "
         f"sampled parameter sets are likely to meet every target within {solutions['k']:g} sd, "
@@ -202,5 +205,6 @@ def _identified(solutions_summary: Path) -> list[str]:
             if posterior
             else []
         ),
+        *([f"- {advised}"] if advised else []),
         "",
     ]

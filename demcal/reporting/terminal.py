@@ -85,6 +85,16 @@ def identification_verdicts(study: Study) -> dict[str, str]:
         return {}
 
 
+def advised_test(advice: Path) -> str | None:
+    """The top of ``demcal advise``'s ranking (its advice.json) in words; None before it has
+    run (or when it is unreadable)."""
+    try:
+        ranking = json.loads(advice.read_text())["ranking"]
+        return f"advised next (demcal advise): {ranking[0]['sentence']}" if ranking else None
+    except (OSError, ValueError, KeyError, TypeError, IndexError):
+        return None
+
+
 def bound_advice(verdict: str | None, solutions_summary: Path) -> str:
     """What to do about a parameter on a bound of the answer, given what the targets identify:
     widening the bounds helps only a parameter the targets pin."""
@@ -92,7 +102,7 @@ def bound_advice(verdict: str | None, solutions_summary: Path) -> str:
         return (
             f"the targets do not identify it ({solutions_summary}), so other values meet them "
             "as well and wider bounds would not pin it; fix it at a measured value or add a "
-            "lab test that is sensitive to it"
+            "lab test that is sensitive to it (demcal advise says which)"
         )
     if verdict is None:
         return (

@@ -15,6 +15,8 @@ workflow's rules build their patterns from the same place::
         finished.json       written only when the calibration has ended, with its reason
         reused.json         the archive's simulations the study started from (reuse: archive)
         campaign.json, campaign.log  a sampling campaign's design and its Snakemake's output
+        advice/             which lab test to add (demcal advise): advice.json, advice.png and
+                            a joint study file per candidate test
         metamodels/models.pkl  a sampled domain's global metamodels (demcal metamodel build)
         metamodel/<kind>/   a material calibrated on a domain's metamodels of that kind
         early_termination.csv  estimates of running evaluations and their stopping limits
@@ -58,6 +60,7 @@ LAUNCH_FILE = "launch.json"
 STOP_FILE = "STOP"
 STUDY_FILE = "study.json"
 BEST_FILE = "best.json"
+ADVICE_FILE = "advice.json"
 FINISHED_FILE = "finished.json"
 REUSED_FILE = "reused.json"
 CAMPAIGN_FILE = "campaign.json"
@@ -237,6 +240,19 @@ class StudyFiles:
     def fidelity_figure(self) -> Path:
         """A fidelity check's figure of fine against each cheaper level."""
         return self.dir / "fidelity.png"
+
+    @property
+    def advice_dir(self) -> Path:
+        """``demcal advise``'s ranking, figure and joint study files."""
+        return self.dir / "advice"
+
+    @property
+    def advice(self) -> Path:
+        return self.advice_dir / ADVICE_FILE
+
+    @property
+    def advice_figure(self) -> Path:
+        return self.advice_dir / "advice.png"
 
     @property
     def early_termination(self) -> Path:

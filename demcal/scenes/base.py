@@ -23,6 +23,12 @@ MAX_ANGLE = 90.0
 #: A bulk density cannot exceed the solid density of its particles (the
 #: catalogue's largest), kg/m^3.
 MAX_BULK_DENSITY = CATALOG["particle_density"].upper
+#: demcal's assumed scatter of single lab tests where the user gives none (``demcal advise``;
+#: docs/advise.md): an angle of a heap or slope [deg], and shares of the measured value.
+ANGLE_LAB_SPREAD = 1.5
+BULK_DENSITY_LAB_SHARE = 0.01
+MASS_FLOW_LAB_SHARE = 0.03
+SLIDE_TIME_LAB_SHARE = 0.05
 
 
 def saturating(value: float, scale: float) -> float:
@@ -190,6 +196,11 @@ def psd_settings(
     }
 
 
+#: The settings that describe the material rather than the test (its particle sizes): what a
+#: second test of the same material takes over from the first (``demcal advise``).
+MATERIAL_SETTINGS = tuple(psd_settings(1.0e-3, 0.0, 1.0))
+
+
 def settling_settings(max_settle_time: float, meaning: str) -> dict[str, SettingSpec]:
     """The settings every scene shares: when material counts as at rest (rms speed), how long
     a settling stage may take (simulated s, ``meaning`` says which stages), and particle dumps
@@ -232,12 +243,29 @@ def coarse_by_particle_count(settings: dict[str, Any]) -> dict[str, Any]:
 @dataclass(frozen=True)
 class ResponseSpec:
     """A bulk response a scene can produce, in ``unit``, physically between
-    ``lower`` and ``upper``."""
+    ``lower`` and ``upper``.
+
+    ``lab_spread`` is the typical standard deviation of single lab tests of it, in its unit,
+    or ``lab_spread_share`` the same as a share of the measured value: the measurement
+    spread ``demcal advise`` assumes for a test the user has not measured yet
+    (docs/advise.md). A response with neither is no lab measurement (a design case's).
+    """
 
     unit: str
     description: str
     lower: float = 0.0
     upper: float = math.inf
+    lab_spread: float | None = None
+    lab_spread_share: float | None = None
+
+    def typical_spread(self, value: float) -> float | None:
+        """The typical lab-test spread of a measured ``value`` of this response (None: not a
+        lab measurement)."""
+        if self.lab_spread is not None:
+            return self.lab_spread
+        if self.lab_spread_share is not None:
+            return self.lab_spread_share * abs(value)
+        return None
 
 
 @dataclass(frozen=True)
@@ -276,6 +304,15 @@ class Scene:
         Callable[[dict[str, np.ndarray], dict[str, Any]], dict[str, tuple[np.ndarray, np.ndarray]]]
         | None
     ) = None
+
+    @property
+    def lab_test(self) -> bool:
+        """Whether the scene is a lab test (every response has a typical lab spread), one
+        ``demcal advise`` may propose, rather than a design case."""
+        return all(
+            spec.lab_spread is not None or spec.lab_spread_share is not None
+            for spec in self.responses.values()
+        )
 
     def driver(self, engine: str) -> Callable[..., Any] | None:
         """What the engine named ``engine`` runs for this scene; None if the scene has none.

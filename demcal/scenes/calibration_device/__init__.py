@@ -37,8 +37,11 @@ from demcal.errors import ConfigError, SimulationFailed
 from demcal.physics import measure
 from demcal.physics.psd import diameter_range
 from demcal.scenes.base import (
+    ANGLE_LAB_SPREAD,
+    MASS_FLOW_LAB_SHARE,
     MATERIAL_PARAMETERS,
     MAX_ANGLE,
+    SLIDE_TIME_LAB_SHARE,
     ResponseSpec,
     Scene,
     SettingSpec,
@@ -152,15 +155,20 @@ SCENE = Scene(
     parameters=MATERIAL_PARAMETERS,
     responses={
         "mass_flow": ResponseSpec(
-            "kg/s", "slope of the hopper's mass against time over 20-80 % discharged"
+            "kg/s",
+            "slope of the hopper's mass against time over 20-80 % discharged",
+            lab_spread_share=MASS_FLOW_LAB_SHARE,
         ),
         "slide_time": ResponseSpec(
-            "s", "time from opening until the hopper and slide are empty, penalised if never"
+            "s",
+            "time from opening until the hopper and slide are empty, penalised if never",
+            lab_spread_share=SLIDE_TIME_LAB_SHARE,
         ),
         "angle_of_repose": ResponseSpec(
             "deg",
             "angle at the inflexion point of a sigmoid fitted to the pile profile",
             upper=MAX_ANGLE,
+            lab_spread=ANGLE_LAB_SPREAD,
         ),
     },
     settings={

@@ -26,6 +26,8 @@ from demcal.errors import ConfigError
 from demcal.physics import measure
 from demcal.physics.psd import diameter_range
 from demcal.scenes.base import (
+    ANGLE_LAB_SPREAD,
+    BULK_DENSITY_LAB_SHARE,
     MATERIAL_PARAMETERS,
     MAX_ANGLE,
     MAX_BULK_DENSITY,
@@ -89,10 +91,16 @@ SCENE = Scene(
     parameters=MATERIAL_PARAMETERS,
     responses={
         "bulk_density": ResponseSpec(
-            "kg/m^3", "mass of the settled fill / (pi R^2 fill height)", upper=MAX_BULK_DENSITY
+            "kg/m^3",
+            "mass of the settled fill / (pi R^2 fill height)",
+            upper=MAX_BULK_DENSITY,
+            lab_spread_share=BULK_DENSITY_LAB_SHARE,
         ),
         "angle_of_repose": ResponseSpec(
-            "deg", "angle of the heap flank after the lift", upper=MAX_ANGLE
+            "deg",
+            "angle of the heap flank after the lift",
+            upper=MAX_ANGLE,
+            lab_spread=ANGLE_LAB_SPREAD,
         ),
     },
     settings={

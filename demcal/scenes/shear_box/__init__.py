@@ -40,6 +40,8 @@ from demcal.errors import ConfigError
 from demcal.physics import measure
 from demcal.physics.psd import diameter_range
 from demcal.scenes.base import (
+    ANGLE_LAB_SPREAD,
+    BULK_DENSITY_LAB_SHARE,
     MATERIAL_PARAMETERS,
     MAX_ANGLE,
     MAX_BULK_DENSITY,
@@ -160,6 +162,7 @@ SCENE = Scene(
             "kg/m^3",
             "mass of the spheres whose centres lie in the filled, struck-off box / box volume",
             upper=MAX_BULK_DENSITY,
+            lab_spread_share=BULK_DENSITY_LAB_SHARE,
         ),
         "shear_angle": ResponseSpec(
             "deg",
@@ -167,6 +170,7 @@ SCENE = Scene(
             "flap opened: line fit of the surface against the "
             "distance along the box",
             upper=MAX_ANGLE,
+            lab_spread=ANGLE_LAB_SPREAD,
         ),
     },
     settings={
