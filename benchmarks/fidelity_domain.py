@@ -233,20 +233,18 @@ def tables(figures: dict) -> str:
     costs = figures["campaigns"]
     for label, build in figures.get("builds", {}).items():
         for kind in ("kriging", "multi_fidelity"):
-            key = f"shear_box.shear_angle {kind}"
-            if key not in build["validation"]:
+            if f"shear_box.shear_angle {kind}" not in build["validation"]:
                 continue
-            fine = costs["fine"]["simulations"] + (
-                costs[EXTRA]["simulations"] if label == "equal CPU" else 0
+            campaigns = (
+                ["fine"]
+                + ([EXTRA] if label == "equal CPU" else [])
+                + (["coarse"] if kind == "multi_fidelity" else [])
             )
-            cpu = costs["fine"]["cpu_s"] + (
-                costs[EXTRA]["cpu_s"] if label == "equal CPU" else costs["coarse"]["cpu_s"]
-            )
+            fine = sum(costs[c]["simulations"] for c in campaigns if c != "coarse")
             training = f"{fine} fine" + (
                 f" + {costs['coarse']['simulations']} coarse" if kind == "multi_fidelity" else ""
             )
-            if kind == "kriging" and label != "equal CPU":
-                cpu = costs["fine"]["cpu_s"]
+            cpu = sum(costs[c]["cpu_s"] for c in campaigns)
             scores = [
                 build["validation"][f"shear_box.{response} {kind}"]
                 for response in ("shear_angle", "bulk_density")
