@@ -24,7 +24,7 @@ density free, the rest held at the truth, targets the mean of the truth's run an
 - ``kriging``: the FINE fine runs alone;
 - ``multi_fidelity``: the same fine runs and the COARSE coarse ones;
 - ``kriging, equal CPU``: the FINE + EXTRA fine runs, about the CPU of the two campaigns
-  of ``multi_fidelity``.
+  of ``multi_fidelity`` (``--extra 0``: no such campaign and model).
 
 Prints the README's table and writes benchmarks/results/fidelity_domain.json (every figure)
 and fidelity_domain_output.txt (every command's output).
@@ -114,7 +114,8 @@ def campaigns(args: argparse.Namespace, log: list[str]) -> None:
         COARSE,
         log=log,
     )
-    demcal("sample", study, "--points", str(args.extra), "--name", EXTRA, log=log)
+    if args.extra:
+        demcal("sample", study, "--points", str(args.extra), "--name", EXTRA, log=log)
     demcal(
         "sample",
         study,
@@ -137,7 +138,9 @@ def campaign_costs(url: str) -> dict[str, dict[str, float]]:
     }
 
 
-def materials(args: argparse.Namespace, url: str, domain_yaml: dict) -> dict[str, dict]:
+def materials(
+    args: argparse.Namespace, url: str, domain_yaml: dict, builds: tuple
+) -> dict[str, dict]:
     """The first held-out points as materials: study files (one per build) and truths."""
     with Archive(url) as archive:
         held_out = [
@@ -153,7 +156,7 @@ def materials(args: argparse.Namespace, url: str, domain_yaml: dict) -> dict[str
         runs = truth_runs(path, record, args.repeats)
         targets = {n: statistics.fmean(run[n] for run in runs) for n in single}
         studies = {}
-        for label, _, _ in BUILDS:
+        for label, _, _ in builds:
             study = name if label == BUILDS[0][0] else f"{name}-{label.replace(' ', '-')}"
             studies[label] = Path(f"{study}.yaml")
             config = material_config(domain_yaml, record, study, targets, sd)
@@ -185,9 +188,10 @@ def main() -> None:
     figures = json.loads(FIGURES.read_text()) if FIGURES.exists() else {}
     campaigns(args, log)
     figures["campaigns"] = campaign_costs(url)
-    chosen = materials(args, url, domain_yaml)
+    builds = BUILDS if args.extra else BUILDS[:1]
+    chosen = materials(args, url, domain_yaml, builds)
     own = [path.stem for entry in chosen.values() for path in entry["files"].values()]
-    for label, kinds, left_out in BUILDS:
+    for label, kinds, left_out in builds:
         extra = ["--fidelity", "coarse"] if "multi_fidelity" in kinds else []
         demcal(
             "metamodel",
@@ -195,7 +199,7 @@ def main() -> None:
             f"{DOMAIN}.yaml",
             "--holdout",
             HOLDOUT,
-            *left_out,
+            *(left_out if args.extra else ()),
             *own,
             "--model",
             *kinds,
@@ -229,20 +233,18 @@ def tables(figures: dict) -> str:
     costs = figures["campaigns"]
     for label, build in figures.get("builds", {}).items():
         for kind in ("kriging", "multi_fidelity"):
-            key = f"shear_box.shear_angle {kind}"
-            if key not in build["validation"]:
+            if f"shear_box.shear_angle {kind}" not in build["validation"]:
                 continue
-            fine = costs["fine"]["simulations"] + (
-                costs[EXTRA]["simulations"] if label == "equal CPU" else 0
+            campaigns = (
+                ["fine"]
+                + ([EXTRA] if label == "equal CPU" else [])
+                + (["coarse"] if kind == "multi_fidelity" else [])
             )
-            cpu = costs["fine"]["cpu_s"] + (
-                costs[EXTRA]["cpu_s"] if label == "equal CPU" else costs["coarse"]["cpu_s"]
-            )
+            fine = sum(costs[c]["simulations"] for c in campaigns if c != "coarse")
             training = f"{fine} fine" + (
                 f" + {costs['coarse']['simulations']} coarse" if kind == "multi_fidelity" else ""
             )
-            if kind == "kriging" and label != "equal CPU":
-                cpu = costs["fine"]["cpu_s"]
+            cpu = sum(costs[c]["cpu_s"] for c in campaigns)
             scores = [
                 build["validation"][f"shear_box.{response} {kind}"]
                 for response in ("shear_angle", "bulk_density")
