@@ -123,6 +123,7 @@ def advice_record(advice: Advice, study: str, joint_files: dict[str, str]) -> di
             {
                 "scene": s.scene,
                 "response": s.response,
+                "unit": s.unit,
                 "spread": s.spread,
                 "score": s.score(advice.chosen),
                 "expected_share": dict(zip(names, map(float, s.after))),
