@@ -36,6 +36,8 @@ from pathlib import Path
 import pandas as pd
 import yaml
 
+from demcal.scenes import SCENES
+
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
 BASE = ROOT / "config" / "config.yaml"
@@ -58,17 +60,21 @@ def demcal(log: Path, *words: str) -> str:
 
 
 def truth_means(log: Path, config: Path, scene: str, truth: dict[str, float], tag: str) -> dict:
-    """The mean of TRUTH_SEEDS seeds of every targeted response of ``scene`` at ``truth``."""
-    point = [f"{name}={value}" for name, value in truth.items()]
-    script = str(ROOT / "benchmarks" / "scene_noise.py")
-    run(log, sys.executable, script, str(config), "--scene", scene, "--seeds", str(TRUTH_SEEDS),
-        "--point", *point, "--tag", tag)  # fmt: skip
+    """The mean of TRUTH_SEEDS seeds of every targeted response of ``scene`` at ``truth`` (run
+    once: the noise file of an earlier run is read again)."""
     study = yaml.safe_load(config.read_text())["study"]
-    runs = json.loads((RESULTS / f"noise_{study}_{scene}_{tag}.json").read_text())["runs"]
+    found = RESULTS / f"noise_{study}_{scene}_{tag}.json"
+    if not found.exists():
+        point = [f"{name}={value}" for name, value in truth.items()]
+        script = str(ROOT / "benchmarks" / "scene_noise.py")
+        run(log, sys.executable, script, str(config), "--scene", scene, "--seeds",
+            str(TRUTH_SEEDS), "--point", *point, "--tag", tag)  # fmt: skip
+    runs = json.loads(found.read_text())["runs"]
     ok = [r for r in runs if r["status"] == "ok"]
     if len(ok) < TRUTH_SEEDS:
         raise SystemExit(f"{scene} at the truth: {len(ok)} of {len(runs)} runs ok")
-    return {name: sum(r["responses"][name] for r in ok) / len(ok) for name in ok[0]["responses"]}
+    names = [name for name in SCENES.load(scene).responses if name in ok[0]]
+    return {name: sum(r[name] for r in ok) / len(ok) for name in names}
 
 
 def spans(log: Path, study: str, truth: dict[str, float]) -> dict:

@@ -19,7 +19,14 @@ from typing import Any
 import numpy as np
 import yaml
 
-from demcal.analysis.advice import Shrink, fit_plane, rank, spanning_sets, spans_after
+from demcal.analysis.advice import (
+    PlaneFit,
+    Shrink,
+    fit_plane,
+    rank,
+    spanning_sets,
+    spans_after,
+)
 from demcal.analysis.advice_report import (
     Advice,
     advice_record,
@@ -139,14 +146,7 @@ def advise(args: argparse.Namespace) -> int:
             f"--points {count}: the likely set holds only {len(likely)} sampled sets; give at "
             f"most that, or more --samples"
         )
-    pool_values, pool_unit = simulated_sets(study, analysis)
-    picks = spanning_sets(likely, pool_unit, count)
-    new_unit = np.array([likely[i] for simulated, i in picks if not simulated])
-    sets = [
-        pool_values[i] if simulated else unit_to_box(study, likely[i][None, :])[0]
-        for simulated, i in picks
-    ]
-    sets_unit = np.array([pool_unit[i] if simulated else likely[i] for simulated, i in picks])
+    sets, sets_unit, fresh = advised_sets(study, analysis, likely, count)
     print(
         f"demcal advise: {study.name}: narrowing "
         + ", ".join(
@@ -154,52 +154,81 @@ def advise(args: argparse.Namespace) -> int:
             for v, c in zip(analysis.verdicts, chosen)
             if c
         )
-        + f"; {count} sets that span the likely set, {count - len(new_unit)} of them simulated "
+        + f"; {count} sets that span the likely set, {count - len(fresh)} of them simulated "
         f"by the study already; each simulated in {', '.join(tests)}",
         flush=True,
     )
     raw = read_study_yaml(config)
     status = 0
-    if len(new_unit):
-        fresh = [v for v, (simulated, _) in zip(sets, picks) if not simulated]
+    if fresh:
         status, _ = simulate_at(study, own_campaign_yaml(study, raw), fresh, profile, settings)
     shrinks, values, fits = [], {}, {}
     for scene in tests:
         code, runs = simulate_at(study, campaign_yaml(study, raw, scene), sets, profile, settings)
         status = max(status, code)
-        for response, spec in SCENES.load(scene).responses.items():
-            key = f"{scene}.{response}"
-            means = set_means(runs, key, sets, study)
-            ok = np.isfinite(means)
-            if ok.sum() < dimension + 1:
-                print(
-                    f"demcal advise: {key}: left out: {int(ok.sum())} of the {count} sets gave "
-                    f"a value, a plane needs {dimension + 1} (see the campaign's log)"
-                )
-                continue
-            fit = fit_plane(sets_unit[ok], means[ok])
-            spread = spreads.get(key, spec.typical_spread(float(np.mean(means[ok]))))
-            assert spread is not None, "candidates are lab tests: every response has a spread"
-            lows, highs = spans_after(analysis.solutions, key, fit, means[ok], spread)
-            shrinks.append(
-                Shrink(
-                    scene,
-                    response,
-                    spec.unit,
-                    spread,
-                    np.array([v.share for v in analysis.verdicts]),
-                    lows,
-                    highs,
-                    median_cpu(runs, FINE, scene),
-                    fit.residual_sd,
-                )
-            )
-            values[key], fits[key] = means, fit
+        for response in SCENES.load(scene).responses:
+            judged = judge(analysis, runs, scene, response, sets, sets_unit, spreads, study)
+            if judged is not None:
+                shrinks.append(judged[0])
+                values[judged[0].key], fits[judged[0].key] = judged[1:]
     if not shrinks:
         raise ConfigError("advise: no candidate test gave values to judge it by")
     advice = Advice(analysis, chosen, rank(shrinks, chosen), sets_unit, values, fits)
     say(advice, study, raw)
     return status
+
+
+def advised_sets(
+    study: Study, analysis: SolutionAnalysis, likely: np.ndarray, count: int
+) -> tuple[list[dict[str, float]], np.ndarray, list[dict[str, float]]]:
+    """The ``count`` sets the candidates are simulated at (`spanning_sets` over the ``likely``
+    points, preferring the study's own simulated sets): their values, their unit coordinates,
+    and the values of those the study has not simulated."""
+    pool_values, pool_unit = simulated_sets(study, analysis)
+    picks = spanning_sets(likely, pool_unit, count)
+    sets = [
+        pool_values[i] if simulated else unit_to_box(study, likely[i][None, :])[0]
+        for simulated, i in picks
+    ]
+    sets_unit = np.array([pool_unit[i] if simulated else likely[i] for simulated, i in picks])
+    fresh = [values for values, (simulated, _) in zip(sets, picks) if not simulated]
+    return sets, sets_unit, fresh
+
+
+def judge(
+    analysis: SolutionAnalysis,
+    runs: Any,
+    scene: str,
+    response: str,
+    sets: list[dict[str, float]],
+    sets_unit: np.ndarray,
+    spreads: dict[str, float],
+    study: Study,
+) -> tuple[Shrink, np.ndarray, PlaneFit] | None:
+    """What measuring one candidate response would do (`spans_after` on its plane over the
+    sets' values), with its mean at each set and the plane; None, said, when fewer than d + 1
+    sets gave it a value."""
+    spec = SCENES.load(scene).responses[response]
+    key = f"{scene}.{response}"
+    means = set_means(runs, key, sets, study)
+    ok = np.isfinite(means)
+    if ok.sum() < len(analysis.names) + 1:
+        print(
+            f"demcal advise: {key}: left out: {int(ok.sum())} of the {len(sets)} sets gave a "
+            f"value, a plane needs {len(analysis.names) + 1} (see the campaign's log)"
+        )
+        return None
+    fit = fit_plane(sets_unit[ok], means[ok])
+    spread = spreads.get(key, spec.typical_spread(float(np.mean(means[ok]))))
+    assert spread is not None, "candidates are lab tests: every response has a spread"
+    lows, highs = spans_after(analysis.solutions, key, fit, means[ok], spread)
+    before = np.array([v.share for v in analysis.verdicts])
+    cpu = median_cpu(runs, FINE, scene)
+    return (
+        Shrink(scene, response, spec.unit, spread, before, lows, highs, cpu, fit.residual_sd),
+        means,
+        fit,
+    )
 
 
 def candidate_tests(study: Study, given: list[str] | None) -> list[str]:
