@@ -7,7 +7,9 @@ variable settings are the study's, and its free ones lie inside the study's boun
 (:meth:`Archive.compatible` does the first part, on :meth:`Study.archive_view`). A command
 engine must name its version (``engine.version``) to reuse anything. The compatible
 simulations of every scene are grouped by their free values into points; a point is usable
-when every targeted response has at least one final value there. Replicates and repeated runs
+when every targeted response has at least one final value there, and a partial point (some
+of them, at the fine level of the study's own material) teaches the models of those
+responses only. Replicates and repeated runs
 of one point (a confirmation) pool into one point. A study whose search spends a cheaper level
 (``optimizer.fidelity``) also takes the simulations compatible with that level: the coarse
 runs of the same material (docs/fidelity.md). With ``reuse: neighbours`` it takes as well the
@@ -88,7 +90,9 @@ def reused_points(
     archive order (each point of a cheaper level names it; with ``neighbours``, those of
     neighbouring materials, each naming its values of the fixed parameters that differ); a
     damaged simulation is left out, or counts without its damaged values, as the archive
-    reads it (:meth:`Archive.warn_damaged` names them)."""
+    reads it (:meth:`Archive.warn_damaged` names them). A fine point of the study's own
+    material where only some of the targeted responses ran (the first test of a joint study,
+    before the second was added) is ``partial``: data of those responses' models only."""
     names = [p.name for p in study.free]
     groups: dict[tuple[object, ...], list[ArchivedSimulation]] = defaultdict(list)
     for record in compatible_simulations(study, archive, fidelity=fidelity, neighbours=neighbours):
@@ -105,7 +109,9 @@ def reused_points(
             ]
             for t in study.targets
         }
-        if not all(replicates.values()):
+        present = {key: values for key, values in replicates.items() if values}
+        partial = len(present) < len(replicates)
+        if not present or (partial and (fidelity != FINE or neighbours)):
             continue
         material = material_of(study, records[0])
         # one evaluation of a robust study ran several materials: each is its own point
@@ -115,7 +121,7 @@ def reused_points(
                 "source": "+".join(dict.fromkeys(f"{r.study}/{r.evaluation}" for r in records))
                 + (f" {named}" if named else ""),
                 "parameters": dict(zip(names, records[0].values(names))),
-                "replicates": replicates,
+                "replicates": present,
                 "simulations": [
                     {
                         "id": r.id,
@@ -128,6 +134,7 @@ def reused_points(
                     for r in records
                 ],
             }
+            | ({"partial": True} if partial else {})
             | ({} if fidelity == FINE else {"fidelity": fidelity})
             | ({"material": material} if material else {})
         )

@@ -163,14 +163,18 @@ class Calibration:
                 },
             )
             for record in reused_objectives(self.study)
-            if record.ok and record.objective is not None
+            if (record.ok and record.objective is not None) or record.status == Status.TERMINATED
         ]
         cheap = sum(point.fidelity != FINE for point in points)
+        partial = sum(point.value is None for point in points)
         near = sorted({name for point in points for name in point.material})
         log.info(
-            "reused %d points of the archive as data (reused.json)%s%s",
+            "reused %d points of the archive as data (reused.json)%s%s%s",
             len(points),
             f", {cheap} of them at {level}" if cheap else "",
+            f", {partial} of them with only some of the tests (data of their models)"
+            if partial
+            else "",
             f", {sum(bool(p.material) for p in points)} of neighbouring materials "
             f"(other {', '.join(near)})"
             if near

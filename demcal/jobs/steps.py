@@ -463,17 +463,35 @@ def reused_origins(study: Study) -> dict[str, ReusedOrigin]:
 
 def reused_objectives(study: Study) -> list[ObjectiveRecord]:
     """The points the study reused (``reused.json``), each scored by the study's objective as
-    it stands now (its targets may have changed since); [] when it reused none. Each record's
+    it stands now (its targets may have changed since; a partial point, `partial_record`);
+    [] when it reused none. Each record's
     ``evaluation`` is the point's source, ``study/evaluation``."""
     reused = ReusedRecord.read_if_any(study.files.reused)
     return [
-        score(
+        partial_record(p)
+        if p.get("partial")
+        else score(
             study,
             ObjectiveRecord(p["source"], Status.OK, parameters=p["parameters"]),
             p["replicates"],
         )
         for p in ([] if reused is None else reused.points)
     ]
+
+
+def partial_record(point: dict[str, Any]) -> ObjectiveRecord:
+    """A reused point where only some targeted responses ran: no objective, like a run stopped
+    early (``terminated``), its responses data of their models only."""
+    replicates = point["replicates"]
+    return ObjectiveRecord(
+        point["source"],
+        Status.TERMINATED,
+        reason=f"reused with {', '.join(sorted(replicates))} only: data of their models",
+        parameters=point["parameters"],
+        responses={key: replicate_mean(values) for key, values in replicates.items()},
+        replicates=replicates,
+        spread={key: replicate_spread(values) for key, values in replicates.items()},
+    )
 
 
 def run_snakemake_job(smk: ScriptJob, stage: str) -> None:

@@ -147,15 +147,17 @@ class ReusedPoint:
     """A point simulated before by another study, given to the optimizer as data.
 
     ``x`` in real units; ``responses`` each targeted response's final values, keyed
-    ``scene.response``; ``value`` the objective of this study applied to them, and
-    ``replicates`` per replicate (None when the counts differ); ``source`` the
+    ``scene.response``; ``value`` the objective of this study applied to them (None for a
+    partial point, where only some targeted responses ran: data of their models only, like a
+    run stopped early), and ``replicates`` per replicate (None when the counts differ);
+    ``source`` the
     ``study/evaluation`` that simulated it; ``fidelity`` the study's level it ran at;
     ``material`` a neighbouring material's offsets (:attr:`Evaluation.material`).
     """
 
     x: list[float]
     responses: dict[str, list[float]]
-    value: float
+    value: float | None
     replicates: list[float] | None
     source: str
     fidelity: str = FINE

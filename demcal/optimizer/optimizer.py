@@ -134,7 +134,7 @@ class Optimizer:
             per_parameter * dimension if per_parameter else default_initial_size(dimension, workers)
         )
         include = None if not initial_points else self.bounds.to_unit(initial_points)
-        fine_reused = [p for p in reused if p.fidelity == FINE]
+        fine_reused = [p for p in reused if p.fidelity == FINE and p.value is not None]
         covered = self.bounds.to_unit([p.x for p in fine_reused]) if fine_reused else None
         design = initial_design(
             self.settings.initial_design,
@@ -156,7 +156,12 @@ class Optimizer:
                 id,
                 tuple(float(v) for v in self.bounds.to_unit([point.x])[0]),
                 in_initial_design=False,
-                **_outcome(id, point.value, Status.OK, point.replicates),
+                **_outcome(
+                    id,
+                    point.value,
+                    Status.TERMINATED if point.value is None else Status.OK,
+                    point.replicates,
+                ),
                 responses={key: ObservedResponse(tuple(v)) for key, v in point.responses.items()},
                 reused_from=point.source,
                 fidelity=point.fidelity,

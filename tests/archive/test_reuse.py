@@ -19,6 +19,7 @@ from demcal.cli.inspect import study_state
 from demcal.cli.run import print_best
 from demcal.daemon.loop import Calibration
 from demcal.errors import ConfigError
+from demcal.optimizer.responses import final_means
 from demcal.reporting.headline import report_headline
 from demcal.results.records import ObjectiveRecord, ReusedRecord, SimulationRecord
 from demcal.study.config import load_study
@@ -238,3 +239,32 @@ def test_a_study_run_again_under_another_name_is_reused_once(first):
     first_ok = pd.read_csv(first.files.evaluations_csv).query("status == 'ok'")
     assert len(points) == len(first_ok)  # the first study's points, none twice
     assert all(len(values) == 1 for p in points for values in p["replicates"].values())
+
+
+def test_a_joint_study_takes_the_first_tests_runs_as_data_of_their_models_only(first):
+    """A second test added to the first (demcal advise's joint study): the archive holds the
+    first test alone, so each of its points teaches the models of its responses and is no
+    answer, no best value and no point of the budget (a partial point, like a run stopped
+    early)."""
+    joint = config("joint", FIRST_TRUTH, budget=4, reuse="archive")
+    joint["targets"].append(
+        {"scene": "shear_box", "response": "shear_angle", "value": 25.0, "spread": 1.0}
+    )
+    calibration = run_calibration(joint)
+    reused = ReusedRecord.read(calibration.files.reused)
+    assert len(reused.points) == first.optimizer.completed_evaluations() == 10
+    assert all(
+        p["partial"]
+        and set(p["replicates"]) == {"cylinder_lift.angle_of_repose", "cylinder_lift.bulk_density"}
+        for p in reused.points
+    )
+    taken = [r for r in calibration.optimizer.records if r.reused_from]
+    assert len(taken) == 10 and all(r.status == "terminated" and r.value is None for r in taken)
+    assert calibration.optimizer.completed_evaluations() == 4  # the budget: new runs only
+    best = calibration.optimizer.best()
+    assert best is not None and best.reused_from is None
+    # the angle's model learns from the first test's 10 points and the 4 new ones
+    x, _ = final_means(calibration.optimizer.records, "cylinder_lift.angle_of_repose", 2)
+    assert len(x) == 14
+    table = pd.read_csv(calibration.files.evaluations_csv)
+    assert (table["status"] == "terminated").sum() == 10
