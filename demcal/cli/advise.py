@@ -37,7 +37,7 @@ from demcal.analysis.fidelity import median_cpu, runs_table
 from demcal.analysis.solution_report import SolutionAnalysis, analyse
 from demcal.analysis.solutions import MIN_SOLUTIONS, SOLUTION_SAMPLES
 from demcal.cli.options import profile_argument, whole_number
-from demcal.cli.sample import simulate
+from demcal.cli.sample import INTERRUPTED, simulate
 from demcal.cli.study_argument import study_of, study_yaml
 from demcal.daemon.session import locked_study
 from demcal.domain.campaign import forecast, unit_to_box, write_points
@@ -162,9 +162,13 @@ def advise(args: argparse.Namespace) -> int:
     status = 0
     if fresh:
         status, _ = simulate_at(study, own_campaign_yaml(study, raw), fresh, profile, settings)
+        if status == INTERRUPTED:
+            return status
     shrinks, values, fits = [], {}, {}
     for scene in tests:
         code, runs = simulate_at(study, campaign_yaml(study, raw, scene), sets, profile, settings)
+        if code == INTERRUPTED:  # said by simulate; the same command resumes
+            return code
         status = max(status, code)
         for response in SCENES.load(scene).responses:
             judged = judge(analysis, runs, scene, response, sets, sets_unit, spreads, study)

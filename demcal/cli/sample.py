@@ -30,6 +30,9 @@ from demcal.snakemake_command import check_profile, runs_locally
 from demcal.study.config import load_study_file
 from demcal.study.model import Study
 
+#: The exit status of a campaign interrupted by Ctrl-C (`simulate`).
+INTERRUPTED = 130
+
 
 def arguments(sub: argparse.ArgumentParser) -> None:
     sub.add_argument(
@@ -131,7 +134,7 @@ def simulate(study: Study, names: list[str], profile: Path, bundle: int, command
             f"demcal {command}: interrupted; run the same command again to resume",
             file=sys.stderr,
         )
-        return 130
+        return INTERRUPTED
     bar.close()
     archived = f"each is in the archive {study.archive}" if study.archive else "none archived"
     print(f"demcal {command}: {state.line()}; {archived}")
