@@ -7,23 +7,37 @@ candidate responses), then one joint calibration per candidate, its added target
 the truth (mean of two seeds) with the advice's spread (``advise_lammps.joint_run``). Per
 candidate and parameter: the advice's expected likely span against the span the joint
 calibration reports (shares of the box), and whether the truth lies inside; per truth, the
-rank correlation of the advice's scores with the realised mean spans.
+rank correlation of the advice's scores with the realised mean spans. The analytic responses
+are known, so the exact sets are too: every parameter set whose noise-free responses meet the
+first target, and then both, within 2 band sd (a grid of ``GRID`` x ``GRID``), against which
+the calibrations' and the advice's spans are read.
 
     python benchmarks/advise_analytic.py
+    python benchmarks/advise_analytic.py --table   # the table again from the JSON and YAMLs
 
 Works in advise-analytic/ and writes benchmarks/results/advise_analytic.json and .md.
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import time
 from pathlib import Path
 
+import numpy as np
 import yaml
 from advise_lammps import RESULTS, demcal, joint_run, spans, spent, truth_means
 from scipy.stats import spearmanr
+
+from demcal.optimizer.bounds import from_unit_box
+from demcal.optimizer.membership import BAND_SD, band_sd
+from demcal.scenes import SCENES
+from demcal.study.config import load_study_file
+
+#: Grid points per parameter of the exact sets.
+GRID = 201
 
 #: The truths: on the low-rolling and the high-rolling part of the angle's curve.
 TRUTHS = {
@@ -77,10 +91,40 @@ def one_truth(log: Path, tag: str, truth: dict[str, float]) -> dict:
     }
 
 
+def exact_shares(path: Path) -> tuple[dict[str, float], dict[str, float]]:
+    """Each free parameter's span (share of its box) over the exact set of the joint study
+    ``path``: under its first target alone, and under all of its targets."""
+    study = load_study_file(path)
+    axes = np.meshgrid(*[np.linspace(0.0, 1.0, GRID)] * len(study.free), indexing="ij")
+    unit = np.column_stack([axis.ravel() for axis in axes])
+    lower = np.array([p.lower for p in study.free])
+    upper = np.array([p.upper for p in study.free])
+    names = [p.name for p in study.free]
+    inside = []
+    for t in study.targets:
+        scene = SCENES.load(t.scene)
+        values = np.array(
+            [
+                scene.analytic_model(
+                    study.parameters_for(dict(zip(names, map(float, row)))),
+                    study.settings[t.scene],
+                )[t.response]
+                for row in from_unit_box(unit, lower, upper)
+            ]
+        )
+        inside.append(np.abs(values - t.value) <= BAND_SD * band_sd(t, 0.0))
+
+    def shares(mask: np.ndarray) -> dict[str, float]:
+        return {n: float(np.ptp(unit[mask, i])) for i, n in enumerate(names)}
+
+    return shares(inside[0]), shares(np.logical_and.reduce(inside))
+
+
 def table(results: dict) -> str:
     lines = [
-        "| truth | rank | added target | parameter | before | expected | realised | truth in |",
-        "|---|---|---|---|---|---|---|---|",
+        "| truth | rank | added target | parameter | before | exact before | expected "
+        "| realised | exact after | truth in |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for tag, result in results.items():
         before = result["calibration"]["parameters"]
@@ -89,8 +133,10 @@ def table(results: dict) -> str:
                 lines.append(
                     f"| {tag} | {rank} | {joint['test']} | {name} | "
                     f"{100 * before[name]['share']:.0f} % | "
+                    f"{100 * joint['exact_before'][name]:.0f} % | "
                     f"{100 * joint['expected_share'][name]:.0f} % | "
-                    f"{100 * after['share']:.0f} % | {'yes' if after['truth_inside'] else 'no'} |"
+                    f"{100 * after['share']:.0f} % | {100 * joint['exact_after'][name]:.0f} % | "
+                    f"{'yes' if after['truth_inside'] else 'no'} |"
                 )
     correlations = ", ".join(
         f"{tag} {result['rank_correlation']:+.2f}" for tag, result in results.items()
@@ -101,13 +147,23 @@ def table(results: dict) -> str:
 
 
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--table", action="store_true", help="the table again, no run")
+    args = parser.parse_args()
     folder = Path("advise-analytic").resolve()
     folder.mkdir(exist_ok=True)
     os.chdir(folder)
     start = time.monotonic()
     log = folder / "benchmark.log"
-    results = {tag: one_truth(log, tag, truth) for tag, truth in TRUTHS.items()}
     out = RESULTS / "advise_analytic"
+    if args.table:
+        results = json.loads(out.with_suffix(".json").read_text())
+    else:
+        results = {tag: one_truth(log, tag, truth) for tag, truth in TRUTHS.items()}
+    for tag, result in results.items():
+        for rank, joint in enumerate(result["joints"], 1):
+            path = Path(f"advise-analytic-{tag}-{joint['test'].split('.')[0]}-r{rank}.yaml")
+            joint["exact_before"], joint["exact_after"] = exact_shares(path)
     out.with_suffix(".json").write_text(json.dumps(results, indent=2))
     text = (
         f"{table(results)}\n\npython benchmarks/advise_analytic.py "
