@@ -154,10 +154,11 @@ CASES: list[BadCommand] = [
         nan_in_one_replicate,
         "warned",
     ),
+    # a simulation with a damaged response still counts with its other one: a partial point
     BadCommand(
         "run_reuse_from_archive_with_text_response",
         ("run", "again.yaml"),
-        rf"(?s)calibration of 'again' finished.*3 points reused from the archive.*{WARNING}"
+        rf"(?s)calibration of 'again' finished.*4 points reused from the archive.*{WARNING}"
         rf"left damaged values out of 1 damaged simulation \({TEXT_SAID}\)",
         reusing_study(TEXT, STATUS),
         "warned",
@@ -166,7 +167,7 @@ CASES: list[BadCommand] = [
     BadCommand(
         "run_reuse_from_archive_with_inf_response",
         ("run", "again.yaml"),
-        rf"(?s)calibration of 'again' finished.*4 points reused from the archive.*{WARNING}"
+        rf"(?s)calibration of 'again' finished.*5 points reused from the archive.*{WARNING}"
         rf"left damaged values out of 1 damaged simulation \({INFINITE_SAID}\)",
         reusing_study(INFINITE),
         "warned",

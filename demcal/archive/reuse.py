@@ -9,8 +9,8 @@ engine must name its version (``engine.version``) to reuse anything. The compati
 simulations of every scene are grouped by their free values into points; a point is usable
 when every targeted response has at least one final value there, and a partial point (some
 of them, at the fine level of the study's own material) teaches the models of those
-responses only. Replicates and repeated runs
-of one point (a confirmation) pool into one point. A study whose search spends a cheaper level
+responses only. Replicates and repeated runs of one point (a confirmation) pool into one
+point. A study whose search spends a cheaper level
 (``optimizer.fidelity``) also takes the simulations compatible with that level: the coarse
 runs of the same material (docs/fidelity.md). With ``reuse: neighbours`` it takes as well the
 runs of neighbouring materials, compatible in everything but the values of fixed parameters:

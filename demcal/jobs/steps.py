@@ -464,8 +464,8 @@ def reused_origins(study: Study) -> dict[str, ReusedOrigin]:
 def reused_objectives(study: Study) -> list[ObjectiveRecord]:
     """The points the study reused (``reused.json``), each scored by the study's objective as
     it stands now (its targets may have changed since; a partial point, `partial_record`);
-    [] when it reused none. Each record's
-    ``evaluation`` is the point's source, ``study/evaluation``."""
+    [] when it reused none. Each record's ``evaluation`` is the point's source,
+    ``study/evaluation``."""
     reused = ReusedRecord.read_if_any(study.files.reused)
     return [
         partial_record(p)
