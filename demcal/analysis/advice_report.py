@@ -75,10 +75,9 @@ def plot(advice: Advice, path: Path | None = None) -> ReportFigure:
     grid = fig.subplots(rows, columns, squeeze=False)
     for ax in grid.flat[len(advice.ranked) :]:
         ax.set_visible(False)
-    real = analysis.in_real_units
+    points, sets = analysis.in_real_units(likely), analysis.in_real_units(advice.sets)
     for n, (ax, shrink) in enumerate(zip(grid.flat, advice.ranked)):
         fit = advice.fits[shrink.key]
-        points, sets = real(likely), real(advice.sets)
         first = axes_of[0]
         if len(axes_of) == 1:
             order = np.argsort(likely[:, first])

@@ -356,8 +356,7 @@ def simulate_at(
     path = study.files.advice_dir / f"{config['study']}.yaml"
     path.write_text(yaml.safe_dump(config, sort_keys=False))
     with locked_study(path) as campaign_study:
-        names = advice_points(campaign_study, sets)
-        campaign = CampaignRecord.read(campaign_study.files.campaign)
+        names, campaign = advice_points(campaign_study, sets)
         print(
             f"demcal advise: {campaign_study.name}: {forecast(campaign_study, campaign, settings)}",
             flush=True,
@@ -408,11 +407,13 @@ def campaign_yaml(study: Study, raw: dict[str, Any], scene: str) -> dict[str, An
     }
 
 
-def advice_points(candidate: Study, sets: list[dict[str, float]]) -> list[str]:
-    """The campaign's evaluation of each of ``sets``, in order: one already written for the
-    same values, else a new one at the end (an earlier advice's points are kept). Writes
-    campaign.json, then the new points' params.json; a failed run is retried
-    (`write_points`)."""
+def advice_points(
+    candidate: Study, sets: list[dict[str, float]]
+) -> tuple[list[str], CampaignRecord]:
+    """The campaign's evaluation of each of ``sets``, in order (one already written for the
+    same values, else a new one at the end: an earlier advice's points are kept), and the
+    campaign. Writes campaign.json, then the new points' params.json; a failed run is
+    retried (`write_points`)."""
     names = [p.name for p in candidate.free]
     existing = CampaignRecord.read_if_any(candidate.files.campaign)
     known: dict[tuple[float, ...], str] = {}
@@ -438,7 +439,7 @@ def advice_points(candidate: Study, sets: list[dict[str, float]]) -> list[str]:
     for name, values in new:
         PointRecord(values, proposed_by="advice").write(candidate.files.evaluation(name).params)
     write_points(candidate, campaign)
-    return [known[tuple(float(values[n]) for n in names)] for values in sets]
+    return [known[tuple(float(values[n]) for n in names)] for values in sets], campaign
 
 
 def set_means(runs: Any, key: str, sets: list[dict[str, float]], study: Study) -> np.ndarray:
