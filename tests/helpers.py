@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 import csv
+import importlib
 import math
 import subprocess
 import sys
@@ -42,6 +43,33 @@ ANALYTIC_STUDY = {
 }
 
 
+def tiny_job(scene: str, workdir: Path, responses=None, fraction: float = 0.25, **params):
+    """One simulation of ``scene`` at its ``TINY_SETTINGS`` (seed 7), the catalogue's default
+    material changed by ``params``; every response of the scene unless ``responses``."""
+    from demcal.engines.base import SimulationJob
+    from demcal.physics.catalogue import CATALOG
+
+    declared = SCENES.load(scene)
+    tiny = importlib.import_module(f"demcal.scenes.{scene}").TINY_SETTINGS
+    return SimulationJob(
+        scene=scene,
+        parameters={**{name: spec.default for name, spec in CATALOG.items()}, **params},
+        settings=declared.resolve_settings(tiny, "s"),
+        seed=7,
+        responses=list(responses or declared.responses),
+        timestep_fraction=fraction,
+        workdir=str(workdir),
+        stop_file=str(Path(workdir) / "STOP"),
+    )
+
+
+def run_lammps(job):
+    """Run one simulation on LAMMPS; its responses as the extract job computes them."""
+    from demcal.engines.lammps import LammpsEngine
+
+    return run_and_extract(LammpsEngine(), job)
+
+
 def run_and_extract(engine, job):
     """Run one simulation on ``engine``; its responses as the extract job computes them."""
     from demcal.engines.base import RunMonitor
@@ -75,6 +103,8 @@ PARAMETER_CORNERS = {
     "restitution_0.05": dict(restitution_pp=0.05, restitution_pw=0.05),
     "restitution_0.95": dict(restitution_pp=0.95, restitution_pw=0.95),
     "stiff_5e8_Pa": dict(youngs_modulus=5.0e8),
+    # Bond number 41 for the tiny scenes' 3 mm spheres: lumps that stick to the walls
+    "very_cohesive": dict(surface_energy_pp=2.0, surface_energy_pw=2.0),
 }
 
 

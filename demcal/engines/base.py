@@ -205,6 +205,10 @@ class Engine(ABC):
     def version(self) -> str:
         return "unknown"
 
+    #: Material parameters its drivers do not model: a study must leave them at their
+    #: catalogue default.
+    UNMODELLED_PARAMETERS: tuple[str, ...] = ()
+
     #: Settings that never change an ok run's responses (limits, reporting), left out of
     #: :meth:`outcome`.
     INERT_SETTINGS: tuple[str, ...] = ("timeout",)

@@ -6,7 +6,8 @@ granular walls) and its ``stages`` drive the test with ``advance`` and
 ``settle``, which check stability after every chunk of steps and raise
 ``Stopped`` when the evaluation's STOP file appears. Contact: Hertz with
 restitution damping, Mindlin tangential friction, SDS rolling resistance
-converted from mu_r (``demcal.physics.contact``), Marshall twisting.
+converted from mu_r (``demcal.physics.contact``), Marshall twisting; JKR adhesion with viscoelastic
+damping where a surface energy is non-zero.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ import numpy as np
 from demcal.engines.base import RunMonitor, RunResult, SimulationJob
 from demcal.engines.particles import BLOWUP_FACTOR, simulation_particles
 from demcal.errors import SimulationFailed
-from demcal.physics.contact import GRAVITY, sds_rolling_coefficients
+from demcal.physics.contact import GRAVITY, jkr_viscoelastic_damping, sds_rolling_coefficients
 from demcal.results.records import Status
 
 
@@ -42,14 +43,33 @@ def setup_commands(boundary: str = "f f f") -> list[str]:
 
 
 def contact_model(p: dict[str, float], settings: dict[str, Any], wall: bool) -> str:
-    """pair/wall granular coefficients: Hertz, restitution damping, Mindlin, SDS rolling."""
+    """pair/wall granular coefficients: Hertz with restitution damping, or JKR with
+    viscoelastic damping where the surface energy is non-zero (LAMMPS allows its restitution
+    damping only without adhesion), Mindlin, SDS rolling."""
     suffix = "pw" if wall else "pp"
     mu_r = p[f"rolling_friction_{suffix}"]
-    model = (
-        f"hertz/material {num(p['youngs_modulus'])} {num(p[f'restitution_{suffix}'])} "
-        f"{num(p['poisson_ratio'])} tangential mindlin NULL 1.0 "
-        f"{num(p[f'sliding_friction_{suffix}'])}"
-    )
+    surface_energy = p[f"surface_energy_{suffix}"]
+    restitution = p[f"restitution_{suffix}"]
+    if surface_energy > 0.0:
+        damping = jkr_viscoelastic_damping(
+            restitution,
+            settings["d50"],
+            p["particle_density"],
+            p["youngs_modulus"],
+            p["poisson_ratio"],
+            surface_energy,
+            wall,
+        )
+        normal = (
+            f"jkr {num(p['youngs_modulus'])} {num(damping)} {num(p['poisson_ratio'])} "
+            f"{num(surface_energy)}"
+        )
+    else:
+        normal = (
+            f"hertz/material {num(p['youngs_modulus'])} {num(restitution)} "
+            f"{num(p['poisson_ratio'])}"
+        )
+    model = f"{normal} tangential mindlin NULL 1.0 {num(p[f'sliding_friction_{suffix}'])}"
     if mu_r > 0.0:
         k_roll, gamma_roll = sds_rolling_coefficients(
             mu_r,
@@ -61,7 +81,8 @@ def contact_model(p: dict[str, float], settings: dict[str, Any], wall: bool) -> 
             wall,
         )
         model += f" rolling sds {num(k_roll)} {num(gamma_roll)} {num(mu_r)} twisting marshall"
-    return model + " damping coeff_restitution"
+    viscous = surface_energy > 0.0
+    return model + (" damping viscoelastic" if viscous else " damping coeff_restitution")
 
 
 class Stopped(Exception):
@@ -144,7 +165,19 @@ class LammpsDriver:
             raise SimulationFailed(
                 f"could place only {placed} of {len(self.diameters)} particles in {where}"
             )
-        self.lmp.numpy.extract_atom("radius")[:placed] = self.diameters / 2.0
+        self.size_spheres()
+
+    def place_spheres(self, centres: np.ndarray) -> None:
+        """Create the sampled spheres at ``centres`` [m] (one row each); set radii, density."""
+        count = len(self.diameters)
+        self.lmp.create_atoms(
+            count, list(range(1, count + 1)), [1] * count, centres.ravel().tolist()
+        )
+        self.size_spheres()
+
+    def size_spheres(self) -> None:
+        """Give the spheres just created the sampled radii and the particle density."""
+        self.lmp.numpy.extract_atom("radius")[: len(self.diameters)] = self.diameters / 2.0
         self.lmp.command(f"set type 1 density {num(self.p['particle_density'])}")
 
     def start_dynamics(self) -> None:

@@ -47,6 +47,7 @@ from demcal.engines.base import (
 )
 from demcal.engines.particles import BLOWUP_FACTOR
 from demcal.errors import ConfigError, SimulationFailed
+from demcal.physics.timestep import ADHESION_PARAMETERS
 from demcal.results.records import Status
 from demcal.results.storage import log_tail
 
@@ -150,6 +151,10 @@ class LiggghtsEngine(Engine):
     """LIGGGHTS 3.8 as a child process per simulation (scenes with a LIGGGHTS driver)."""
 
     name = "liggghts"
+
+    #: demcal's LIGGGHTS drivers have no JKR adhesion (LIGGGHTS' own cohesion models, SJKR,
+    #: take another parameter, a cohesion energy density).
+    UNMODELLED_PARAMETERS = ADHESION_PARAMETERS
 
     def check(self, scenes: Sequence[DeclaredScene]) -> None:
         if self.settings:

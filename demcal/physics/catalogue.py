@@ -100,6 +100,22 @@ CATALOG: dict[str, ParameterSpec] = {
         ),
         ParameterSpec("poisson_ratio", "-", 0.0, 0.49, 0.3, "Poisson's ratio of the particles"),
         ParameterSpec(
+            "surface_energy_pp",
+            "J/m^2",
+            0.0,
+            100.0,
+            0.0,
+            "surface energy density gamma of JKR adhesion, particle-particle (0 = cohesionless)",
+        ),
+        ParameterSpec(
+            "surface_energy_pw",
+            "J/m^2",
+            0.0,
+            100.0,
+            0.0,
+            "surface energy density gamma of JKR adhesion, particle-wall (0 = cohesionless)",
+        ),
+        ParameterSpec(
             "particle_density",
             "kg/m^3",
             100.0,
@@ -114,7 +130,11 @@ CATALOG: dict[str, ParameterSpec] = {
 #: one restitution for all contacts became the particle-particle and particle-wall ones.
 SPLIT_PARAMETERS: dict[str, tuple[str, ...]] = {"restitution": ("restitution_pp", "restitution_pw")}
 #: Parameters that earlier versions held at a constant rather than reading: what they used.
-EARLIER_CONSTANTS: dict[str, float] = {"rolling_damping_ratio": 0.3}
+EARLIER_CONSTANTS: dict[str, float] = {
+    "rolling_damping_ratio": 0.3,
+    "surface_energy_pp": 0.0,
+    "surface_energy_pw": 0.0,
+}
 
 
 def upgrade_parameters(values: dict[str, float]) -> dict[str, float]:

@@ -270,3 +270,57 @@ def box_slope_angle(
         raise SimulationFailed("slope covers a single column along the box: no slope to measure")
     slope = np.polyfit(centres[in_band, 0], top[in_band], 1)[0]
     return max(0.0, math.degrees(math.atan(-slope)))
+
+
+#: Fewest surface columns a drum's interface line is fitted to.
+MIN_INTERFACE_COLUMNS = 3
+
+
+def drum_surface_heights(
+    xz: np.ndarray, r: np.ndarray, radius: float, cell: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Free-surface height of the material in a rotating drum, per snapshot, on one grid.
+
+    ``xz`` (S x N x 2) holds the sphere centres of S snapshots across the
+    drum's axis (horizontal, vertical; axis at 0, 0) and ``r`` (S x N) their
+    radii. The drum's width -radius..radius is cut into columns of width
+    ``cell``; a column's height is max(z + r) of the spheres whose centres
+    fall in it, seen through the whole depth as a camera at the end wall sees
+    it, NaN where it is empty. Returns the column centres (B) and heights (S x B).
+    """
+    count = max(1, math.ceil(2.0 * radius / cell))
+    centres = -radius + (np.arange(count) + 0.5) * cell
+    heights = np.full((len(xz), count), np.nan)
+    for snapshot, (positions, radii) in enumerate(zip(xz, r, strict=True)):
+        column = np.clip(np.floor((positions[:, 0] + radius) / cell), 0, count - 1).astype(int)
+        np.fmax.at(heights[snapshot], column, positions[:, 1] + radii)
+    return centres, heights
+
+
+def drum_interface(centres: np.ndarray, heights: np.ndarray, band: float) -> tuple[float, float]:
+    """Dynamic angle of repose [deg] and interface fluctuation [m] of a rotating drum.
+
+    The columns occupied in every snapshot span the free surface from wall to
+    wall; its central ``band`` share (leaving out where the surface bends into
+    the wall) is taken. The angle is that of a straight line fitted to the
+    time-averaged surface there, as drum instruments average the interface
+    over their images; the fluctuation is the rms deviation of the single
+    snapshots' surface from that average, the quantity drum instruments turn
+    into a cohesive index.
+    """
+    occupied = np.isfinite(heights).all(axis=0)
+    if not occupied.any():
+        raise SimulationFailed("the drum holds no material in some snapshot: no surface to fit")
+    lowest, highest = centres[occupied].min(), centres[occupied].max()
+    middle, half_width = 0.5 * (lowest + highest), 0.5 * band * (highest - lowest)
+    kept = occupied & (np.abs(centres - middle) <= half_width)
+    if kept.sum() < MIN_INTERFACE_COLUMNS:
+        raise SimulationFailed(
+            f"the drum's free surface spans only {int(kept.sum())} columns in its central band: "
+            f"too few to fit a line; use a larger drum or smaller particles"
+        )
+    surface = heights[:, kept]
+    average = surface.mean(axis=0)
+    slope = np.polyfit(centres[kept], average, 1)[0]
+    fluctuation = math.sqrt(float(np.mean((surface - average) ** 2)))
+    return math.degrees(math.atan(abs(slope))), fluctuation

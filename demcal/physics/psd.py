@@ -38,6 +38,17 @@ def sample_diameters(
     return d50 * np.exp(sigma_ln * truncated_standard_normal(count, truncation, rng))
 
 
+def mean_sphere_volume(d50: float, sigma_ln: float, truncation: float) -> float:
+    """Expected volume [m^3] of one sphere of the truncated lognormal PSD (by number).
+
+    With ln d ~ N(ln d50, s^2) cut at +-k s: E[d^3] = d50^3 exp(4.5 s^2)
+    (Phi(k - 3 s) - Phi(-k - 3 s)) / (Phi(k) - Phi(-k)).
+    """
+    k, s = truncation, sigma_ln
+    moment = math.exp(4.5 * s * s) * (ndtr(k - 3 * s) - ndtr(-k - 3 * s)) / (ndtr(k) - ndtr(-k))
+    return float(math.pi / 6.0 * d50**3 * moment)
+
+
 def sampled_q3(d: np.ndarray, d50: float, sigma_ln: float, truncation: float) -> np.ndarray:
     """Mass fraction finer than ``d`` (Q3) of the spheres :func:`sample_diameters` draws.
 

@@ -1,10 +1,12 @@
-"""Time step of a DEM simulation from the Rayleigh time (Rackl & Hanley 2017, eq. 1)."""
+"""Time step of a DEM simulation from the Rayleigh time (Rackl & Hanley 2017, eq. 1), and the
+shorter one adhesion (JKR) may need."""
 
 from __future__ import annotations
 
 import math
 
 from demcal.errors import ConfigError
+from demcal.physics.contact import effective_modulus, jkr_contact_radius, pair_size
 
 #: Above this fraction the log gets a warning: results start to drift.
 WARN_FRACTION = 0.3
@@ -27,6 +29,33 @@ def rayleigh_time(
     """
     g = shear_modulus(youngs_modulus, poisson_ratio)
     return math.pi * radius * math.sqrt(density / g) / (0.1631 * poisson_ratio + 0.8766)
+
+
+#: Material parameters of adhesion, which can shorten the time step (`jkr_contact_time`).
+ADHESION_PARAMETERS = ("surface_energy_pp", "surface_energy_pw")
+#: Time steps per duration of an adhesive contact's oscillation (`jkr_contact_time`).
+JKR_STEPS_PER_CONTACT = 10.0
+
+
+def jkr_contact_time(
+    radius: float,
+    density: float,
+    youngs_modulus: float,
+    poisson_ratio: float,
+    surface_energy: float,
+) -> float:
+    """Duration [s] of a contact between two equal spheres held by JKR adhesion at zero load.
+
+    Half the period of their small oscillation, pi sqrt(m* / k), k = 2 E* a0 the normal
+    stiffness of a Hertz contact of the radius a JKR contact has at zero load
+    (`jkr_contact_radius`). Adhesion pulls contacts to this radius whatever the load, so it
+    can be far stiffer than the loads of a cohesionless packing make it, and the Rayleigh
+    time no longer bounds the stable step.
+    """
+    radius_eff, mass_eff = pair_size(2.0 * radius, density, wall=False)
+    modulus = effective_modulus(youngs_modulus, poisson_ratio)
+    stiffness = 2.0 * modulus * jkr_contact_radius(surface_energy, radius_eff, modulus)
+    return math.pi * math.sqrt(mass_eff / stiffness)
 
 
 def check_fraction(fraction: float, default: float, field: str = "timestep_fraction") -> str | None:

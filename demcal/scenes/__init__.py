@@ -18,7 +18,13 @@ SCENES: Registry[Entry] = Registry(
     "scene",
     {
         name: Entry(f"demcal.scenes.{name}:SCENE")
-        for name in ("cylinder_lift", "calibration_device", "shear_box", "transfer_chute")
+        for name in (
+            "cylinder_lift",
+            "calibration_device",
+            "shear_box",
+            "transfer_chute",
+            "rotating_drum",
+        )
     },
 )
 

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 
 from demcal.errors import ConfigError
 from demcal.physics.catalogue import CATALOG, ParameterSpec
+from demcal.physics.contact import bond_number
 
 if TYPE_CHECKING:
     import numpy as np
@@ -34,6 +35,16 @@ SLIDE_TIME_LAB_SHARE = 0.05
 def saturating(value: float, scale: float) -> float:
     """1 - exp(-value / scale): 0 at 0, rising to 1; a building block of the analytic models."""
     return 1.0 - math.exp(-value / scale)
+
+
+def adhesion(p: dict[str, float], settings: dict[str, Any]) -> float:
+    """The analytic stand-ins' measure of particle-particle adhesion: 0 without (also where
+    the surface energy is not given: the catalogue's default, cohesionless), rising to 1
+    with the Bond number (`bond_number`; about 1 where adhesion starts to matter)."""
+    gamma = p.get("surface_energy_pp", CATALOG["surface_energy_pp"].default)
+    if gamma == 0.0:
+        return 0.0
+    return saturating(bond_number(gamma, settings["d50"], p["particle_density"]), 5.0)
 
 
 #: Modules whose names only serve type annotations: importing from them changes no outcome.
@@ -111,7 +122,8 @@ class SettingSpec:
         kind = "an integer" if self.integer else "a number"
         lo = "-inf" if self.lower is None else f"{self.lower:g}"
         hi = "inf" if self.upper is None else f"{self.upper:g}"
-        return f"{kind} in [{lo}, {hi}] {self.unit}".rstrip()
+        unit = "" if self.unit == "-" else self.unit
+        return f"{kind} in [{lo}, {hi}] {unit}".rstrip()
 
     def check(self, field_name: str, value: object) -> object:
         """Return ``value`` if allowed, else raise ConfigError naming field, value and range."""
@@ -135,8 +147,8 @@ class SettingSpec:
 
 
 #: The material parameters every scene reads (names in demcal.physics.catalogue): contact
-#: friction, rolling resistance and restitution between particles (pp) and with walls (pw),
-#: the rolling damping ratio, stiffness and particle density.
+#: friction, rolling resistance, restitution and adhesion (surface energy) between particles
+#: (pp) and with walls (pw), the rolling damping ratio, stiffness and particle density.
 MATERIAL_PARAMETERS = (
     "sliding_friction_pp",
     "sliding_friction_pw",
@@ -147,6 +159,8 @@ MATERIAL_PARAMETERS = (
     "rolling_damping_ratio",
     "youngs_modulus",
     "poisson_ratio",
+    "surface_energy_pp",
+    "surface_energy_pw",
     "particle_density",
 )
 

@@ -21,7 +21,7 @@ from demcal.optimizer import OptimizerSettings
 from demcal.optimizer.objective import DEFAULT_FORM, PRECISION
 from demcal.optimizer.registry import STRATEGIES
 from demcal.physics.catalogue import CATALOG, SPLIT_PARAMETERS
-from demcal.physics.timestep import RAYLEIGH_PARAMETERS, check_fraction
+from demcal.physics.timestep import ADHESION_PARAMETERS, RAYLEIGH_PARAMETERS, check_fraction
 from demcal.results.archive_url import check_url
 from demcal.results.records import FINE
 from demcal.scenes import SCENES, Scene
@@ -265,14 +265,33 @@ def _staging(
 
 def _timestep_notes(free: list[FreeParameter], engine: Engine) -> list[str]:
     """A note for each free parameter the time step depends on (a fraction of the Rayleigh
-    time: Rackl & Hanley 2017, eq. 9): each point then runs with its own time step."""
+    time: Rackl & Hanley 2017, eq. 9; adhesion): each point then runs with its own time step."""
     return [
         f"parameters.{p.name}: the time step (timestep_fraction of the Rayleigh time) depends "
         f"on it, so each point runs with its own time step: a stiffer or lighter point needs "
         f"more steps (rayleigh_cost_weight can penalise them)"
         for p in free
         if p.name in RAYLEIGH_PARAMETERS and engine.steps_in_time
+    ] + [
+        f"parameters.{p.name}: adhesion can shorten the time step (to a tenth of an adhesive "
+        f"contact's duration), so each point may run with its own time step: a more cohesive "
+        f"point may need more steps"
+        for p in free
+        if p.name in ADHESION_PARAMETERS and engine.steps_in_time
     ]
+
+
+def _check_modelled(engine: Engine, free: list[FreeParameter], fixed: dict[str, float]) -> None:
+    """Refuse a parameter the engine's drivers do not model at a value other than its
+    catalogue default (free, or fixed away from it)."""
+    for name in engine.UNMODELLED_PARAMETERS:
+        if name in {p.name for p in free} or fixed.get(name, CATALOG[name].default) != (
+            CATALOG[name].default
+        ):
+            raise ConfigError(
+                f"parameters.{name}: engine {engine.name} does not model it; fix it at "
+                f"{CATALOG[name].default:g} or use engine lammps"
+            )
 
 
 def _check_search_level(optimizer: OptimizerSettings, levels: dict[str, FidelityLevel]) -> None:
@@ -352,6 +371,7 @@ def load_study(config: dict[str, Any], check_engine: bool = True) -> Study:
     engine = make_engine(engine_config.pop("name"), engine_config)
     if check_engine:
         engine.check(list(scenes.values()))
+    _check_modelled(engine, free, fixed)
     optimizer, skipped = _without_estimates(optimizer, engine)
     levels, level_warnings = fidelity_levels(
         config,
@@ -360,9 +380,10 @@ def load_study(config: dict[str, Any], check_engine: bool = True) -> Study:
         FidelityLevel(FINE, settings, fraction, engine),
         lambda given, prefix: _settings(given, scenes, free, prefix),
     )
-    if check_engine:
-        for level in levels.values():
+    for level in levels.values():
+        if check_engine:
             level.engine.check(list(scenes.values()))
+        _check_modelled(level.engine, free, fixed)
     _check_search_level(optimizer, levels)
     return Study(
         name=config["study"],

@@ -570,6 +570,8 @@ def freeze(study: Study) -> Study:
             raise ConfigError(f"{exc}; move it away to start the study afresh") from None
         if "staging" not in old:  # begun before staging: its evaluations keep running at once
             record["staging"] = None
+        if isinstance(old.get("fixed"), dict):  # begun by an earlier demcal: today's names
+            old["fixed"] = upgrade_parameters(old["fixed"])
         changed = incompatible_changes(old, record)
         if changed:
             shown = "; ".join(

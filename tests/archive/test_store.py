@@ -124,8 +124,9 @@ def test_the_migrations_build_the_schema_of_the_models(archive_url):
 
 def test_the_second_schema_reads_the_first_schemas_records_in_todays_names(archive_url):
     """Migration 0002: one restitution becomes two, the rolling damping ratio of earlier
-    versions (0.3) is recorded, d50 and sigma_ln become parameters; the key is the one the
-    same simulation gets today, so a second import of its folder adds nothing."""
+    versions (0.3) is recorded, d50 and sigma_ln become parameters; 0005: cohesionless
+    surface energies; the key is the one the same simulation gets today, so a second import
+    of its folder adds nothing."""
     from demcal.archive.store import _row, upgrade
 
     earlier_parameters = {
@@ -171,6 +172,8 @@ def test_the_second_schema_reads_the_first_schemas_records_in_todays_names(archi
             "restitution_pw": Quantity(0.7, "-"),
             "rolling_damping_ratio": Quantity(0.3, "-"),
             "particle_density": earlier_parameters["particle_density"],
+            "surface_energy_pp": Quantity(0.0, "J/m^2"),
+            "surface_energy_pw": Quantity(0.0, "J/m^2"),
             "d50": Quantity(SETTINGS["d50"], "m"),
             "sigma_ln": Quantity(SETTINGS["sigma_ln"], "-"),
         },
@@ -188,6 +191,7 @@ def test_the_second_schema_reads_the_first_schemas_records_in_todays_names(archi
         assert migrated.parameters == today.parameters
         assert migrated.key == today.key and migrated.settings_hash == today.settings_hash
         assert failed.key == failed_today.key and "rolling_damping_ratio" not in failed.parameters
+        assert "surface_energy_pp" not in failed.parameters
         assert archive.add([today, failed_today]) == 0
         settings = {n: v for n, v in SETTINGS.items() if n not in ("d50", "sigma_ln")}
         fixed = {n: q.value for n, q in today.parameters.items() if n != "sliding_friction_pp"}
@@ -205,6 +209,46 @@ def test_the_second_schema_reads_the_first_schemas_records_in_todays_names(archi
             == []
         )
     assert today.key != earlier.key  # the key was spelled again
+
+
+def test_runs_stored_before_adhesion_stay_compatible_as_cohesionless(archive_url):
+    """Migration 0005: a simulation stored at revision 0004 gets both surface energies at 0,
+    so a study of today's (whose fixed material holds them) still reuses it, and its key is
+    the one the same simulation gets today."""
+    from demcal.archive.store import _row, upgrade
+
+    earlier = record(5)
+    engine = open_engine(archive_url)
+    upgrade(engine, "0004")
+    with engine.begin() as connection:
+        row = connection.execute(
+            insert(SimulationRow).values(_row(earlier, 1.0e9)).returning(SimulationRow.id)
+        ).scalar_one()
+        connection.execute(
+            insert(ParameterRow),
+            [
+                {"simulation_id": row, "name": n, "value": q.value, "unit": q.unit, "free": False}
+                for n, q in earlier.parameters.items()
+            ],
+        )
+    engine.dispose()
+    cohesionless = {"surface_energy_pp": Quantity(0.0, "J/m^2")}
+    cohesionless["surface_energy_pw"] = Quantity(0.0, "J/m^2")
+    today = replace(earlier, parameters={**earlier.parameters, **cohesionless})
+    with Archive(archive_url) as archive:
+        (migrated,) = archive.records()
+        assert migrated.parameters == today.parameters and migrated.key == today.key
+        assert archive.add([today]) == 0
+        fixed = {"restitution_pp": 0.5, "particle_density": 2500.0}
+        found = archive.compatible(
+            "cylinder_lift",
+            "analytic",
+            dict(SETTINGS),
+            {**fixed, "surface_energy_pp": 0.0, "surface_energy_pw": 0.0},
+            ["sliding_friction_pp"],
+            simulator=SIMULATOR,
+        )
+        assert [r.key for r in found] == [today.key]
 
 
 def test_an_archive_of_a_newer_demcal_is_refused(archive_url):

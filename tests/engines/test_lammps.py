@@ -9,12 +9,11 @@ import math
 import threading
 import time
 
+import helpers
 import pytest
-from helpers import PARAMETER_CORNERS, run_and_extract
+from helpers import PARAMETER_CORNERS, run_and_extract, run_lammps
 
-from demcal.engines.base import SimulationJob
 from demcal.engines.lammps import LammpsEngine
-from demcal.physics.catalogue import CATALOG
 from demcal.results.records import Status
 from demcal.results.storage import read_partial
 from demcal.scenes import SCENES
@@ -30,22 +29,7 @@ LOOSE, DENSE = 0.42, 0.66
 
 
 def tiny_job(tmp_path, fraction=0.25, responses=("bulk_density", "angle_of_repose"), **params):
-    values = {name: spec.default for name, spec in CATALOG.items()}
-    values.update(params)
-    return SimulationJob(
-        scene="cylinder_lift",
-        parameters=values,
-        settings=SCENE.resolve_settings(TINY_SETTINGS, "s"),
-        seed=7,
-        responses=list(responses),
-        timestep_fraction=fraction,
-        workdir=str(tmp_path),
-        stop_file=str(tmp_path / "STOP"),
-    )
-
-
-def simulate(job):
-    return run_and_extract(LammpsEngine(), job)
+    return helpers.tiny_job("cylinder_lift", tmp_path, responses, fraction, **params)
 
 
 CORNERS = {
@@ -58,7 +42,7 @@ CORNERS = {
 @pytest.mark.slow
 def test_extreme_corners_are_stable_and_plausible(tmp_path, corner):
     job = tiny_job(tmp_path, **CORNERS[corner])
-    result, responses = simulate(job)
+    result, responses = run_lammps(job)
     assert result.status == Status.OK, result.reason
     solid_fraction = responses["bulk_density"] / job.parameters["particle_density"]
     assert LOOSE < solid_fraction < DENSE
@@ -68,20 +52,22 @@ def test_extreme_corners_are_stable_and_plausible(tmp_path, corner):
 
 @pytest.mark.slow
 def test_friction_raises_the_heap(tmp_path):
-    _, smooth = simulate(tiny_job(tmp_path / "a", **CORNERS["frictionless"]))
-    _, rough = simulate(tiny_job(tmp_path / "b", sliding_friction_pp=0.8, rolling_friction_pp=0.3))
+    _, smooth = run_lammps(tiny_job(tmp_path / "a", **CORNERS["frictionless"]))
+    _, rough = run_lammps(
+        tiny_job(tmp_path / "b", sliding_friction_pp=0.8, rolling_friction_pp=0.3)
+    )
     assert rough["angle_of_repose"] > smooth["angle_of_repose"] + 5.0
 
 
 def test_oversized_time_step_fails_with_instability_reason(tmp_path):
-    result, _ = simulate(tiny_job(tmp_path, fraction=1.5))
+    result, _ = run_lammps(tiny_job(tmp_path, fraction=1.5))
     assert result.status == Status.FAILED
     assert "unstable" in result.reason
 
 
 def test_bulk_density_alone_skips_the_lift(tmp_path):
     job = tiny_job(tmp_path, responses=("bulk_density",))
-    result, responses = simulate(job)
+    result, responses = run_lammps(job)
     stages = {row["stage"] for row in read_partial(job.partial_file)}
     assert result.status == Status.OK and "bulk_density" in responses
     assert stages == {"fill"} and "heap_x" not in result.arrays
@@ -90,10 +76,10 @@ def test_bulk_density_alone_skips_the_lift(tmp_path):
 def test_a_trimmed_fill_ends_at_the_trim_height_and_loses_nothing_else(tmp_path):
     """Rackl & Hanley (2017, sec. 2.2): poured above 50 mm, trimmed to it, settled again."""
     job = tiny_job(tmp_path)
-    whole, _ = simulate(tiny_job(tmp_path / "whole", responses=("bulk_density",)))
+    whole, _ = run_lammps(tiny_job(tmp_path / "whole", responses=("bulk_density",)))
     trim = 0.7 * whole.measurements["fill_height"]
     job.settings = {**job.settings, "trim_height": trim}
-    result, responses = simulate(job)
+    result, responses = run_lammps(job)
     assert result.status == Status.OK, result.reason
     stages = {row["stage"] for row in read_partial(job.partial_file)}
     assert {"fill", "trimmed fill", "lift", "heap"} <= stages
@@ -106,16 +92,16 @@ def test_a_trimmed_fill_ends_at_the_trim_height_and_loses_nothing_else(tmp_path)
         **too_high.settings,
         "trim_height": 2.0 * whole.measurements["fill_height"],
     }
-    failed, _ = simulate(too_high)
+    failed, _ = run_lammps(too_high)
     assert failed.status == Status.FAILED and "raise particle_count" in failed.reason
 
 
 def test_dumps_only_when_asked(tmp_path):
     quiet = tiny_job(tmp_path / "quiet", responses=("bulk_density",))
-    simulate(quiet)
+    run_lammps(quiet)
     asked = tiny_job(tmp_path / "asked", responses=("bulk_density",))
     asked.settings = {**asked.settings, "dump_interval": 0.05}
-    simulate(asked)
+    run_lammps(asked)
     assert not (tmp_path / "quiet" / "dump.lammpstrj").exists()
     assert (tmp_path / "asked" / "dump.lammpstrj").read_text().count("ITEM: TIMESTEP") >= 3
 
@@ -124,7 +110,7 @@ def test_stop_request_terminates_cleanly(tmp_path):
     job = tiny_job(tmp_path, youngs_modulus=5.0e8)
     timer = threading.Timer(1.5, (tmp_path / "STOP").touch)
     timer.start()
-    result, _ = simulate(job)
+    result, _ = run_lammps(job)
     timer.join()
     assert (result.status, result.reason) == (Status.TERMINATED, "stop requested")
     assert result.arrays == {}

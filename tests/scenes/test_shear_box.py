@@ -7,26 +7,25 @@ The LAMMPS tests (marker ``lammps``) run a box of 5 largest particles
 import math
 import threading
 
+import helpers
 import numpy as np
 import pytest
-from helpers import PARAMETER_CORNERS, run_and_extract
+from helpers import PARAMETER_CORNERS, run_lammps
 
 from demcal.engines.analytic import AnalyticEngine
 from demcal.engines.base import RunMonitor, SimulationJob
+from demcal.engines.particles import random_loose_packing
 from demcal.errors import ConfigError, SimulationFailed
 from demcal.physics import measure
 from demcal.physics.catalogue import CATALOG
-from demcal.physics.psd import sample_diameters
+from demcal.physics.psd import mean_sphere_volume, sample_diameters
 from demcal.results.records import Status
 from demcal.results.storage import read_partial
 from demcal.scenes import SCENES
 from demcal.scenes.shear_box import (
-    TINY_SETTINGS,
     box_dimensions,
     fill_particle_count,
-    mean_sphere_volume,
 )
-from demcal.scenes.shear_box.lammps import random_loose_packing
 
 SCENE = SCENES.load("shear_box")
 DEFAULTS = {name: spec.default for name, spec in CATALOG.items()}
@@ -206,36 +205,23 @@ def test_random_loose_packing_places_spheres_without_overlap():
     rng = np.random.default_rng(5)
     diameters = sample_diameters(400, 2.0e-3, 0.3, 2.0, rng)
     lower, upper = np.zeros(3), np.array([0.02, 0.02, 0.05])
-    centres = random_loose_packing(diameters, lower, upper, rng)
+    centres = random_loose_packing(diameters, lower, upper, rng, "the block")
     radii = diameters / 2
     assert np.all(centres - radii[:, None] >= lower) and np.all(centres + radii[:, None] <= upper)
     gap = np.linalg.norm(centres[:, None] - centres[None], axis=2) - (radii[:, None] + radii[None])
     np.fill_diagonal(gap, np.inf)
     assert gap.min() >= 0.0
-    with pytest.raises(SimulationFailed, match="could place only"):
-        random_loose_packing(diameters, lower, np.array([0.02, 0.02, 0.005]), rng, max_tries=50)
+    with pytest.raises(SimulationFailed, match="could place only .* in the block"):
+        random_loose_packing(
+            diameters, lower, np.array([0.02, 0.02, 0.005]), rng, "the block", max_tries=50
+        )
 
 
 # -- tiny real LAMMPS runs ----------------------------------------------------
 
 
 def tiny_job(tmp_path, fraction=0.25, responses=("bulk_density", "shear_angle"), **params):
-    return SimulationJob(
-        scene="shear_box",
-        parameters={**DEFAULTS, **params},
-        settings=settings(**TINY_SETTINGS),
-        seed=7,
-        responses=list(responses),
-        timestep_fraction=fraction,
-        workdir=str(tmp_path),
-        stop_file=str(tmp_path / "STOP"),
-    )
-
-
-def simulate(job):
-    from demcal.engines.lammps import LammpsEngine
-
-    return run_and_extract(LammpsEngine(), job)
+    return helpers.tiny_job("shear_box", tmp_path, responses, fraction, **params)
 
 
 #: Solid fraction bounds for any material. Dense random packing is 0.64; the
@@ -252,7 +238,7 @@ def plausible(job, responses):
 @pytest.mark.lammps
 def test_tiny_box_gives_plausible_responses_and_early_estimates(tmp_path):
     job = tiny_job(tmp_path, sliding_friction_pp=0.5)
-    result, responses = simulate(job)
+    result, responses = run_lammps(job)
     assert result.status == Status.OK, result.reason
     assert 0.45 < responses["bulk_density"] / job.parameters["particle_density"] < 0.7
     assert 10.0 < responses["shear_angle"] < 45.0
@@ -264,7 +250,7 @@ def test_tiny_box_gives_plausible_responses_and_early_estimates(tmp_path):
 @pytest.mark.lammps
 def test_bulk_density_alone_ends_after_the_fill(tmp_path):
     job = tiny_job(tmp_path, responses=("bulk_density",))
-    result, responses = simulate(job)
+    result, responses = run_lammps(job)
     stages = {row["stage"] for row in read_partial(job.partial_file)}
     assert result.status == Status.OK and plausible(job, responses)
     assert stages == {"fill"} and "slope_x" not in result.arrays
@@ -272,7 +258,7 @@ def test_bulk_density_alone_ends_after_the_fill(tmp_path):
 
 @pytest.mark.lammps
 def test_oversized_time_step_fails_with_instability_reason(tmp_path):
-    result, _ = simulate(tiny_job(tmp_path, fraction=1.5))
+    result, _ = run_lammps(tiny_job(tmp_path, fraction=1.5))
     assert result.status == Status.FAILED
     assert "unstable" in result.reason
 
@@ -285,7 +271,7 @@ CORNERS = PARAMETER_CORNERS
 @pytest.mark.slow
 def test_extreme_corners_are_stable_and_plausible(tmp_path, corner):
     job = tiny_job(tmp_path, **CORNERS[corner])
-    result, responses = simulate(job)
+    result, responses = run_lammps(job)
     assert result.status == Status.OK, result.reason
     assert plausible(job, responses), responses
 
@@ -295,7 +281,7 @@ def test_stop_request_terminates_cleanly(tmp_path):
     job = tiny_job(tmp_path, youngs_modulus=5.0e8)
     timer = threading.Timer(1.5, (tmp_path / "STOP").touch)
     timer.start()
-    result, _ = simulate(job)
+    result, _ = run_lammps(job)
     timer.join()
     assert (result.status, result.reason) == (Status.TERMINATED, "stop requested")
     assert result.arrays == {}

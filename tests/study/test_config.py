@@ -238,3 +238,30 @@ def test_a_target_in_a_convertible_unit_is_converted_and_said(target, expected):
     if "spread" in target:
         factor = study.targets[0].value / target["value"]
         assert study.targets[0].spread == pytest.approx(target["spread"] * factor)
+
+
+def test_an_engine_that_does_not_model_adhesion_refuses_a_surface_energy(analytic_config):
+    analytic_config["engine"] = {"name": "liggghts"}
+    analytic_config["parameters"]["surface_energy_pp"] = {"lower": 0.0, "upper": 0.5}
+    with pytest.raises(ConfigError) as error:
+        load_study(analytic_config, check_engine=False)
+    assert str(error.value) == (
+        "parameters.surface_energy_pp: engine liggghts does not model it; fix it at 0 or use "
+        "engine lammps"
+    )
+    del analytic_config["parameters"]["surface_energy_pp"]
+    analytic_config["fixed"]["surface_energy_pw"] = 0.1
+    with pytest.raises(ConfigError, match="parameters.surface_energy_pw: engine liggghts"):
+        load_study(analytic_config, check_engine=False)
+    analytic_config["fixed"]["surface_energy_pw"] = 0.0
+    assert load_study(analytic_config, check_engine=False).fixed["surface_energy_pw"] == 0.0
+
+
+def test_a_free_surface_energy_notes_that_the_time_step_may_follow_it(analytic_config):
+    analytic_config["engine"] = {"name": "lammps"}
+    analytic_config["parameters"]["surface_energy_pp"] = {"lower": 0.0, "upper": 0.5}
+    study = load_study(analytic_config, check_engine=False)
+    assert any(
+        w.startswith("parameters.surface_energy_pp: adhesion can shorten the time step")
+        for w in study.warnings
+    )

@@ -75,6 +75,18 @@ def test_a_resumable_change_is_accepted_and_frozen(workdir):
     assert record["calibration"]["retries"] == 4
 
 
+def test_a_study_begun_before_adhesion_resumes(workdir):
+    """A study frozen by a demcal whose materials had no surface energy resumes unchanged:
+    its cohesionless material is today's with both surface energies 0."""
+    study = load_study(analytic_example())
+    freeze(study)
+    record = frozen_record(study)
+    for name in ("surface_energy_pp", "surface_energy_pw"):
+        del record["fixed"][name]
+    study.files.study.write_text(json.dumps(record))
+    assert freeze(load_study(analytic_example())).fixed["surface_energy_pp"] == 0.0
+
+
 @pytest.mark.parametrize(
     "overrides, field, shown",
     [

@@ -98,6 +98,8 @@ def test_contact_model_reads_each_contact_its_own_restitution_and_rolling_dampin
         "rolling_friction_pp": 0.05,
         "rolling_friction_pw": 0.04,
         "rolling_damping_ratio": 0.25,
+        "surface_energy_pp": 0.0,
+        "surface_energy_pw": 0.0,
         "particle_density": 2500.0,
     }
     pair, wall = contact_model(p, {"d50": 5e-3}, False), contact_model(p, {"d50": 5e-3}, True)
@@ -105,6 +107,79 @@ def test_contact_model_reads_each_contact_its_own_restitution_and_rolling_dampin
     assert wall.startswith("hertz/material 5000000 0.6 0.22 tangential mindlin NULL 1.0 0.3 ")
     k_roll, gamma = sds_rolling_coefficients(0.04, 5e-3, 2500.0, 5e6, 0.22, 0.25, wall=True)
     assert f"rolling sds {k_roll:.10g} {gamma:.10g} 0.04 " in wall
+
+
+def test_cohesionless_contacts_keep_the_hertz_model_and_adhesive_ones_switch_to_jkr():
+    from demcal.engines.lammps_driver import contact_model
+    from demcal.physics.catalogue import CATALOG
+    from demcal.physics.contact import jkr_viscoelastic_damping
+
+    p = {name: spec.default for name, spec in CATALOG.items()}
+    assert contact_model(p, {"d50": 2e-3}, False) == (
+        "hertz/material 5000000 0.5 0.3 tangential mindlin NULL 1.0 0.5 rolling sds "
+        + " ".join(
+            f"{v:.10g}" for v in sds_rolling_coefficients(0.1, 2e-3, 2500, 5e6, 0.3, 0.3, False)
+        )
+        + " 0.1 twisting marshall damping coeff_restitution"
+    )
+    cohesive = {**p, "surface_energy_pw": 0.2}
+    assert contact_model(cohesive, {"d50": 2e-3}, False) == contact_model(p, {"d50": 2e-3}, False)
+    eta = jkr_viscoelastic_damping(0.5, 2e-3, 2500.0, 5e6, 0.3, 0.2, wall=True)
+    assert contact_model(cohesive, {"d50": 2e-3}, True).startswith(
+        f"jkr 5000000 {eta:.10g} 0.3 0.2 tangential mindlin NULL 1.0 0.5 "
+    )
+    assert contact_model(cohesive, {"d50": 2e-3}, True).endswith(" damping viscoelastic")
+
+
+def test_jkr_contact_at_zero_load_and_its_damping():
+    """The JKR force (as LAMMPS writes it) vanishes at a0; eta_n0 m* a0 damps the contact's
+    linear oscillation at the restitution asked for."""
+    from demcal.physics.contact import (
+        bond_number,
+        effective_modulus,
+        jkr_contact_radius,
+        jkr_viscoelastic_damping,
+        pair_size,
+    )
+
+    radius, mass = pair_size(2e-3, 2500.0, wall=False)
+    modulus = effective_modulus(5e6, 0.3)
+    a0 = jkr_contact_radius(0.1, radius, modulus)
+    force = 4 * modulus * a0**3 / (3 * radius) - 2 * math.pi * a0**2 * math.sqrt(
+        4 * 0.1 * modulus / (math.pi * a0)
+    )
+    assert abs(force) < 1e-12 * (4 * modulus * a0**3 / (3 * radius))
+    eta = jkr_viscoelastic_damping(0.5, 2e-3, 2500.0, 5e6, 0.3, 0.1, wall=False)
+    stiffness, damping = 2 * modulus * a0, eta * mass * a0
+    zeta = damping / (2 * math.sqrt(mass * stiffness))
+    # a linear oscillator of damping ratio zeta rebounds at exp(-pi zeta / sqrt(1 - zeta^2))
+    assert math.exp(-math.pi * zeta / math.sqrt(1 - zeta**2)) == pytest.approx(0.5)
+    # 2 mm glass beads at 0.1 J/m^2: the pull-off force is 4.6 times a bead's weight
+    assert bond_number(0.1, 2e-3, 2500.0) == pytest.approx(9 * 0.1 / (2 * 2500 * 9.81 * 4e-6))
+
+
+def test_adhesion_shortens_the_time_step_only_where_its_contacts_are_stiffer():
+    from types import SimpleNamespace
+
+    from demcal.engines.particles import simulation_particles
+    from demcal.physics.catalogue import CATALOG
+    from demcal.physics.timestep import JKR_STEPS_PER_CONTACT, jkr_contact_time
+
+    p = {name: spec.default for name, spec in CATALOG.items()}
+    settings = {"particle_count": 10, "d50": 2e-3, "sigma_ln": 0.0, "psd_truncation": 2.0}
+
+    def step(**given):
+        job = SimpleNamespace(parameters={**p, **given}, settings=settings, timestep_fraction=0.25)
+        return simulation_particles(job, np.random.default_rng(0)).timestep
+
+    rayleigh_step = 0.25 * rayleigh_time(1e-3, 2500.0, 5e6, 0.3)
+    assert step() == step(surface_energy_pp=0.01) == pytest.approx(rayleigh_step)
+    strong = jkr_contact_time(1e-3, 2500.0, 5e6, 0.3, 10.0) / JKR_STEPS_PER_CONTACT
+    assert strong < rayleigh_step
+    assert step(surface_energy_pw=10.0) == pytest.approx(strong)
+    assert jkr_contact_time(1e-3, 2500.0, 5e6, 0.3, 100.0) < jkr_contact_time(
+        1e-3, 2500.0, 5e6, 0.3, 10.0
+    )
 
 
 def test_parameters_of_an_earlier_demcal_are_read_in_todays_names():
@@ -116,8 +191,16 @@ def test_parameters_of_an_earlier_demcal_are_read_in_todays_names():
         "restitution_pp": 0.7,
         "restitution_pw": 0.7,
         "rolling_damping_ratio": 0.3,
+        "surface_energy_pp": 0.0,
+        "surface_energy_pw": 0.0,
     }
-    today = {"restitution_pp": 0.9, "restitution_pw": 0.6, "rolling_damping_ratio": 0.25}
+    today = {
+        "restitution_pp": 0.9,
+        "restitution_pw": 0.6,
+        "rolling_damping_ratio": 0.25,
+        "surface_energy_pp": 0.1,
+        "surface_energy_pw": 0.0,
+    }
     assert upgrade_parameters(today) == today
     assert upgrade_parameters({}) == {}
 

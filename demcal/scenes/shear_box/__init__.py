@@ -38,7 +38,7 @@ import numpy as np
 
 from demcal.errors import ConfigError
 from demcal.physics import measure
-from demcal.physics.psd import diameter_range
+from demcal.physics.psd import diameter_range, mean_sphere_volume
 from demcal.scenes.base import (
     ANGLE_LAB_SPREAD,
     BULK_DENSITY_LAB_SHARE,
@@ -73,21 +73,6 @@ def box_dimensions(settings: dict[str, Any]) -> tuple[float, float, float]:
     base = (settings["base_length"], settings["base_width"], settings["base_height"])
     scale = settings["box_size_dmax"] * d_max / min(base)
     return tuple(scale * side for side in base)
-
-
-def mean_sphere_volume(d50: float, sigma_ln: float, truncation: float) -> float:
-    """Expected volume [m^3] of one sphere of the truncated lognormal PSD (by number).
-
-    With ln d ~ N(ln d50, s^2) cut at +-k s: E[d^3] = d50^3 exp(4.5 s^2)
-    (Phi(k - 3 s) - Phi(-k - 3 s)) / (Phi(k) - Phi(-k)).
-    """
-
-    def phi(z: float) -> float:
-        return 0.5 * (1.0 + math.erf(z / math.sqrt(2.0)))
-
-    k, s = truncation, sigma_ln
-    moment = math.exp(4.5 * s * s) * (phi(k - 3 * s) - phi(-k - 3 * s)) / (phi(k) - phi(-k))
-    return math.pi / 6.0 * d50**3 * moment
 
 
 def fill_particle_count(settings: dict[str, Any]) -> int:

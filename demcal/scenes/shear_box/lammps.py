@@ -16,10 +16,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.typing import ArrayLike
 
 from demcal.engines.base import RunMonitor, RunResult, SimulationJob
 from demcal.engines.lammps_driver import LammpsDriver, num, setup_commands
+from demcal.engines.particles import random_loose_packing
 from demcal.errors import SimulationFailed
 from demcal.physics import measure
 from demcal.physics.contact import GRAVITY
@@ -31,48 +31,6 @@ CONTAINER = "the closed box"
 PLACEMENT_SOLID_FRACTION = 0.25
 #: The outflow is not taken as finished before this many free-fall times of the box height.
 MIN_OUTFLOW_FALL_TIMES = 3.0
-
-
-def random_loose_packing(
-    diameters: np.ndarray,
-    lower: ArrayLike,
-    upper: ArrayLike,
-    rng: np.random.Generator,
-    max_tries: int = 1000,
-) -> np.ndarray:
-    """Centres [m] of non-overlapping spheres placed at random, largest first, in a block.
-
-    Random sequential addition: each sphere (diameters [m]) tries up to
-    ``max_tries`` uniform positions that keep it wholly inside the block
-    ``lower``..``upper`` [m] and takes the first that overlaps no sphere
-    placed before. Unlike ``create_atoms random``, whose single overlap
-    distance must be the largest diameter (so a wide PSD needs a column many
-    times taller), the check uses each pair's sum of radii. Returns centres
-    in the order of ``diameters``.
-    """
-    lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
-    cell = float(diameters.max())
-    centres = np.full((len(diameters), 3), np.nan)
-    grid: dict[tuple[int, ...], list[int]] = {}
-    offsets = [(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)]
-    for index in np.argsort(-diameters, kind="stable"):
-        radius = diameters[index] / 2.0
-        for _ in range(max_tries):
-            centre = rng.uniform(lower + radius, upper - radius)
-            key = tuple(int(v) for v in (centre - lower) // cell)
-            near = [j for o in offsets for j in grid.get(tuple(np.add(key, o)), ())]
-            gaps = np.linalg.norm(centres[near] - centre, axis=1) - diameters[near] / 2.0
-            if not near or gaps.min() >= radius:
-                centres[index] = centre
-                grid.setdefault(key, []).append(index)
-                break
-        else:
-            placed = len(diameters) - int(np.isnan(centres[:, 0]).sum())
-            raise SimulationFailed(
-                f"could place only {placed} of {len(diameters)} particles "
-                f"in the column above the box"
-            )
-    return centres
 
 
 class ShearBox(LammpsDriver):
@@ -105,14 +63,13 @@ class ShearBox(LammpsDriver):
             ]
         )
         centres = random_loose_packing(
-            self.diameters, (0.0, 0.0, 0.0), (length, width, self.insert_top), self.rng
+            self.diameters,
+            (0.0, 0.0, 0.0),
+            (length, width, self.insert_top),
+            self.rng,
+            "the column above the box",
         )
-        count = len(self.diameters)
-        self.lmp.create_atoms(
-            count, list(range(1, count + 1)), [1] * count, centres.ravel().tolist()
-        )
-        self.lmp.numpy.extract_atom("radius")[:count] = self.diameters / 2.0
-        self.lmp.command(f"set type 1 density {num(self.p['particle_density'])}")
+        self.place_spheres(centres)
         self.lmp.commands_list(
             [
                 # faces 2 (x = length) and 6 (top) open: floor, back and side walls
