@@ -103,9 +103,33 @@ PARAMETER_CORNERS = {
     "restitution_0.05": dict(restitution_pp=0.05, restitution_pw=0.05),
     "restitution_0.95": dict(restitution_pp=0.95, restitution_pw=0.95),
     "stiff_5e8_Pa": dict(youngs_modulus=5.0e8),
-    # Bond number 41 for the tiny scenes' 3 mm spheres: lumps that stick to the walls
-    "very_cohesive": dict(surface_energy_pp=2.0, surface_energy_pw=2.0),
 }
+#: A very cohesive material: Bond number 41 for the tiny scenes' 3 mm spheres, lumps that
+#: stick to the walls.
+COHESIVE_CORNER = dict(surface_energy_pp=2.0, surface_energy_pw=2.0)
+
+
+def cohesive_corner_problem(job, must_measure: bool = False) -> str | None:
+    """Run ``job`` (at ``COHESIVE_CORNER``) on LAMMPS; what went wrong, or None if it ran
+    stably with every response in its physical range (a bulk density at most the particle
+    density), or failed for a reason that names a cause other than instability (a lump that
+    never left its container measures nothing) unless ``must_measure``."""
+    from demcal.errors import SimulationFailed
+
+    try:
+        result, responses = run_lammps(job)
+    except SimulationFailed as failure:  # the extractor found nothing to measure
+        return f"nothing measured: {failure}" if must_measure else None
+    if result.status != Status.OK:
+        return result.reason if must_measure or "unstable" in result.reason else None
+    specs = SCENES.load(job.scene).responses
+    upper = {"bulk_density": job.parameters["particle_density"]}
+    outside = {
+        name: value
+        for name, value in responses.items()
+        if not specs[name].lower <= value <= min(specs[name].upper, upper.get(name, math.inf))
+    }
+    return f"outside the physical range: {outside}" if outside else None
 
 
 def cone_of_spheres(

@@ -11,7 +11,13 @@ import time
 
 import helpers
 import pytest
-from helpers import PARAMETER_CORNERS, run_and_extract, run_lammps
+from helpers import (
+    COHESIVE_CORNER,
+    PARAMETER_CORNERS,
+    cohesive_corner_problem,
+    run_and_extract,
+    run_lammps,
+)
 
 from demcal.engines.lammps import LammpsEngine
 from demcal.results.records import Status
@@ -126,3 +132,9 @@ def test_a_run_beyond_the_wall_clock_limit_is_killed_and_recorded_as_failed(tmp_
         "LAMMPS run exceeded the engine timeout of 1 s (engine.timeout)"
     )
     assert time.monotonic() - start < 4.0
+
+
+@pytest.mark.lammps
+@pytest.mark.slow
+def test_a_very_cohesive_material_runs_or_fails_with_its_reason(tmp_path):
+    assert cohesive_corner_problem(tiny_job(tmp_path, **COHESIVE_CORNER)) is None

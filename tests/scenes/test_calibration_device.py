@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 import pytest
-from helpers import PARAMETER_CORNERS
+from helpers import COHESIVE_CORNER, PARAMETER_CORNERS, cohesive_corner_problem
 
 from demcal.engines.base import RunMonitor, SimulationJob
 from demcal.engines.lammps import LammpsEngine
@@ -221,3 +221,14 @@ def test_tiny_device_extreme_corners_are_stable(tmp_path, corner):
     assert result.measurements["mass_flow"] >= 0.0
     assert 0.0 < result.measurements["slide_time"] <= job.settings["max_time"] + 10.0
     assert 0.0 <= SCENE.extractors["angle_of_repose"](result.arrays, job.settings) < 90.0
+
+
+@pytest.mark.lammps
+@pytest.mark.slow
+def test_a_very_cohesive_material_runs_or_fails_with_its_reason(tmp_path):
+    assert (
+        cohesive_corner_problem(
+            tiny_job(tmp_path, ("mass_flow", "slide_time", "angle_of_repose"), **COHESIVE_CORNER)
+        )
+        is None
+    )

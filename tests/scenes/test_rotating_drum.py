@@ -11,7 +11,7 @@ from dataclasses import replace
 import helpers
 import numpy as np
 import pytest
-from helpers import PARAMETER_CORNERS, run_lammps
+from helpers import COHESIVE_CORNER, PARAMETER_CORNERS, cohesive_corner_problem, run_lammps
 
 from demcal.engines.analytic import AnalyticEngine
 from demcal.engines.base import RunMonitor, SimulationJob
@@ -284,3 +284,9 @@ def test_stop_request_terminates_cleanly(tmp_path):
     timer.join()
     assert (result.status, result.reason) == (Status.TERMINATED, "stop requested")
     assert result.arrays == {}
+
+
+@pytest.mark.lammps
+@pytest.mark.slow
+def test_a_very_cohesive_material_turns_in_lumps_and_is_measured(tmp_path):
+    assert cohesive_corner_problem(tiny_job(tmp_path, **COHESIVE_CORNER), must_measure=True) is None
