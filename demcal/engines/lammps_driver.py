@@ -153,6 +153,24 @@ class LammpsDriver:
     def wall_model(self) -> str:
         return contact_model(self.p, self.s, wall=True)
 
+    def create_domain(
+        self, lower: tuple[float, float, float], upper: tuple[float, float, float], boundary: str
+    ) -> None:
+        """The first commands of a scene: the simulation box ``lower``..``upper`` [m] with
+        ``boundary`` (``setup_commands``), the granular pair style and the neighbour lists."""
+        corners = " ".join(f"{num(lo)} {num(hi)}" for lo, hi in zip(lower, upper, strict=True))
+        self.lmp.commands_list(
+            [
+                *setup_commands(boundary),
+                f"region domain block {corners} units box",
+                "create_box 1 domain",
+                "pair_style granular",
+                f"pair_coeff * * {self.pair_model()}",
+                f"neighbor {num(0.1 * self.d_max)} bin",
+                "neigh_modify delay 0 every 1 check yes",
+            ]
+        )
+
     def insert_particles(self, region: str, where: str) -> None:
         """Place the sampled spheres at random, non-overlapping, in ``region``;
         set radii, density."""

@@ -324,3 +324,33 @@ def drum_interface(centres: np.ndarray, heights: np.ndarray, band: float) -> tup
     slope = np.polyfit(centres[kept], average, 1)[0]
     fluctuation = math.sqrt(float(np.mean((surface - average) ** 2)))
     return math.degrees(math.atan(abs(slope))), fluctuation
+
+
+def tangent_modulus(
+    strain: np.ndarray, stress: np.ndarray, stress_band: tuple[float, float]
+) -> float:
+    """Slope [Pa] of stress against strain, fitted by least squares over the samples whose
+    stress lies in ``stress_band`` (Pa); the modulus of one branch (loading or unloading) of
+    a confined compression test. Fails with fewer than three samples in the band."""
+    inside = (stress >= stress_band[0]) & (stress <= stress_band[1])
+    if inside.sum() < 3 or np.ptp(strain[inside]) == 0.0:
+        raise SimulationFailed(
+            f"only {int(inside.sum())} samples of the stress-strain curve lie between "
+            f"{stress_band[0]:.3g} and {stress_band[1]:.3g} Pa: too few for a modulus; slow the "
+            f"piston (piston_speed)"
+        )
+    return float(abs(np.polyfit(strain[inside], stress[inside], 1)[0]))
+
+
+def height_at_stress(gap: np.ndarray, stress: np.ndarray, level: float) -> float:
+    """The piston's height [m] where a loading curve's stress first reaches ``level`` [Pa],
+    interpolated linearly between the samples around it (``gap`` and ``stress`` in the order
+    sampled). Fails if the stress never gets there."""
+    reached = np.flatnonzero(stress >= level)
+    if len(reached) == 0:
+        raise SimulationFailed(f"the stress never reached {level:.3g} Pa: no height to read")
+    i = int(reached[0])
+    if i == 0:
+        return float(gap[0])
+    share = (level - stress[i - 1]) / (stress[i] - stress[i - 1])
+    return float(gap[i - 1] + share * (gap[i] - gap[i - 1]))

@@ -24,6 +24,7 @@ SCENES: Registry[Entry] = Registry(
             "shear_box",
             "transfer_chute",
             "rotating_drum",
+            "uniaxial_compression",
         )
     },
 )

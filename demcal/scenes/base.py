@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 from demcal.errors import ConfigError
 from demcal.physics.catalogue import CATALOG, ParameterSpec
 from demcal.physics.contact import bond_number
+from demcal.physics.psd import diameter_range, mean_sphere_volume
 
 if TYPE_CHECKING:
     import numpy as np
@@ -208,6 +209,26 @@ def psd_settings(
             truncation, "sigma", "lognormal cut at d50 exp(+-k sigma_ln)", 0.5, 4.0
         ),
     }
+
+
+def spheres_to_fill(volume: float, settings: dict[str, Any], solid_fraction: float) -> int:
+    """How many spheres of the scene's particle-size distribution fill ``volume`` [m^3] at
+    ``solid_fraction``."""
+    sphere = mean_sphere_volume(settings["d50"], settings["sigma_ln"], settings["psd_truncation"])
+    return round(solid_fraction * volume / sphere)
+
+
+def check_sizes_in_particles(
+    settings: dict[str, Any], field_prefix: str, smallest: dict[str, float]
+) -> None:
+    """Refuse a length setting below its ``smallest`` multiple of the largest particle."""
+    _, d_max = diameter_range(settings["d50"], settings["sigma_ln"], settings["psd_truncation"])
+    for name, multiple in smallest.items():
+        if settings[name] < multiple * d_max:
+            raise ConfigError(
+                f"{field_prefix}.{name}: {settings[name]:g} m is less than {multiple:g} of the "
+                f"largest particles ({d_max:g} m); use at least {multiple * d_max:g} m"
+            )
 
 
 #: The settings that describe the material rather than the test (its particle sizes): what a

@@ -34,7 +34,6 @@ import numpy as np
 
 from demcal.errors import ConfigError
 from demcal.physics import measure
-from demcal.physics.psd import diameter_range, mean_sphere_volume
 from demcal.scenes.base import (
     ANGLE_LAB_SPREAD,
     COARSE_PARTICLE_FACTOR,
@@ -43,8 +42,10 @@ from demcal.scenes.base import (
     ResponseSpec,
     Scene,
     SettingSpec,
+    check_sizes_in_particles,
     psd_settings,
     settling_settings,
+    spheres_to_fill,
 )
 from demcal.scenes.rotating_drum.analytic import analytic_model
 from demcal.scenes.rotating_drum.regime import ROLLING_FROUDE, froude_number, rotation_speed_range
@@ -63,8 +64,7 @@ def drum_particle_count(settings: dict[str, Any]) -> int:
     """Spheres that fill ``fill_level`` of the drum at ``FILL_SOLID_FRACTION``."""
     radius = float(settings["drum_diameter"]) / 2.0
     volume = float(settings["fill_level"]) * math.pi * radius**2 * float(settings["depth"])
-    sphere = mean_sphere_volume(settings["d50"], settings["sigma_ln"], settings["psd_truncation"])
-    return round(FILL_SOLID_FRACTION * volume / sphere)
+    return spheres_to_fill(volume, settings, FILL_SOLID_FRACTION)
 
 
 def surface(state: dict[str, np.ndarray], settings: dict[str, Any]) -> tuple[float, float]:
@@ -99,13 +99,9 @@ def angle_history(
 
 def check_settings(settings: dict[str, Any], field_prefix: str) -> None:
     """Cross-setting checks a single range cannot express: size, regime, particle count."""
-    _, d_max = diameter_range(settings["d50"], settings["sigma_ln"], settings["psd_truncation"])
-    for name, multiple in (("drum_diameter", MIN_DIAMETER_DMAX), ("depth", MIN_DEPTH_DMAX)):
-        if settings[name] < multiple * d_max:
-            raise ConfigError(
-                f"{field_prefix}.{name}: {settings[name]:g} m is less than {multiple:g} of the "
-                f"largest particles ({d_max:g} m); use at least {multiple * d_max:g} m"
-            )
+    check_sizes_in_particles(
+        settings, field_prefix, {"drum_diameter": MIN_DIAMETER_DMAX, "depth": MIN_DEPTH_DMAX}
+    )
     froude = froude_number(settings)
     if not ROLLING_FROUDE[0] <= froude <= ROLLING_FROUDE[1]:
         lowest, highest = rotation_speed_range(settings["drum_diameter"])

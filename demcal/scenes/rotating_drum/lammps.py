@@ -17,7 +17,7 @@ import math
 import numpy as np
 
 from demcal.engines.base import RunMonitor, RunResult, SimulationJob
-from demcal.engines.lammps_driver import LammpsDriver, num, setup_commands
+from demcal.engines.lammps_driver import LammpsDriver, num
 from demcal.engines.particles import random_loose_packing
 from demcal.errors import SimulationFailed
 from demcal.physics.contact import GRAVITY
@@ -40,20 +40,8 @@ class RotatingDrum(LammpsDriver):
         self.turning_since, self.turning_time = 0.0, 0.0
 
     def build(self) -> None:
-        radius, d = self.radius, self.d_max
-        edge = radius + d
-        self.lmp.commands_list(
-            [
-                *setup_commands("f p f"),
-                f"region domain block {num(-edge)} {num(edge)} 0 {num(self.depth)} "
-                f"{num(-edge)} {num(edge)} units box",
-                "create_box 1 domain",
-                "pair_style granular",
-                f"pair_coeff * * {self.pair_model()}",
-                f"neighbor {num(0.1 * d)} bin",
-                "neigh_modify delay 0 every 1 check yes",
-            ]
-        )
+        radius, edge = self.radius, self.radius + self.d_max
+        self.create_domain((-edge, 0.0, -edge), (edge, self.depth, edge), "f p f")
 
         def inside(centre: np.ndarray, sphere_radius: float) -> bool:
             return bool(math.hypot(centre[0], centre[2]) <= radius - sphere_radius)
