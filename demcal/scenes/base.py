@@ -103,6 +103,11 @@ def code_digest(path: Path) -> str:
     return hashlib.sha256(ast.dump(tree).encode()).hexdigest()
 
 
+def _module_file(name: str) -> str | None:
+    """The source file of the imported module ``name`` (None if it has none)."""
+    return getattr(sys.modules.get(name), "__file__", None)
+
+
 @dataclass(frozen=True)
 class SettingSpec:
     """A scene setting (geometry, particle size, lift speed...): default and allowed values."""
@@ -362,15 +367,29 @@ class Scene:
 
     def script_digests(self, engine: str) -> list[str]:
         """The code digest (`code_digest`) of each source file of what runs and measures this
-        scene on ``engine`` (its driver and extractors), sorted: a scene script whose code is
-        edited is another simulator; one whose types, docstrings or comments are is not."""
-        modules = {
-            getattr(function, "__module__", None)
+        scene on ``engine``, sorted: its driver's and extractors' modules and, for a scene that
+        is a package, every other module of it that is no other engine's driver (what they
+        share, such as the drum's regime). A scene script whose code is edited is another
+        simulator; one whose types, docstrings or comments are is not."""
+        used = {
+            getattr(function, "__module__", "")
             for function in (self.driver(engine), *self.extractors.values())
             if function is not None
         }
-        files = {getattr(sys.modules.get(name or ""), "__file__", None) for name in modules}
-        return sorted(code_digest(Path(path)) for path in files if path)
+        files = {Path(path) for name in used if (path := _module_file(name))}
+        package = self.analytic_model.__module__.rpartition(".")[0]
+        init = _module_file(package)
+        if init and Path(init).name == "__init__.py":
+            others = {path.partition(":")[0] for name, path in self.drivers.items()}
+            others -= {self.drivers.get(engine, "").partition(":")[0]}
+            if engine != "analytic":
+                others.add(self.analytic_model.__module__)
+            files |= {
+                file
+                for file in Path(init).parent.glob("*.py")
+                if f"{package}.{file.stem}" not in others
+            }
+        return sorted(code_digest(file) for file in files)
 
     def resolve_settings(self, given: dict[str, Any] | None, field_prefix: str) -> dict[str, Any]:
         """Defaults overlaid with the given settings, each checked against its spec."""

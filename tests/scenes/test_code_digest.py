@@ -57,3 +57,25 @@ def test_a_changed_number_or_a_new_field_moves_it(tmp_path):
     assert digest(tmp_path, "call", PLAIN.replace("math.atan(", "math.atan2(1, ")) != plain
     field = PLAIN.replace("    radius = 0.05", "    radius = 0.05\n    height: float")
     assert digest(tmp_path, "field", field) != plain
+
+
+def test_a_scene_script_is_every_module_of_its_package_but_other_engines_drivers():
+    """The drum's LAMMPS driver reads its speed from regime.py: an edit there makes another
+    simulator too; the analytic stand-in and another engine's driver do not count."""
+    from pathlib import Path
+
+    from demcal.scenes import SCENES
+
+    def digests(scene: str, *files: str) -> list[str]:
+        folder = Path(__file__).resolve().parents[2] / "demcal" / "scenes" / scene
+        return sorted(code_digest(folder / file) for file in files)
+
+    drum = SCENES.load("rotating_drum")
+    assert drum.script_digests("lammps") == digests(
+        "rotating_drum", "__init__.py", "lammps.py", "regime.py"
+    )
+    assert drum.script_digests("analytic") == digests(
+        "rotating_drum", "__init__.py", "analytic.py", "regime.py"
+    )
+    lift = SCENES.load("cylinder_lift")
+    assert lift.script_digests("liggghts") == digests("cylinder_lift", "__init__.py", "liggghts.py")
