@@ -33,8 +33,10 @@ CONTAINER = "the cylinder"
 #: Piston travel between two samples of the stress, a share of the fill height (a stiff
 #: material's unloading band spans about a thousandth of it).
 SAMPLE_SHARE = 1.0e-4
-#: Share of the progress bar the fill takes.
-FILL_SHARE = 0.5
+#: Shares of the progress bar at the end of the fill and of the loading.
+FILL_SHARE, LOADED_SHARE = 0.5, 0.8
+#: Samples of the stress between two progress reports.
+PROGRESS_SAMPLES = 100
 
 
 class UniaxialCompression(LammpsDriver):
@@ -112,13 +114,16 @@ class UniaxialCompression(LammpsDriver):
                 f"variable pz equal {num(start)}{sign}{num(speed)}*(time-{num(since)})"
             )
             end = self.s["max_stress"] if loading else self.s["seating_stress"]
+            stage = "loading" if loading else "unloading"
             while True:
                 self.check_stop()
-                self.advance(steps, "loading" if loading else "unloading", False, CONTAINER)
+                self.advance(steps, stage, False, CONTAINER)
                 gap, stress = float(self.lmp.extract_variable("pz")), self.stress()
                 samples.append((gap, stress, loading))
                 if stress >= end if loading else stress <= end:
                     break
+                if len(samples) % PROGRESS_SAMPLES == 0:
+                    self.monitor.progress(self.progress_at(stress, loading), stage)
                 if not 0.0 < gap <= top + self.d_max:
                     raise SimulationFailed(
                         f"the piston {'reached the floor' if loading else 'left the material'} "
@@ -128,6 +133,16 @@ class UniaxialCompression(LammpsDriver):
             gaps, stresses, branch = (np.array(v) for v in zip(*samples, strict=True))
             arrays.update(gap=gaps, stress=stresses, loading=branch.astype(float))
             self.report(arrays, loading)
+
+    def progress_at(self, stress: float, loading: bool) -> float:
+        """The progress bar's share at ``stress`` [Pa]: loading fills it to LOADED_SHARE,
+        unloading the rest."""
+        top, seat = float(self.s["max_stress"]), float(self.s["seating_stress"])
+        if loading:
+            return FILL_SHARE + (LOADED_SHARE - FILL_SHARE) * min(max(stress / top, 0.0), 1.0)
+        return LOADED_SHARE + (1.0 - LOADED_SHARE) * min(
+            max((top - stress) / (top - seat), 0.0), 1.0
+        )
 
     def report(self, arrays: dict[str, np.ndarray], loading: bool) -> None:
         """The responses a branch of the curve gives, final as it ends."""
@@ -140,7 +155,7 @@ class UniaxialCompression(LammpsDriver):
         else:
             estimates = {"unloading_modulus": modulus(arrays, self.s, loading=False)}
         stage = "loading" if loading else "unloading"
-        self.monitor.progress(0.8 if loading else 1.0, stage, estimates, final=True)
+        self.monitor.progress(LOADED_SHARE if loading else 1.0, stage, estimates, final=True)
 
 
 def run(job: SimulationJob, monitor: RunMonitor) -> RunResult:
