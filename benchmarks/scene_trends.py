@@ -55,14 +55,23 @@ def point_runs(args: argparse.Namespace, study: str, scene: str, name: str, valu
     return [r for r in json.loads(found.read_text())["runs"] if r["status"] == "ok"]
 
 
-def direction(means: list[float]) -> str:
-    """'rises' or 'falls' if every step goes one way, else 'not monotone'."""
-    steps = [b - a for a, b in zip(means, means[1:])]
-    if all(s > 0 for s in steps):
-        return "rises"
-    if all(s < 0 for s in steps):
-        return "falls"
-    return "not monotone"
+def direction(means: list[float], sds: list[float], seeds: int) -> str:
+    """'rises' or 'falls' if every step that exceeds twice its standard error (from the seeds'
+    standard deviations) goes that way, naming the steps flat within that noise; 'flat' if
+    none does; else 'not monotone'."""
+    steps = [
+        (b - a, 2.0 * ((sa**2 + sb**2) / seeds) ** 0.5)
+        for a, b, sa, sb in zip(means, means[1:], sds, sds[1:], strict=False)
+    ]
+    up = [step > noise for step, noise in steps]
+    down = [step < -noise for step, noise in steps]
+    flat = len(steps) - sum(up) - sum(down)
+    note = f" ({flat} of {len(steps)} steps flat within the noise)" if flat else ""
+    if any(up) and not any(down):
+        return "rises" + note
+    if any(down) and not any(up):
+        return "falls" + note
+    return "flat" if not any(up) else "not monotone"
 
 
 def main() -> None:
@@ -94,6 +103,7 @@ def main() -> None:
     verdicts = []
     for column, (name, values) in enumerate(sweeps):
         means: dict[str, list[float]] = {r: [] for r in responses}
+        sds: dict[str, list[float]] = {r: [] for r in responses}
         for value in values:
             runs = point_runs(args, study.name, scene, name, value)
             cells = []
@@ -101,6 +111,7 @@ def main() -> None:
                 sample = [r[response] for r in runs]
                 sd = statistics.stdev(sample) if len(sample) > 1 else 0.0
                 means[response].append(statistics.fmean(sample))
+                sds[response].append(sd)
                 cells.append(f"{means[response][-1]:.4g} ± {sd:.2g}")
                 axes[responses.index(response)][column].errorbar(
                     value, means[response][-1], yerr=sd, fmt="o", color="C0"
@@ -110,7 +121,8 @@ def main() -> None:
         for row, response in enumerate(responses):
             axes[row][column].plot(values, means[response], color="C0")
             axes[row][column].set(xlabel=name, ylabel=response)
-            verdicts.append(f"- {response} {direction(means[response])} with {name}")
+            verdict = direction(means[response], sds[response], args.seeds)
+            verdicts.append(f"- {response} {verdict} with {name}")
     lines += ["", *verdicts]
     figure.tight_layout()
     stem = RESULTS / f"trends_{study.name}_{scene}"
