@@ -51,8 +51,8 @@ def test_defaults_fill_the_cylinder():
         ),
         (
             {"cylinder_diameter": 0.01},
-            "s.cylinder_diameter: 0.01 m is less than 8 of the largest particles (0.002 m); "
-            "use at least 0.016 m",
+            "s.cylinder_diameter: 0.01 m is less than 6 of the largest particles (0.002 m); "
+            "use at least 0.012 m",
         ),
         (
             {"fill_height": 2.0},

@@ -52,7 +52,7 @@ FILL_SOLID_FRACTION = 0.6
 #: Most spheres a fill may need.
 MAX_PARTICLES = 100_000
 #: The smallest cylinder diameter and fill height, in largest particle diameters.
-MIN_DIAMETER_DMAX, MIN_HEIGHT_DMAX = 8.0, 5.0
+MIN_DIAMETER_DMAX, MIN_HEIGHT_DMAX = 6.0, 5.0
 #: demcal's assumed lab-test scatter of a modulus, a share of its value.
 MODULUS_LAB_SHARE = 0.1
 
