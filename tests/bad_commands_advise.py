@@ -29,8 +29,8 @@ CASES = [
     ),
     BadCommand(
         "advise with a test demcal does not simulate",
-        ("advise", STUDY_FILE, "--tests", "rotating_drum"),
-        r"--tests rotating_drum: not a test demcal simulates; lab tests: .*shear_box",
+        ("advise", STUDY_FILE, "--tests", "ring_shear_cell"),
+        r"--tests ring_shear_cell: not a test demcal simulates; lab tests: .*uniaxial_compression",
         unfinished,
     ),
     BadCommand(
