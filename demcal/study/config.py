@@ -285,12 +285,12 @@ def _check_modelled(engine: Engine, free: list[FreeParameter], fixed: dict[str, 
     """Refuse a parameter the engine's drivers do not model at a value other than its
     catalogue default (free, or fixed away from it)."""
     for name in engine.UNMODELLED_PARAMETERS:
-        if name in {p.name for p in free} or fixed.get(name, CATALOG[name].default) != (
-            CATALOG[name].default
-        ):
+        default = CATALOG[name].default
+        is_free = name in {p.name for p in free}
+        if is_free or fixed.get(name, default) != default:
             raise ConfigError(
-                f"parameters.{name}: engine {engine.name} does not model it; fix it at "
-                f"{CATALOG[name].default:g} or use engine lammps"
+                f"{'parameters' if is_free else 'fixed'}.{name}: engine {engine.name} does not "
+                f"model it; fix it at {default:g} or use engine lammps"
             )
 
 

@@ -251,7 +251,7 @@ def test_an_engine_that_does_not_model_adhesion_refuses_a_surface_energy(analyti
     )
     del analytic_config["parameters"]["surface_energy_pp"]
     analytic_config["fixed"]["surface_energy_pw"] = 0.1
-    with pytest.raises(ConfigError, match="parameters.surface_energy_pw: engine liggghts"):
+    with pytest.raises(ConfigError, match="^fixed.surface_energy_pw: engine liggghts"):
         load_study(analytic_config, check_engine=False)
     analytic_config["fixed"]["surface_energy_pw"] = 0.0
     assert load_study(analytic_config, check_engine=False).fixed["surface_energy_pw"] == 0.0
