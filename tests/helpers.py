@@ -70,6 +70,17 @@ def run_lammps(job):
     return run_and_extract(LammpsEngine(), job)
 
 
+def run_lammps_stopped(job, after: float = 1.5):
+    """Run ``job`` on LAMMPS with its STOP file written ``after`` seconds in; the result."""
+    import threading
+
+    timer = threading.Timer(after, Path(job.stop_file).touch)
+    timer.start()
+    result, _ = run_lammps(job)
+    timer.join()
+    return result
+
+
 def run_and_extract(engine, job):
     """Run one simulation on ``engine``; its responses as the extract job computes them."""
     from demcal.engines.base import RunMonitor

@@ -6,7 +6,6 @@ instability reason, never as a hang or a crash.
 """
 
 import math
-import threading
 import time
 
 import helpers
@@ -17,6 +16,7 @@ from helpers import (
     cohesive_corner_problem,
     run_and_extract,
     run_lammps,
+    run_lammps_stopped,
 )
 
 from demcal.engines.lammps import LammpsEngine
@@ -114,10 +114,7 @@ def test_dumps_only_when_asked(tmp_path):
 
 def test_stop_request_terminates_cleanly(tmp_path):
     job = tiny_job(tmp_path, youngs_modulus=5.0e8)
-    timer = threading.Timer(1.5, (tmp_path / "STOP").touch)
-    timer.start()
-    result, _ = run_lammps(job)
-    timer.join()
+    result = run_lammps_stopped(job)
     assert (result.status, result.reason) == (Status.TERMINATED, "stop requested")
     assert result.arrays == {}
 

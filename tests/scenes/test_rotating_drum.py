@@ -5,13 +5,18 @@ three deep (about 140 spheres), for a fifth of a revolution: a second or two per
 """
 
 import math
-import threading
 from dataclasses import replace
 
 import helpers
 import numpy as np
 import pytest
-from helpers import COHESIVE_CORNER, PARAMETER_CORNERS, cohesive_corner_problem, run_lammps
+from helpers import (
+    COHESIVE_CORNER,
+    PARAMETER_CORNERS,
+    cohesive_corner_problem,
+    run_lammps,
+    run_lammps_stopped,
+)
 
 from demcal.engines.analytic import AnalyticEngine
 from demcal.engines.base import RunMonitor, SimulationJob
@@ -278,10 +283,7 @@ def test_the_fastest_rolling_drum_is_stable_and_plausible(tmp_path):
 @pytest.mark.lammps
 def test_stop_request_terminates_cleanly(tmp_path):
     job = tiny_job(tmp_path, youngs_modulus=5.0e8)
-    timer = threading.Timer(1.5, (tmp_path / "STOP").touch)
-    timer.start()
-    result, _ = run_lammps(job)
-    timer.join()
+    result = run_lammps_stopped(job)
     assert (result.status, result.reason) == (Status.TERMINATED, "stop requested")
     assert result.arrays == {}
 

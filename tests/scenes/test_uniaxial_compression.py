@@ -4,8 +4,6 @@ The LAMMPS tests (marker ``lammps``) compress about 310 spheres of 3 mm in a cyl
 eight of them to 10 kPa: a few seconds per run.
 """
 
-import threading
-
 import helpers
 import numpy as np
 import pytest
@@ -14,6 +12,7 @@ from helpers import (
     PARAMETER_CORNERS,
     cohesive_corner_problem,
     run_lammps,
+    run_lammps_stopped,
 )
 
 from demcal.errors import ConfigError, SimulationFailed
@@ -163,9 +162,6 @@ def test_a_very_cohesive_material_is_compressed_and_measured(tmp_path):
 @pytest.mark.lammps
 def test_stop_request_terminates_cleanly(tmp_path):
     job = tiny_job(tmp_path, youngs_modulus=5.0e8)
-    timer = threading.Timer(1.5, (tmp_path / "STOP").touch)
-    timer.start()
-    result, _ = run_lammps(job)
-    timer.join()
+    result = run_lammps_stopped(job)
     assert (result.status, result.reason) == (Status.TERMINATED, "stop requested")
     assert result.arrays == {}
