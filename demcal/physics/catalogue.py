@@ -8,7 +8,9 @@ which are fixed.
 
 from __future__ import annotations
 
+from collections.abc import Collection
 from dataclasses import dataclass
+from typing import Any
 
 
 @dataclass(frozen=True)
@@ -137,11 +139,13 @@ EARLIER_CONSTANTS: dict[str, float] = {
 }
 
 
-def upgrade_parameters(values: dict[str, float]) -> dict[str, float]:
-    """The parameter values of a simulation recorded by an earlier demcal, in today's names.
+def upgrade_parameters(values: dict[str, float], free: Collection[str] = ()) -> dict[str, float]:
+    """The parameter values of a simulation or study recorded by an earlier demcal, in
+    today's names.
 
     A split parameter gives each of its parts its value; a parameter that was a constant
-    gets that constant. Values already in today's names, or none, are returned unchanged.
+    gets that constant unless it is among ``free`` (a study's fixed values leave out what it
+    frees). Values already in today's names, or none, are returned unchanged.
     """
     if not values:
         return values
@@ -149,4 +153,14 @@ def upgrade_parameters(values: dict[str, float]) -> dict[str, float]:
     for old, parts in SPLIT_PARAMETERS.items():
         if old in values:
             upgraded.update({part: values[old] for part in parts if part not in values})
-    return {**EARLIER_CONSTANTS, **upgraded}
+    constants = {name: value for name, value in EARLIER_CONSTANTS.items() if name not in free}
+    return {**constants, **upgraded}
+
+
+def free_names(parameters: list[dict[str, Any]]) -> set[str]:
+    """Today's names of a recorded study's free parameters (its ``parameters`` list)."""
+    return {
+        name
+        for entry in parameters
+        for name in SPLIT_PARAMETERS.get(entry["name"], (entry["name"],))
+    }

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from demcal.errors import ConfigError, SimulationFailed
-from demcal.physics.catalogue import CATALOG, upgrade_parameters
+from demcal.physics.catalogue import CATALOG, free_names, upgrade_parameters
 from demcal.results.layout import STUDY_FILE, StudyFiles
 from demcal.results.records import BestRecord
 from demcal.results.storage import read_json
@@ -108,7 +108,7 @@ def load_material(reference: str) -> CalibratedMaterial:
         fingerprint = hashlib.sha256(best_path.read_bytes()).hexdigest()
         calibration = read_json(study_path, STUDY_FILE)
         free = {p["name"]: bool(p.get("scene_setting")) for p in calibration["parameters"]}
-        fixed = upgrade_parameters(calibration["fixed"])
+        fixed = upgrade_parameters(calibration["fixed"], free_names(calibration["parameters"]))
         name, engine = str(calibration["study"]), str(calibration["engine"]["name"])
     except SimulationFailed as exc:
         raise ConfigError(

@@ -38,6 +38,7 @@ from demcal.physics.catalogue import (
     CATALOG,
     SPLIT_PARAMETERS,
     ParameterSpec,
+    free_names,
     upgrade_parameters,
 )
 from demcal.physics.timestep import RAYLEIGH_PARAMETERS, rayleigh_cost, rayleigh_time_range
@@ -428,7 +429,7 @@ def study_from_record(record: dict[str, Any]) -> Study:
             for p in record["parameters"]
             for name in SPLIT_PARAMETERS.get(p["name"], (p["name"],))
         ],
-        fixed=upgrade_parameters(record["fixed"]),
+        fixed=upgrade_parameters(record["fixed"], free_names(record["parameters"])),
         targets=[
             Target(
                 t["scene"],
@@ -571,7 +572,7 @@ def freeze(study: Study) -> Study:
         if "staging" not in old:  # begun before staging: its evaluations keep running at once
             record["staging"] = None
         if isinstance(old.get("fixed"), dict):  # begun by an earlier demcal: today's names
-            old["fixed"] = upgrade_parameters(old["fixed"])
+            old["fixed"] = upgrade_parameters(old["fixed"], free_names(old.get("parameters", [])))
         changed = incompatible_changes(old, record)
         if changed:
             shown = "; ".join(

@@ -195,3 +195,16 @@ def test_a_study_frozen_with_one_restitution_is_read_with_both(tmp_path, monkeyp
     study = study_from_record(record)
     assert [p.name for p in study.free][-2:] == ["restitution_pp", "restitution_pw"]
     assert (study.free[-1].lower, study.free[-1].upper) == (0.2, 0.8)
+
+
+@pytest.mark.parametrize("name", ["surface_energy_pp", "rolling_damping_ratio"])
+def test_a_study_that_frees_an_earlier_constant_resumes(workdir, name):
+    """A parameter earlier demcals held constant (surface energy, the rolling damping ratio)
+    is free: the study's fixed values leave it out, so resuming compares equal (it was
+    refused as 'fixed.<name>: 0.0 -> None', and jobs read it as both free and fixed)."""
+    bounds = {"surface_energy_pp": (0.0, 0.1), "rolling_damping_ratio": (0.1, 0.9)}[name]
+    config = analytic_example(parameters={name: {"lower": bounds[0], "upper": bounds[1]}})
+    frozen = freeze(load_study(config))
+    assert name in [p.name for p in frozen.free] and name not in frozen.fixed
+    again = freeze(load_study(config))  # the calibration resumes
+    assert again.fixed == frozen.fixed
