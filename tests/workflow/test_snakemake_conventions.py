@@ -150,3 +150,31 @@ def test_every_snakemake_command_shown_writes_configfile_with_the_equals_sign():
         for match in SNAKEMAKE_COMMAND.findall(text)
     ]
     assert slips == []
+
+
+@pytest.mark.slow
+def test_a_reopened_calibration_runs_again_on_the_readme_route(tmp_path):
+    """demcal add-point, rerun-failed and solutions --explore reopen a finished calibration by
+    removing finished.json; with every figure present, Snakemake said 'Nothing to be done'."""
+    from demcal.study.config import load_study
+    from demcal.study.model import freeze
+    from demcal.study.study_file import read_study_yaml
+
+    shutil.copyfile(EXAMPLE, tmp_path / "analytic.yaml")
+    with pytest.MonkeyPatch.context() as patch:
+        patch.chdir(tmp_path)
+        finished = tmp_path / freeze(load_study(read_study_yaml("analytic.yaml"))).files.finished
+    finished.write_text(json.dumps({"reason": "evaluation budget reached"}))
+    summary = snakemake(tmp_path, "--summary")  # every output file, one per line
+    assert summary.returncode == 0, summary.stderr[-3000:]
+    figures = [line.split("\t")[0] for line in summary.stdout.splitlines() if "/plots/" in line]
+    assert len(figures) >= 8, summary.stdout[-2000:]
+    for figure in figures:  # drawn after the calibration finished, as a finished run leaves them
+        (tmp_path / figure).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / figure).write_text("drawn")
+    assert not re.search(r"^calibrate\s+1$", snakemake(tmp_path, "-n").stderr, re.MULTILINE)
+
+    finished.unlink()  # what reopening does (demcal/daemon/control.py)
+    reopened = snakemake(tmp_path, "-n")
+    assert reopened.returncode == 0, reopened.stderr[-3000:]
+    assert re.search(r"^calibrate\s+1$", reopened.stderr, re.MULTILINE), reopened.stderr[-3000:]
