@@ -281,6 +281,9 @@ def main(argv: list[str] | None = None) -> int:
     except DemcalError as exc:
         print(f"demcal: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # the reader went away (demcal ... | head): nothing more to say
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no flush error at exit
+        return 141
     except OSError as exc:  # full disk, permissions: finished evaluations stay on disk
         print(
             f"demcal: {exc}; fix it and run the same command again (finished evaluations are kept)",

@@ -205,3 +205,29 @@ def test_an_archive_line_shows_free_values_and_an_iso_time_within_the_width():
     narrow = line(record, 70).splitlines()
     assert len(narrow) == 2 and all(len(text) <= 70 for text in narrow)
     assert narrow[1].strip() == "sliding_friction_pp=0.3"
+
+
+def test_output_piped_into_a_reader_that_stops_early_ends_quietly(tmp_path):
+    """`demcal check STUDY | head -1`: the reader closes the pipe; no 'Broken pipe' advice."""
+    import os
+    import subprocess
+    import sys
+
+    from helpers import ANALYTIC_EXAMPLE
+
+    read_end, write_end = os.pipe()
+    os.close(read_end)  # the reader has already gone, as head has once it has its line
+    try:
+        run = subprocess.run(
+            [sys.executable, "-m", "demcal.cli", "check", str(ANALYTIC_EXAMPLE)],
+            stdout=write_end,
+            stderr=subprocess.PIPE,
+            cwd=tmp_path,
+            timeout=120,
+            check=False,
+        )
+    finally:
+        os.close(write_end)
+    errors = run.stderr.decode()
+    assert run.returncode == 141, errors
+    assert "Broken pipe" not in errors and "Traceback" not in errors
